@@ -1,0 +1,33 @@
+//! probeplace: decides where to put light-field probes in a 3D scene.
+//!
+//! The pipeline follows Wang et al. 2019, *Fast Non-uniform Radiance Probe
+//! Placement and Tracing* (I3D), for probes in the sense of McGuire et al.
+//! 2017, *Real-Time Global Illumination using Precomputed Light Field Probes*:
+//!
+//! | stage | module | paper |
+//! |---|---|---|
+//! | load the scene | [`scene`] | — |
+//! | ray casting | [`scene::raycast`] | — |
+//! | signed distance field | [`sdf`] | Wang §3.1 |
+//! | skeleton and clustering | [`skeleton`] | Wang §3.1, Fig. 2 |
+//! | uniform grid baseline | [`placement`] | McGuire §4 |
+//! | coverage | [`coverage`] | Wang §2, §3.2 |
+//! | outputs | [`report`] | — |
+//!
+//! [`pipeline::place`] runs them in order; the `probeplace` binary is a thin
+//! shell over it.
+
+pub mod config;
+pub mod coverage;
+pub mod error;
+pub mod fixtures;
+pub mod pipeline;
+pub mod placement;
+pub mod progress;
+pub mod report;
+pub mod sampling;
+pub mod scene;
+pub mod sdf;
+pub mod skeleton;
+
+pub use error::{Error, Result};

@@ -1,0 +1,189 @@
+//! The `place` job: config → scene → BVH → SDF → placement → coverage →
+//! outputs. Each stage is a function from the previous stage's typed output
+//! to its own; this module only sequences them, times them, and writes the
+//! results once everything has succeeded.
+
+use crate::config::{Config, Domain, Placement};
+use crate::coverage::{self, CoverageReference};
+use crate::error::{Error, Result};
+use crate::placement::{self, PlacementInput, ProbeSet};
+use crate::progress::Progress;
+use crate::report::{self, preview, ProbesFile, Report};
+use crate::scene::raycast::SceneBvh;
+use crate::scene::{self, Bounds, Scene};
+use crate::sdf;
+use glam::Vec3;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// Pixel size of each of the two views in `placement.png`.
+pub const PREVIEW_VIEW_SIZE: u32 = 512;
+
+/// What the command line may override in a config.
+#[derive(Debug, Clone, Default)]
+pub struct PlaceOptions {
+    /// Output directory instead of the config's `output`.
+    pub out: Option<PathBuf>,
+    /// Method instead of the config's `placement` (`sdf-skeleton`, `grid:NxMxK`).
+    pub method: Option<String>,
+    /// Seed instead of the config's `seed`.
+    pub seed: Option<u64>,
+    /// Show progress bars.
+    pub progress: bool,
+}
+
+/// What a finished run produced.
+#[derive(Debug)]
+pub struct PlaceOutcome {
+    /// Directory holding the outputs.
+    pub out_dir: PathBuf,
+    /// The report as written.
+    pub report: Report,
+}
+
+/// Runs the whole `place` job for the config at `config_path`.
+///
+/// Contract: on success, `probes.json`, `placement.png` and `report.json` are
+/// in the output directory (report last); on any error nothing new is written
+/// there. User mistakes come back as [`Error::User`].
+pub fn place(config_path: &Path, options: &PlaceOptions) -> Result<PlaceOutcome> {
+    let t_start = Instant::now();
+    let mut timings = BTreeMap::new();
+    let mut lap = |name: &str, since: Instant| {
+        timings.insert(name.to_string(), since.elapsed().as_secs_f64() * 1e3);
+    };
+    let progress = Progress::new(options.progress);
+
+    let mut config = Config::load(config_path)?;
+    if let Some(m) = &options.method {
+        config.placement = Placement::parse_cli(m, &config.placement)?;
+    }
+    if let Some(s) = options.seed {
+        config.seed = s;
+    }
+    let out_dir = options.out.clone().unwrap_or_else(|| config.output.clone());
+
+    let t = Instant::now();
+    let scene = scene::load_obj(&config.scene, config.scale.0, config.up)?;
+    lap("load", t);
+
+    let domain = resolve_domain(&config.domain, &scene)?;
+    let t = Instant::now();
+    let bvh = SceneBvh::new(&scene);
+    lap("bvh", t);
+
+    let t = Instant::now();
+    let sdf = sdf::build(&scene, &bvh, &domain, config.voxel_size.0, &config.sdf, config.seed, &progress)?;
+    lap("sdf", t);
+
+    let t = Instant::now();
+    let probes = placement::place(
+        &config.placement,
+        &PlacementInput {
+            scene: &scene,
+            bvh: &bvh,
+            sdf: &sdf,
+            domain: &domain,
+            seed: config.seed,
+            progress: &progress,
+        },
+    )?;
+    lap("placement", t);
+
+    let t = Instant::now();
+    let reference = CoverageReference::new(&scene, &bvh, &sdf, &config.coverage, config.seed, &progress);
+    let positions = probes.positions();
+    let cov = reference.evaluate(&bvh, &positions, &progress);
+    let health = coverage::probe_health(&sdf, &domain, &positions);
+    lap("coverage", t);
+
+    let t = Instant::now();
+    let png = render_png(&scene, &domain, &probes)?;
+    lap("preview", t);
+
+    let scene_name = config.scene.display().to_string();
+    let probes_json = report::to_json(&ProbesFile::new(
+        &probes,
+        &sdf,
+        &scene_name,
+        config.seed,
+        config.scale.0,
+        config.up,
+    ))?;
+    let mut warnings = scene.warnings.clone();
+    if health.probes_in_solid > 0 {
+        warnings.push(format!("{} probe(s) stand in solid space", health.probes_in_solid));
+    }
+    timings.insert("total".into(), t_start.elapsed().as_secs_f64() * 1e3);
+    let report = Report::new(
+        &config_path.display().to_string(),
+        &scene_name,
+        &scene,
+        &domain,
+        &sdf,
+        &probes,
+        config.seed,
+        cov,
+        health,
+        timings,
+        warnings,
+    );
+    let report_json = report::to_json(&report)?;
+
+    report::prepare_output_dir(&out_dir)?;
+    report::write_atomic(&out_dir.join("probes.json"), &probes_json)?;
+    report::write_atomic(&out_dir.join("placement.png"), &png)?;
+    report::write_atomic(&out_dir.join("report.json"), &report_json)?;
+    Ok(PlaceOutcome { out_dir, report })
+}
+
+/// The domain box in world space: the scene bounds, or the config's box,
+/// which must overlap the scene.
+pub fn resolve_domain(domain: &Domain, scene: &Scene) -> Result<Bounds> {
+    match domain {
+        Domain::Auto => Ok(scene.bounds),
+        Domain::Box(b) => {
+            let d = Bounds {
+                min: Vec3::from_array(b.min),
+                max: Vec3::from_array(b.max),
+            };
+            let overlap = d.min.cmplt(scene.bounds.max).all() && d.max.cmpgt(scene.bounds.min).all();
+            if !overlap {
+                return Err(Error::User(format!(
+                    "domain: box {:?}..{:?} does not overlap the scene bounds {:?}..{:?}",
+                    b.min,
+                    b.max,
+                    scene.bounds.min.to_array(),
+                    scene.bounds.max.to_array()
+                )));
+            }
+            Ok(d)
+        }
+    }
+}
+
+/// Renders `placement.png` to PNG bytes.
+fn render_png(scene: &Scene, domain: &Bounds, probes: &ProbeSet) -> Result<Vec<u8>> {
+    let colors: Vec<[f32; 3]> = scene
+        .material_ids
+        .iter()
+        .map(|&m| scene.materials[m as usize].diffuse)
+        .collect();
+    let positions = probes.positions();
+    let image = preview::render_preview(
+        &preview::PreviewInput {
+            triangles: &scene.triangles,
+            colors: &colors,
+            probes: &positions,
+            bounds_min: domain.min,
+            bounds_max: domain.max,
+        },
+        PREVIEW_VIEW_SIZE,
+    );
+    let mut bytes = Vec::new();
+    image
+        .write_to(&mut std::io::Cursor::new(&mut bytes), image::ImageFormat::Png)
+        .map_err(|e| Error::Internal(format!("encoding placement.png: {e}")))?;
+    Ok(bytes)
+}

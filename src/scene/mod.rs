@@ -1,0 +1,360 @@
+//! Scene loading: an OBJ (+ MTL) file becomes a flat list of world-space
+//! triangles with per-triangle materials, ready for every later stage.
+//!
+//! Real assets are messy (see ../shared/scenes/README.md): quads and
+//! polygons, negative indices, missing normals, hundreds of models per file,
+//! missing MTL files, degenerate faces. Loading repairs what it can and says
+//! so in warnings; it refuses only files with no usable triangle.
+
+pub mod raycast;
+
+use crate::config::UpAxis;
+use crate::error::{Error, Result};
+use glam::Vec3;
+use std::path::{Path, PathBuf};
+
+/// The subset of an MTL material that the lighting stages use
+/// (McGuire et al. 2017 §3 bakes radiance from Lambertian + glossy surfaces).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Material {
+    /// Material name from the MTL file (`default` for the fallback).
+    pub name: String,
+    /// Diffuse albedo `Kd`.
+    pub diffuse: [f32; 3],
+    /// Specular colour `Ks`.
+    pub specular: [f32; 3],
+    /// Phong exponent `Ns`.
+    pub shininess: f32,
+    /// Emitted radiance `Ke`.
+    pub emission: [f32; 3],
+}
+
+impl Material {
+    /// The material given to faces whose material is missing: light grey, matte.
+    pub fn fallback() -> Material {
+        Material {
+            name: "default".into(),
+            diffuse: [0.8; 3],
+            specular: [0.0; 3],
+            shininess: 1.0,
+            emission: [0.0; 3],
+        }
+    }
+}
+
+/// An axis-aligned box.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Bounds {
+    /// Lower corner.
+    pub min: Vec3,
+    /// Upper corner.
+    pub max: Vec3,
+}
+
+impl Bounds {
+    /// The empty box, identity of [`Bounds::grow`].
+    pub fn empty() -> Bounds {
+        Bounds {
+            min: Vec3::splat(f32::INFINITY),
+            max: Vec3::splat(f32::NEG_INFINITY),
+        }
+    }
+
+    /// Extends the box to contain `p`.
+    pub fn grow(&mut self, p: Vec3) {
+        self.min = self.min.min(p);
+        self.max = self.max.max(p);
+    }
+
+    /// Edge lengths.
+    pub fn size(&self) -> Vec3 {
+        self.max - self.min
+    }
+
+    /// Whether `p` lies inside or on the box.
+    pub fn contains(&self, p: Vec3) -> bool {
+        p.cmpge(self.min).all() && p.cmple(self.max).all()
+    }
+}
+
+/// A loaded scene in world space: Y up, coordinates multiplied by the config's scale.
+#[derive(Debug, Clone)]
+pub struct Scene {
+    /// The file it came from.
+    pub source: PathBuf,
+    /// Triangles, counter-clockwise from the front as written in the file.
+    pub triangles: Vec<[Vec3; 3]>,
+    /// Unit geometric normal of each triangle, `(b-a)×(c-a)` normalized.
+    pub normals: Vec<Vec3>,
+    /// Index into `materials` for each triangle.
+    pub material_ids: Vec<u32>,
+    /// Materials; the last one is the fallback for faces without a material.
+    pub materials: Vec<Material>,
+    /// Bounds of all triangles.
+    pub bounds: Bounds,
+    /// Number of faces dropped as degenerate (zero area) or non-finite.
+    pub dropped_triangles: usize,
+    /// Human-readable warnings raised while loading.
+    pub warnings: Vec<String>,
+}
+
+impl Scene {
+    /// Builds a scene from triangles given directly (procedural scenes, tests).
+    /// Degenerate and non-finite triangles are dropped as in [`load_obj`].
+    pub fn from_triangles(
+        source: PathBuf,
+        triangles: impl IntoIterator<Item = ([Vec3; 3], u32)>,
+        materials: Vec<Material>,
+    ) -> Result<Scene> {
+        let mut scene = Scene {
+            source,
+            triangles: Vec::new(),
+            normals: Vec::new(),
+            material_ids: Vec::new(),
+            materials,
+            bounds: Bounds::empty(),
+            dropped_triangles: 0,
+            warnings: Vec::new(),
+        };
+        scene.materials.push(Material::fallback());
+        let fallback = (scene.materials.len() - 1) as u32;
+        for (tri, material) in triangles {
+            let material = if (material as usize) < scene.materials.len() {
+                material
+            } else {
+                fallback
+            };
+            scene.push(tri, material);
+        }
+        scene.finish()?;
+        Ok(scene)
+    }
+
+    fn push(&mut self, tri: [Vec3; 3], material: u32) {
+        let cross = (tri[1] - tri[0]).cross(tri[2] - tri[0]);
+        let finite = tri.iter().all(|v| v.is_finite());
+        // Relative area test: a sliver whose area is below float resolution of
+        // its edges has no usable normal.
+        let scale = (tri[1] - tri[0])
+            .length_squared()
+            .max((tri[2] - tri[0]).length_squared());
+        if !finite || !cross.is_finite() || cross.length_squared() <= 1e-12 * scale * scale {
+            self.dropped_triangles += 1;
+            return;
+        }
+        for v in tri {
+            self.bounds.grow(v);
+        }
+        self.triangles.push(tri);
+        self.normals.push(cross.normalize());
+        self.material_ids.push(material);
+    }
+
+    fn finish(&mut self) -> Result<()> {
+        if self.dropped_triangles > 0 {
+            self.warnings.push(format!(
+                "{}: dropped {} degenerate or non-finite triangle(s)",
+                self.source.display(),
+                self.dropped_triangles
+            ));
+        }
+        if self.triangles.is_empty() {
+            return Err(Error::user_file(
+                &self.source,
+                "scene has no usable triangle (empty, or every face degenerate or non-finite)",
+            ));
+        }
+        Ok(())
+    }
+
+    /// Total surface area (one side of each triangle).
+    pub fn area(&self) -> f64 {
+        self.triangles
+            .iter()
+            .map(|t| 0.5 * (t[1] - t[0]).cross(t[2] - t[0]).length() as f64)
+            .sum()
+    }
+}
+
+/// Maps a file-space point to world space: scale, then rotate Z-up files to Y-up.
+pub fn to_world(p: Vec3, scale: f32, up: UpAxis) -> Vec3 {
+    let p = p * scale;
+    match up {
+        UpAxis::Y => p,
+        UpAxis::Z => Vec3::new(p.x, p.z, -p.y),
+    }
+}
+
+/// Inverse of [`to_world`]: world space back to the OBJ file's coordinates.
+pub fn to_file(p: Vec3, scale: f32, up: UpAxis) -> Vec3 {
+    let p = match up {
+        UpAxis::Y => p,
+        UpAxis::Z => Vec3::new(p.x, -p.z, p.y),
+    };
+    p / scale
+}
+
+/// Loads an OBJ file into world space.
+///
+/// Contract: quads and polygons are fan-triangulated by tobj; negative
+/// indices are resolved; faces are kept in file order; degenerate or
+/// non-finite triangles are dropped and counted in one warning; a missing or
+/// unreadable MTL is a warning and every face gets [`Material::fallback`].
+/// Errors ([`Error::User`], naming the file): unreadable file, malformed OBJ,
+/// no usable triangle.
+pub fn load_obj(path: &Path, scale: f32, up: UpAxis) -> Result<Scene> {
+    if !path.is_file() {
+        return Err(Error::user_file(path, "scene file not found"));
+    }
+    let options = tobj::LoadOptions {
+        triangulate: true,
+        single_index: false,
+        ignore_points: true,
+        ignore_lines: true,
+        ..Default::default()
+    };
+    let (models, materials) = quietly(|| tobj::load_obj(path, &options))
+        .ok_or_else(|| Error::user_file(path, "malformed OBJ or MTL (the parser gave up)"))?
+        .map_err(|e| Error::user_file(path, format!("malformed OBJ: {e}")))?;
+    let mut warnings = Vec::new();
+    let materials: Vec<Material> = match materials {
+        Ok(ms) => ms
+            .into_iter()
+            .map(|m| Material {
+                name: m.name,
+                diffuse: m.diffuse.unwrap_or([0.8; 3]),
+                specular: m.specular.unwrap_or([0.0; 3]),
+                shininess: m.shininess.unwrap_or(1.0),
+                emission: m.emissive.unwrap_or([0.0; 3]),
+            })
+            .collect(),
+        Err(e) => {
+            warnings.push(format!(
+                "{}: material library not loaded ({e}); using the default material",
+                path.display()
+            ));
+            Vec::new()
+        }
+    };
+    let triangles = models.iter().flat_map(|model| {
+        let mesh = &model.mesh;
+        let material = mesh.material_id.map_or(u32::MAX, |m| m as u32);
+        let vertex = move |i: u32| {
+            let i = i as usize * 3;
+            to_world(
+                Vec3::new(mesh.positions[i], mesh.positions[i + 1], mesh.positions[i + 2]),
+                scale,
+                up,
+            )
+        };
+        mesh.indices
+            .chunks_exact(3)
+            .map(move |f| ([vertex(f[0]), vertex(f[1]), vertex(f[2])], material))
+    });
+    let mut scene = Scene::from_triangles(path.to_path_buf(), triangles, materials)?;
+    warnings.append(&mut scene.warnings);
+    scene.warnings = warnings;
+    Ok(scene)
+}
+
+/// Runs `f`, turning a panic inside the OBJ/MTL parser into `None` without
+/// printing it: tobj 4 unwraps on some malformed MTL lines (e.g. `Ke 1 2`),
+/// and a user mistake must never surface as a panic.
+fn quietly<T>(f: impl FnOnce() -> T + std::panic::UnwindSafe) -> Option<T> {
+    let hook = std::panic::take_hook();
+    std::panic::set_hook(Box::new(|_| {}));
+    let result = std::panic::catch_unwind(f).ok();
+    std::panic::set_hook(hook);
+    result
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::io::Write;
+
+    fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
+        let p = dir.join(name);
+        std::fs::File::create(&p)
+            .unwrap()
+            .write_all(text.as_bytes())
+            .unwrap();
+        p
+    }
+
+    #[test]
+    fn quads_negative_indices_and_missing_mtl() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = write(
+            dir.path(),
+            "q.obj",
+            "mtllib nope.mtl\nv 0 0 0\nv 1 0 0\nv 1 0 1\nv 0 0 1\nusemtl x\nf -4 -1 -2 -3\n",
+        );
+        let s = load_obj(&p, 2.0, UpAxis::Y).unwrap();
+        assert_eq!(s.triangles.len(), 2);
+        assert_eq!(s.bounds.max, Vec3::new(2.0, 0.0, 2.0));
+        assert!(s.warnings.iter().any(|w| w.contains("material")), "{:?}", s.warnings);
+        assert_eq!(s.materials[s.material_ids[0] as usize].name, "default");
+        // Winding (0,0,0)->(0,0,1)->(1,0,1) gives a +Y normal.
+        assert!(s.normals[0].y > 0.99);
+    }
+
+    #[test]
+    fn degenerate_and_nan_faces_are_dropped_with_a_warning() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = write(
+            dir.path(),
+            "d.obj",
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 2 0 0\nv nan 0 0\nf 1 2 3\nf 1 2 4\nf 1 5 3\n",
+        );
+        let s = load_obj(&p, 1.0, UpAxis::Y).unwrap();
+        assert_eq!(s.triangles.len(), 1);
+        assert_eq!(s.dropped_triangles, 2);
+        assert!(s.warnings.iter().any(|w| w.contains("dropped 2")));
+    }
+
+    #[test]
+    fn z_up_files_are_rotated_to_y_up() {
+        let p = Vec3::new(1.0, 2.0, 3.0);
+        let w = to_world(p, 2.0, UpAxis::Z);
+        assert_eq!(w, Vec3::new(2.0, 6.0, -4.0));
+        assert_eq!(to_file(w, 2.0, UpAxis::Z), p);
+    }
+
+    #[test]
+    fn unusable_files_are_user_errors() {
+        let dir = tempfile::tempdir().unwrap();
+        for (name, text) in [
+            ("empty.obj", ""),
+            ("nan.obj", "v nan 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"),
+            ("bad.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n"),
+            ("junk.obj", "v zero one two\nf 1 2 3\n"),
+        ] {
+            let p = write(dir.path(), name, text);
+            match load_obj(&p, 1.0, UpAxis::Y) {
+                Err(Error::User(m)) => assert!(m.contains(name), "{m}"),
+                other => panic!("{name}: expected a user error, got {other:?}"),
+            }
+        }
+        assert!(matches!(
+            load_obj(&dir.path().join("missing.obj"), 1.0, UpAxis::Y),
+            Err(Error::User(_))
+        ));
+    }
+
+    #[test]
+    fn malformed_mtl_is_a_warning_not_a_panic() {
+        let dir = tempfile::tempdir().unwrap();
+        write(dir.path(), "m.mtl", "newmtl a\nKe 1 2\n");
+        let p = write(
+            dir.path(),
+            "m.obj",
+            "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl a\nf 1 2 3\n",
+        );
+        match load_obj(&p, 1.0, UpAxis::Y) {
+            Ok(s) => assert_eq!(s.triangles.len(), 1),
+            Err(Error::User(m)) => assert!(m.contains("m.obj"), "{m}"),
+            Err(e) => panic!("{e:?}"),
+        }
+    }
+}

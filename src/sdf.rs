@@ -1,0 +1,535 @@
+//! Stage 1 (Wang et al. 2019 §3.1, "Signed Distance Function
+//! Skeletonization"): a voxel grid over the probe domain holding, per voxel,
+//! the distance to the nearest surface and a classification into free,
+//! solid and outside-the-scene space.
+//!
+//! The paper builds its SDF with OpenVDB, which needs closed meshes for a
+//! sign. Real assets are open, non-watertight and single-sided (Cornell walls
+//! are single quads, Sponza has cracks), so the sign here comes from rays, the
+//! rule used by RTXGI and Unity's probe volumes:
+//!
+//! * `rays_per_voxel` rays leave each voxel centre along a spherical Fibonacci
+//!   set, randomly rotated per voxel (seeded, so reproducible);
+//! * **solid** when more than `solid_backface_fraction` (default 0.25) of
+//!   them first hit a back face: the centre is behind surfaces, inside an
+//!   object or a wall;
+//! * otherwise **outside the scene** when more than `outside_escape_fraction`
+//!   (default 0.5) of them escape to infinity: the centre sees mostly sky,
+//!   as above a roofless building or in front of the open Cornell box;
+//! * otherwise **free**.
+//!
+//! Distances are exact (point-to-triangle) within a band of 2 voxels of the
+//! surfaces, and propagated elsewhere by jump flooding of nearest surface
+//! points (Rong & Tan 2006), which keeps them Euclidean to within a small
+//! fraction of a voxel. Solid voxels carry negative distances.
+
+use crate::config::SdfParams;
+use crate::error::{Error, Result};
+use crate::progress::Progress;
+use crate::sampling::{fibonacci_sphere, hash2, random_rotation};
+use crate::scene::raycast::SceneBvh;
+use crate::scene::{Bounds, Scene};
+use glam::{IVec3, UVec3, Vec3};
+use rayon::prelude::*;
+
+/// Most voxels a grid may have: about 1.3 GB of working memory at the limit.
+pub const MAX_VOXELS: u64 = 64_000_000;
+
+/// What occupies a voxel's centre.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum VoxelClass {
+    /// Empty space inside the scene: probes may go here.
+    Free,
+    /// Inside an object or wall (mostly back faces seen).
+    Solid,
+    /// Empty space outside the scene (mostly sky seen).
+    Outside,
+}
+
+/// The signed distance field of the probe domain.
+#[derive(Debug, Clone)]
+pub struct Sdf {
+    /// Lower corner of voxel (0,0,0).
+    pub origin: Vec3,
+    /// Edge length of a voxel.
+    pub voxel_size: f32,
+    /// Voxel count along x, y, z.
+    pub dims: UVec3,
+    /// Distance from each voxel centre to the nearest surface; negative when solid.
+    pub distance: Vec<f32>,
+    /// Classification of each voxel.
+    pub class: Vec<VoxelClass>,
+    /// Nearest surface point of each voxel centre (`None` only when the
+    /// domain holds no surface at all). The skeleton reads its jumps.
+    pub nearest: Vec<Option<Vec3>>,
+}
+
+impl Sdf {
+    /// Linear index of voxel `v` (x fastest).
+    pub fn index(&self, v: UVec3) -> usize {
+        (v.x + self.dims.x * (v.y + self.dims.y * v.z)) as usize
+    }
+
+    /// Voxel coordinates of linear index `i`.
+    pub fn coords(&self, i: usize) -> UVec3 {
+        let i = i as u32;
+        UVec3::new(
+            i % self.dims.x,
+            (i / self.dims.x) % self.dims.y,
+            i / (self.dims.x * self.dims.y),
+        )
+    }
+
+    /// World-space centre of voxel `i`.
+    pub fn center(&self, i: usize) -> Vec3 {
+        self.origin + (self.coords(i).as_vec3() + 0.5) * self.voxel_size
+    }
+
+    /// The voxel containing `p`, or `None` outside the grid.
+    pub fn voxel_at(&self, p: Vec3) -> Option<usize> {
+        let c = ((p - self.origin) / self.voxel_size).floor();
+        if !c.is_finite() || c.cmplt(Vec3::ZERO).any() || c.cmpge(self.dims.as_vec3()).any() {
+            return None;
+        }
+        Some(self.index(c.as_uvec3()))
+    }
+
+    /// Number of voxels.
+    pub fn len(&self) -> usize {
+        (self.dims.x * self.dims.y * self.dims.z) as usize
+    }
+
+    /// Whether the grid has no voxel (never true for a built SDF).
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Voxel counts per class: (free, solid, outside).
+    pub fn class_counts(&self) -> (usize, usize, usize) {
+        self.class.iter().fold((0, 0, 0), |(f, s, o), c| match c {
+            VoxelClass::Free => (f + 1, s, o),
+            VoxelClass::Solid => (f, s + 1, o),
+            VoxelClass::Outside => (f, s, o + 1),
+        })
+    }
+}
+
+/// Grid dimensions for `domain` at `voxel_size`, or a user error naming
+/// `voxel_size` when the grid would exceed [`MAX_VOXELS`].
+pub fn grid_dims(domain: &Bounds, voxel_size: f32) -> Result<UVec3> {
+    let n = (domain.size() / voxel_size).ceil().max(Vec3::ONE);
+    let total = n.x as f64 * n.y as f64 * n.z as f64;
+    if !total.is_finite() || total > MAX_VOXELS as f64 {
+        return Err(Error::User(format!(
+            "voxel_size: {voxel_size} gives {total:.3e} voxels over a domain of {:.3} x {:.3} x {:.3} (limit {MAX_VOXELS}); use a larger voxel_size",
+            domain.size().x,
+            domain.size().y,
+            domain.size().z
+        )));
+    }
+    Ok(n.as_uvec3())
+}
+
+/// Builds the SDF of `domain` (Wang et al. 2019 §3.1, first step of Fig. 2).
+///
+/// Contract: the grid starts at `domain.min` and covers it with cubic voxels
+/// of edge `voxel_size` (the last layer may overhang `domain.max`);
+/// classification follows the module's rule with `params`; the result depends
+/// only on the inputs and `seed`, never on thread scheduling.
+pub fn build(
+    scene: &Scene,
+    bvh: &SceneBvh,
+    domain: &Bounds,
+    voxel_size: f32,
+    params: &SdfParams,
+    seed: u64,
+    progress: &Progress,
+) -> Result<Sdf> {
+    let dims = grid_dims(domain, voxel_size)?;
+    let mut sdf = Sdf {
+        origin: domain.min,
+        voxel_size,
+        dims,
+        distance: Vec::new(),
+        class: Vec::new(),
+        nearest: Vec::new(),
+    };
+    sdf.nearest = nearest_surface_points(scene, &sdf);
+    sdf.distance = (0..sdf.len())
+        .into_par_iter()
+        .map(|i| match sdf.nearest[i] {
+            Some(p) => p.distance(sdf.center(i)),
+            None => f32::INFINITY,
+        })
+        .collect();
+    sdf.class = classify(&sdf, bvh, params, seed, progress);
+    for (d, c) in sdf.distance.iter_mut().zip(&sdf.class) {
+        if *c == VoxelClass::Solid {
+            *d = -*d;
+        }
+    }
+    Ok(sdf)
+}
+
+/// Edge of the cubic bricks that bin triangles for the exact band, in voxels.
+const BRICK: u32 = 8;
+/// Half-width of the exact band, in voxels.
+const BAND: f32 = 2.0;
+
+/// Nearest surface point of every voxel centre: exact within the band, then
+/// jump flooding outward.
+fn nearest_surface_points(scene: &Scene, sdf: &Sdf) -> Vec<Option<Vec3>> {
+    let bricks = (sdf.dims + BRICK - 1) / BRICK;
+    let brick_count = (bricks.x * bricks.y * bricks.z) as usize;
+    let reach = BAND * sdf.voxel_size;
+    // Triangles overlapping each brick (with the band around them).
+    let mut bins: Vec<Vec<u32>> = vec![Vec::new(); brick_count];
+    let brick_size = sdf.voxel_size * BRICK as f32;
+    for (ti, t) in scene.triangles.iter().enumerate() {
+        let lo = t[0].min(t[1]).min(t[2]) - reach;
+        let hi = t[0].max(t[1]).max(t[2]) + reach;
+        let b0 = ((lo - sdf.origin) / brick_size).floor().as_ivec3().max(IVec3::ZERO);
+        let b1 = ((hi - sdf.origin) / brick_size)
+            .floor()
+            .as_ivec3()
+            .min(bricks.as_ivec3() - 1);
+        for z in b0.z..=b1.z {
+            for y in b0.y..=b1.y {
+                for x in b0.x..=b1.x {
+                    bins[(x as u32 + bricks.x * (y as u32 + bricks.y * z as u32)) as usize]
+                        .push(ti as u32);
+                }
+            }
+        }
+    }
+    let mut nearest: Vec<Option<Vec3>> = vec![None; sdf.len()];
+    let per_brick: Vec<Vec<(usize, Vec3)>> = bins
+        .par_iter()
+        .enumerate()
+        .map(|(b, tris)| {
+            let mut out = Vec::new();
+            if tris.is_empty() {
+                return out;
+            }
+            let b = b as u32;
+            let base = UVec3::new(b % bricks.x, (b / bricks.x) % bricks.y, b / (bricks.x * bricks.y)) * BRICK;
+            let end = (base + BRICK).min(sdf.dims);
+            for z in base.z..end.z {
+                for y in base.y..end.y {
+                    for x in base.x..end.x {
+                        let i = sdf.index(UVec3::new(x, y, z));
+                        let c = sdf.center(i);
+                        let mut best = (reach * reach, None);
+                        for &ti in tris {
+                            let q = closest_point_on_triangle(c, &scene.triangles[ti as usize]);
+                            let d2 = q.distance_squared(c);
+                            if d2 < best.0 {
+                                best = (d2, Some(q));
+                            }
+                        }
+                        if let Some(q) = best.1 {
+                            out.push((i, q));
+                        }
+                    }
+                }
+            }
+            out
+        })
+        .collect();
+    for (i, q) in per_brick.into_iter().flatten() {
+        nearest[i] = Some(q);
+    }
+    jump_flood(sdf, nearest)
+}
+
+/// Jump flooding: each pass, every voxel adopts the nearest of the surface
+/// points known to its 26 neighbours at offset `step`, halving `step` down to
+/// 1, then one extra pass at 1 (JFA+1) to mend most of its rare errors.
+fn jump_flood(sdf: &Sdf, mut nearest: Vec<Option<Vec3>>) -> Vec<Option<Vec3>> {
+    let max_dim = sdf.dims.max_element();
+    let mut steps = Vec::new();
+    let mut step = max_dim.next_power_of_two() / 2;
+    while step >= 1 {
+        steps.push(step);
+        step /= 2;
+    }
+    steps.push(1);
+    let dims = sdf.dims.as_ivec3();
+    for step in steps {
+        let s = step as i32;
+        nearest = (0..sdf.len())
+            .into_par_iter()
+            .map(|i| {
+                let c = sdf.center(i);
+                let v = sdf.coords(i).as_ivec3();
+                let mut best = nearest[i];
+                let mut best_d2 = best.map_or(f32::INFINITY, |q| q.distance_squared(c));
+                for dz in -1..=1 {
+                    for dy in -1..=1 {
+                        for dx in -1..=1 {
+                            let n = v + IVec3::new(dx, dy, dz) * s;
+                            if n.cmplt(IVec3::ZERO).any() || n.cmpge(dims).any() {
+                                continue;
+                            }
+                            if let Some(q) = nearest[sdf.index(n.as_uvec3())] {
+                                let d2 = q.distance_squared(c);
+                                if d2 < best_d2 {
+                                    best_d2 = d2;
+                                    best = Some(q);
+                                }
+                            }
+                        }
+                    }
+                }
+                best
+            })
+            .collect();
+    }
+    nearest
+}
+
+/// Classifies every voxel by casting rays from its centre (module docs).
+fn classify(
+    sdf: &Sdf,
+    bvh: &SceneBvh,
+    params: &SdfParams,
+    seed: u64,
+    progress: &Progress,
+) -> Vec<VoxelClass> {
+    let n = params.rays_per_voxel.0;
+    let directions = fibonacci_sphere(n);
+    let solid_limit = params.solid_backface_fraction.0 * n as f32;
+    let outside_limit = params.outside_escape_fraction.0 * n as f32;
+    // Hits closer than this are the surface the centre lies on: skipped.
+    let tmin = 1e-4 * sdf.voxel_size;
+    let bar = progress.bar("sdf: classify voxels", sdf.len() as u64);
+    let classes = (0..sdf.len())
+        .into_par_iter()
+        .chunks(4096)
+        .flat_map_iter(|chunk| {
+            let out: Vec<VoxelClass> = chunk
+                .iter()
+                .map(|&i| {
+                    let c = sdf.center(i);
+                    let rot = random_rotation(hash2(seed, i as u64));
+                    let (mut back, mut escaped) = (0u32, 0u32);
+                    for (k, d) in directions.iter().enumerate() {
+                        match bvh.closest_hit(c, rot * *d, tmin, f32::INFINITY) {
+                            Some(h) if h.backface => back += 1,
+                            Some(_) => {}
+                            None => escaped += 1,
+                        }
+                        let left = (n as usize - k - 1) as f32;
+                        if back as f32 > solid_limit {
+                            return VoxelClass::Solid;
+                        }
+                        // Decided early when no remaining ray can change the outcome.
+                        if back as f32 + left <= solid_limit
+                            && (escaped as f32 > outside_limit || escaped as f32 + left <= outside_limit)
+                        {
+                            break;
+                        }
+                    }
+                    if escaped as f32 > outside_limit {
+                        VoxelClass::Outside
+                    } else {
+                        VoxelClass::Free
+                    }
+                })
+                .collect();
+            bar.inc(out.len() as u64);
+            out
+        })
+        .collect();
+    bar.finish_and_clear();
+    classes
+}
+
+/// The point of triangle `t` nearest to `p` (Ericson, Real-Time Collision
+/// Detection §5.1.5).
+pub fn closest_point_on_triangle(p: Vec3, t: &[Vec3; 3]) -> Vec3 {
+    let (a, b, c) = (t[0], t[1], t[2]);
+    let ab = b - a;
+    let ac = c - a;
+    let ap = p - a;
+    let d1 = ab.dot(ap);
+    let d2 = ac.dot(ap);
+    if d1 <= 0.0 && d2 <= 0.0 {
+        return a;
+    }
+    let bp = p - b;
+    let d3 = ab.dot(bp);
+    let d4 = ac.dot(bp);
+    if d3 >= 0.0 && d4 <= d3 {
+        return b;
+    }
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+        return a + ab * (d1 / (d1 - d3));
+    }
+    let cp = p - c;
+    let d5 = ab.dot(cp);
+    let d6 = ac.dot(cp);
+    if d6 >= 0.0 && d5 <= d6 {
+        return c;
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+        return a + ac * (d2 / (d2 - d6));
+    }
+    let va = d3 * d6 - d5 * d4;
+    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
+        return b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
+    }
+    let denom = 1.0 / (va + vb + vc);
+    a + ab * (vb * denom) + ac * (vc * denom)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::{Count, Fraction};
+    use crate::scene::Material;
+
+    /// A closed room (single-sided walls facing inward) with a solid box inside
+    /// (faces outward), all axis-aligned.
+    pub(crate) fn room_with_box() -> Scene {
+        let mut tris = Vec::new();
+        add_box(&mut tris, Vec3::ZERO, Vec3::splat(4.0), true);
+        add_box(&mut tris, Vec3::new(1.0, 0.0, 1.0), Vec3::new(2.0, 1.0, 2.0), false);
+        Scene::from_triangles("room".into(), tris.into_iter().map(|t| (t, 0)), vec![Material::fallback()])
+            .unwrap()
+    }
+
+    /// Adds the 12 triangles of box `[lo, hi]`, normals inward when `inward`.
+    pub(crate) fn add_box(out: &mut Vec<[Vec3; 3]>, lo: Vec3, hi: Vec3, inward: bool) {
+        let corner = |i: usize| {
+            Vec3::new(
+                if i & 1 == 0 { lo.x } else { hi.x },
+                if i & 2 == 0 { lo.y } else { hi.y },
+                if i & 4 == 0 { lo.z } else { hi.z },
+            )
+        };
+        // Faces as corner quads, counter-clockwise seen from outside.
+        let quads = [
+            [0, 2, 3, 1], // -z
+            [4, 5, 7, 6], // +z
+            [0, 4, 6, 2], // -x
+            [1, 3, 7, 5], // +x
+            [0, 1, 5, 4], // -y
+            [2, 6, 7, 3], // +y
+        ];
+        for q in quads {
+            let [a, b, c, d] = q.map(corner);
+            if inward {
+                out.push([a, c, b]);
+                out.push([a, d, c]);
+            } else {
+                out.push([a, b, c]);
+                out.push([a, c, d]);
+            }
+        }
+    }
+
+    fn build_room(voxel: f32) -> Sdf {
+        let scene = room_with_box();
+        let bvh = SceneBvh::new(&scene);
+        build(&scene, &bvh, &scene.bounds, voxel, &SdfParams::default(), 1, &Progress::hidden()).unwrap()
+    }
+
+    #[test]
+    fn box_outward_normals() {
+        let s = room_with_box();
+        // Floor of the room faces up, top of the inner box faces up too.
+        let centroid = |t: &[Vec3; 3]| (t[0] + t[1] + t[2]) / 3.0;
+        for (t, n) in s.triangles.iter().zip(&s.normals) {
+            let c = centroid(t);
+            if c.y == 0.0 {
+                assert!(n.y > 0.99);
+            }
+            if c.y == 4.0 {
+                assert!(n.y < -0.99);
+            }
+        }
+    }
+
+    #[test]
+    fn classifies_free_solid_and_distances() {
+        let sdf = build_room(0.25);
+        assert_eq!(sdf.dims, UVec3::splat(16));
+        let at = |p: Vec3| sdf.voxel_at(p).unwrap();
+        // Inside the inner box: solid with negative distance ~ 0.375 to its faces.
+        let inside = at(Vec3::new(1.6, 0.6, 1.6));
+        assert_eq!(sdf.class[inside], VoxelClass::Solid);
+        assert!(sdf.distance[inside] < 0.0);
+        // Room centre above the box: free, exact distance to the nearest wall.
+        let free = at(Vec3::new(3.1, 3.1, 3.1));
+        assert_eq!(sdf.class[free], VoxelClass::Free);
+        let c = sdf.center(free);
+        let exact = (4.0 - c.x).min(4.0 - c.y).min(4.0 - c.z);
+        assert!((sdf.distance[free] - exact).abs() < 1e-4, "{} vs {exact}", sdf.distance[free]);
+        // Far from surfaces (propagated by jump flooding): within 2% of exact.
+        // Centre (2.875, 2.625, 2.875): nearest are the +x and +z walls, 1.125 away.
+        let mid = at(Vec3::new(2.9, 2.6, 2.9));
+        assert!((sdf.distance[mid] - 1.125).abs() < 0.02, "{}", sdf.distance[mid]);
+        let (free_n, solid_n, outside_n) = sdf.class_counts();
+        // The inner box is 1 m³ = 64 voxels.
+        assert_eq!(solid_n, 64);
+        assert_eq!(outside_n, 0);
+        assert_eq!(free_n, 16 * 16 * 16 - 64);
+    }
+
+    #[test]
+    fn open_sky_is_outside() {
+        // Just a floor: voxels above it see half sky and half floor front; at
+        // 0.5 the rule needs "more than half" to escape, so lift the domain.
+        let mut tris = Vec::new();
+        add_box(&mut tris, Vec3::new(0.0, -1.0, 0.0), Vec3::new(4.0, 0.0, 4.0), false);
+        let scene = Scene::from_triangles("f".into(), tris.into_iter().map(|t| (t, 0)), vec![]).unwrap();
+        let bvh = SceneBvh::new(&scene);
+        let domain = Bounds {
+            min: Vec3::new(0.0, 1.0, 0.0),
+            max: Vec3::new(4.0, 3.0, 4.0),
+        };
+        let params = SdfParams {
+            rays_per_voxel: Count(64),
+            solid_backface_fraction: Fraction(0.25),
+            outside_escape_fraction: Fraction(0.5),
+        };
+        let sdf = build(&scene, &bvh, &domain, 0.5, &params, 3, &Progress::hidden()).unwrap();
+        let (_, solid, outside) = sdf.class_counts();
+        assert_eq!(solid, 0);
+        assert!(outside as f32 > 0.9 * sdf.len() as f32, "{outside} of {}", sdf.len());
+    }
+
+    #[test]
+    fn deterministic_for_a_seed() {
+        let a = build_room(0.5);
+        let b = build_room(0.5);
+        assert_eq!(a.distance, b.distance);
+        assert_eq!(a.class, b.class);
+    }
+
+    #[test]
+    fn huge_grids_are_refused_naming_voxel_size() {
+        let d = Bounds {
+            min: Vec3::ZERO,
+            max: Vec3::splat(100.0),
+        };
+        match grid_dims(&d, 0.01) {
+            Err(Error::User(m)) => assert!(m.starts_with("voxel_size"), "{m}"),
+            other => panic!("{other:?}"),
+        }
+    }
+
+    #[test]
+    fn closest_point_regions() {
+        let t = [Vec3::ZERO, Vec3::X, Vec3::Y];
+        assert_eq!(closest_point_on_triangle(Vec3::new(0.2, 0.2, 1.0), &t), Vec3::new(0.2, 0.2, 0.0));
+        assert_eq!(closest_point_on_triangle(Vec3::new(-1.0, -1.0, 0.0), &t), Vec3::ZERO);
+        assert_eq!(closest_point_on_triangle(Vec3::new(2.0, -0.1, 0.0), &t), Vec3::X);
+        let e = closest_point_on_triangle(Vec3::new(1.0, 1.0, 0.0), &t);
+        assert!((e - Vec3::new(0.5, 0.5, 0.0)).length() < 1e-6);
+    }
+}

@@ -1,0 +1,136 @@
+//! Stage 2 (Wang et al. 2019 §3.1, Fig. 2): an approximate skeleton of the
+//! free space, clustered into initial probe positions.
+//!
+//! The paper's argument: each element of the scene's straight skeleton sees a
+//! region of constant visibility, so one probe per skeleton element covers the
+//! scene. The exact 3D straight skeleton is numerically fragile, so the paper
+//! approximates it from the SDF. Here, following Fig. 2 left to right:
+//!
+//! 1. **Cull** voxels that are solid, outside the scene, or nearer to a
+//!    surface than `min_distance` (default 4 voxels).
+//! 2. **Skeleton**: of the rest, keep the voxels where the nearest surface
+//!    point jumps between face-adjacent voxels, i.e. the discrete medial axis
+//!    (the centre of a maximal empty ball touches two or more surfaces). Jumps
+//!    are measured on the SDF's nearest points: a voxel is on the skeleton when
+//!    a neighbour's nearest point lies more than 2 voxels from its own.
+//! 3. **Cluster** skeleton voxels greedily, largest distance first: a seed
+//!    takes every unclustered skeleton voxel within `cluster_radius` × its own
+//!    distance to the surface *and visible from it*, so that a cluster's voxels
+//!    share most of their view (the visibility-region property above).
+//! 4. **Place** one probe at each cluster's centroid; when the centroid is
+//!    not a free, unculled voxel (clusters bend around corners), the probe
+//!    moves to the cluster's voxel nearest to the centroid.
+
+use crate::config::SdfSkeletonParams;
+use crate::error::{Error, Result};
+use crate::placement::{PlacementInput, Probe};
+use crate::sdf::{Sdf, VoxelClass};
+use glam::{IVec3, Vec3};
+use rayon::prelude::*;
+
+/// Default culling distance, in voxels.
+pub const DEFAULT_MIN_DISTANCE_VOXELS: f32 = 4.0;
+
+/// Jump of the nearest surface point, in voxels, that marks a skeleton voxel.
+const JUMP_VOXELS: f32 = 2.0;
+
+/// The voxels that survive culling (step 1), as linear indices.
+pub fn cull(sdf: &Sdf, min_distance: f32) -> Vec<usize> {
+    (0..sdf.len())
+        .filter(|&i| sdf.class[i] == VoxelClass::Free && sdf.distance[i] >= min_distance)
+        .collect()
+}
+
+/// The culled voxels that lie on the discrete medial axis (step 2).
+pub fn medial_voxels(sdf: &Sdf, kept: &[usize]) -> Vec<usize> {
+    let jump2 = (JUMP_VOXELS * sdf.voxel_size).powi(2);
+    let dims = sdf.dims.as_ivec3();
+    let on_axis = |i: usize| {
+        let Some(q) = sdf.nearest[i] else {
+            return false;
+        };
+        let v = sdf.coords(i).as_ivec3();
+        [IVec3::X, IVec3::NEG_X, IVec3::Y, IVec3::NEG_Y, IVec3::Z, IVec3::NEG_Z]
+            .iter()
+            .any(|o| {
+                let n = v + *o;
+                if n.cmplt(IVec3::ZERO).any() || n.cmpge(dims).any() {
+                    return false;
+                }
+                sdf.nearest[sdf.index(n.as_uvec3())].is_some_and(|qn| qn.distance_squared(q) > jump2)
+            })
+    };
+    kept.par_iter().copied().filter(|&i| on_axis(i)).collect()
+}
+
+/// Places probes by SDF skeletonization (module docs, steps 1–4).
+///
+/// Contract: every probe lies at the centre of a free voxel at least
+/// `min_distance` from any surface, or at a cluster centroid that itself is
+/// such a point; probes come in order of decreasing clearance; the result is
+/// deterministic. Errors ([`Error::User`], naming the parameter) when culling
+/// leaves nothing.
+pub fn sdf_skeleton(params: &SdfSkeletonParams, input: &PlacementInput) -> Result<Vec<Probe>> {
+    let sdf = input.sdf;
+    let min_distance = params
+        .min_distance
+        .map_or(DEFAULT_MIN_DISTANCE_VOXELS * sdf.voxel_size, |d| d.0);
+    let kept = cull(sdf, min_distance);
+    if kept.is_empty() {
+        let largest = (0..sdf.len())
+            .filter(|&i| sdf.class[i] == VoxelClass::Free)
+            .map(|i| sdf.distance[i])
+            .fold(0.0f32, f32::max);
+        return Err(Error::User(format!(
+            "placement.min_distance: {min_distance} culls every free voxel (the largest clearance in the domain is {largest:.4}); lower it or the voxel_size"
+        )));
+    }
+    let mut skeleton = medial_voxels(sdf, &kept);
+    if skeleton.is_empty() {
+        // A domain too small for a medial axis to show: its clearest voxel stands in.
+        skeleton = kept.clone();
+    }
+    // Largest clearance first; ties by index so the order is total.
+    skeleton.sort_by(|&a, &b| sdf.distance[b].total_cmp(&sdf.distance[a]).then(a.cmp(&b)));
+    let centers: Vec<Vec3> = skeleton.iter().map(|&i| sdf.center(i)).collect();
+    let mut cluster_of = vec![u32::MAX; skeleton.len()];
+    let mut probes = Vec::new();
+    let eps = 1e-3 * sdf.voxel_size;
+    for s in 0..skeleton.len() {
+        if cluster_of[s] != u32::MAX {
+            continue;
+        }
+        let id = probes.len() as u32;
+        let seed = centers[s];
+        let radius = params.cluster_radius.0 * sdf.distance[skeleton[s]];
+        let members: Vec<usize> = (s..skeleton.len())
+            .into_par_iter()
+            .filter(|&m| {
+                cluster_of[m] == u32::MAX
+                    && centers[m].distance_squared(seed) <= radius * radius
+                    && (m == s || !input.bvh.occluded(seed, centers[m], eps))
+            })
+            .collect();
+        for &m in &members {
+            cluster_of[m] = id;
+        }
+        let centroid = members.iter().map(|&m| centers[m]).sum::<Vec3>() / members.len() as f32;
+        let free = sdf
+            .voxel_at(centroid)
+            .is_some_and(|v| sdf.class[v] == VoxelClass::Free && sdf.distance[v] >= min_distance);
+        let position = if free && !input.bvh.occluded(seed, centroid, eps) {
+            centroid
+        } else {
+            members
+                .iter()
+                .map(|&m| centers[m])
+                .min_by(|a, b| a.distance_squared(centroid).total_cmp(&b.distance_squared(centroid)))
+                .unwrap_or(seed)
+        };
+        probes.push(Probe {
+            position,
+            cluster_voxels: members.len() as u32,
+        });
+    }
+    Ok(probes)
+}
