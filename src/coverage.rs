@@ -10,10 +10,12 @@
 //! * `samples` points are drawn area-uniformly over all triangles (stratified
 //!   over the area CDF, seeded);
 //! * a sample is **seen** from a point `v` when the segment between them is
-//!   unoccluded and the incidence angle (between the surface normal, either
-//!   side, and the direction to `v`) is under `max_incidence_deg` (85°),
-//!   which rejects the grazing views that distort probe lookups (§3.2,
-//!   "Probe View Distortion");
+//!   unoccluded and the incidence angle (between the surface's front normal
+//!   and the direction to `v`) is under `max_incidence_deg` (85°), which
+//!   rejects the grazing views that distort probe lookups (§3.2, "Probe View
+//!   Distortion"). Only front faces count: seeing a back face means the
+//!   viewer is behind the surface, the very rule the SDF uses for solid space;
+//!   the outer sides of single-sided walls are thereby nobody's business;
 //! * **coverable** when some reference point sees it: references are free
 //!   voxel centres of the SDF (subsampled deterministically to
 //!   `reference_points`), i.e. wherever a probe could legally stand;
@@ -156,7 +158,7 @@ impl CoverageReference {
         if len <= self.eps {
             return false;
         }
-        sample.normal.dot(to_viewer).abs() >= self.min_cos * len
+        sample.normal.dot(to_viewer) >= self.min_cos * len
             && !bvh.occluded(sample.position, viewer, self.eps)
     }
 

@@ -5,8 +5,10 @@
 //! the probes spread over the walkable space, did a cluster end up inside a
 //! wall, is a room empty? This module draws two orthographic views side by
 //! side — a TOP view (looking down −Y, +X to the right, −Z up the image) and a
-//! SIDE view (looking along −Z, +X to the right, +Y up) — each showing the
-//! scene's triangles with the probes drawn on top.
+//! SIDE view (looking along −Z, +X to the right, +Y up; or along +Z when more
+//! of the scene faces that way, as for a room open towards +Z) — each showing
+//! the scene's triangles with the probes drawn on top. Surfaces darken with
+//! depth so that a floor and a box top facing the same way stay apart.
 //!
 //! It is a small software rasterizer (z-buffer, edge functions, flat shading)
 //! so that no GPU or ray-tracing dependency is needed and the output is
@@ -89,7 +91,8 @@ pub fn render_preview(input: &PreviewInput, view_size: u32) -> RgbImage {
     let mut zbuf = vec![f32::NEG_INFINITY; size * size];
     let buf: &mut [u8] = &mut img;
 
-    for (view, x0) in [(View::Top, 0), (View::Side, size + gap as usize)] {
+    let side = side_view(input);
+    for (view, x0) in [(View::Top, 0), (side, size + gap as usize)] {
         zbuf.fill(f32::NEG_INFINITY);
         let mut canvas = Canvas {
             buf: &mut *buf,
@@ -113,6 +116,27 @@ enum View {
     Top,
     /// Looking along −Z: +X right, +Y up the image, depth grows with +Z.
     Side,
+    /// Looking along +Z: −X right, +Y up the image, depth grows with −Z.
+    SideReverse,
+}
+
+/// The side view that shows more: looking along −Z unless looking along +Z
+/// faces more front-facing area (a room open towards +Z, like the Cornell
+/// box with its open front at z = 0, shows its back wall only from there).
+fn side_view(input: &PreviewInput) -> View {
+    let mut facing = 0.0f64;
+    for tri in input.triangles {
+        if tri.iter().all(|p| p.is_finite()) {
+            let [a, b, c] = tri.map(|p| p.as_dvec3());
+            facing += (b - a).cross(c - a).z;
+        }
+    }
+    // `facing` > 0: more area faces +Z, i.e. towards a viewer looking along −Z.
+    if facing < 0.0 {
+        View::SideReverse
+    } else {
+        View::Side
+    }
 }
 
 impl View {
@@ -121,6 +145,7 @@ impl View {
         match self {
             View::Top => [p.x, -p.z, p.y],
             View::Side => [p.x, p.y, p.z],
+            View::SideReverse => [-p.x, p.y, -p.z],
         }
     }
 }
@@ -160,6 +185,8 @@ struct Frame {
     half: f64,
     /// Probe marker radius in pixels.
     probe_radius: f64,
+    /// Depth range of the framed box, nearest to the viewer last.
+    depth_range: (f64, f64),
 }
 
 impl Frame {
@@ -187,7 +214,18 @@ impl Frame {
             scale: avail / extent,
             half: 0.5 * size_f,
             probe_radius,
+            depth_range: (a[2].min(b[2]), a[2].max(b[2])),
         }
+    }
+
+    /// Brightness factor for a surface at view depth `d`: 1 at the near side
+    /// of the framed box, 0.6 at its far side (clamped outside it).
+    fn depth_cue(&self, d: f64) -> f64 {
+        let (far, near) = self.depth_range;
+        if !(near > far) {
+            return 1.0;
+        }
+        0.6 + 0.4 * ((d - far) / (near - far)).clamp(0.0, 1.0)
     }
 
     /// Projects a world point to `[pixel x, pixel y, depth]` (depth grows
@@ -304,7 +342,8 @@ fn draw_triangles(
         if !(facing > 0.0 && len > 0.0 && len.is_finite()) {
             continue;
         }
-        let rgb = shade(input.colors.get(i), facing / len);
+        let depth = view.axes((a + b + c) / 3.0)[2];
+        let rgb = shade(input.colors.get(i), facing / len, frame.depth_cue(depth));
         let p = [a, b, c].map(|v| frame.project(view, v));
         rasterize(canvas, zbuf, p, rgb);
     }
@@ -362,9 +401,11 @@ fn rasterize(canvas: &mut Canvas, zbuf: &mut [f32], p: [[f64; 3]; 3], rgb: [u8; 
     }
 }
 
-/// Flat shading: `colour × (0.35 + 0.65·|cos|)`, converted to 8-bit sRGB.
-fn shade(color: Option<&[f32; 3]>, cos: f64) -> [u8; 3] {
-    let k = 0.35 + 0.65 * cos.abs().min(1.0);
+/// Flat shading: `colour × (0.35 + 0.65·|cos|) × cue`, converted to 8-bit
+/// sRGB; `cue` in (0, 1] darkens surfaces far from the viewer so that floors
+/// and box tops facing the same way stay distinguishable.
+fn shade(color: Option<&[f32; 3]>, cos: f64, cue: f64) -> [u8; 3] {
+    let k = (0.35 + 0.65 * cos.abs().min(1.0)) * cue;
     color.copied().unwrap_or(MISSING_COLOR).map(|ch| {
         let linear = if ch.is_finite() {
             f64::from(ch.clamp(0.0, 1.0))
@@ -492,8 +533,22 @@ mod tests {
         img.get_pixel(x, y).0
     }
 
+    /// Which channels are lit: compares colours independently of shading.
+    fn lit(c: [u8; 3]) -> [bool; 3] {
+        c.map(|v| v > 100)
+    }
+
     fn is_yellow(c: [u8; 3]) -> bool {
         c[0] > 200 && c[1] > 180 && c[2] < 80
+    }
+
+    #[test]
+    fn side_view_turns_towards_the_open_side() {
+        // Only a back wall facing -Z (a room open towards -Z... seen from -Z):
+        // the side view looks along +Z and shows it.
+        let wall = quad(vec3(0.0, 0.0, 1.0), 1.0, Vec3::NEG_Z);
+        let img = render(&wall, &[[0.0, 1.0, 0.0]; 2], &[], SIZE);
+        assert_eq!(lit(px(&img, side_x0(SIZE) + SIZE / 2, SIZE / 2)), [false, true, false]);
     }
 
     #[test]
@@ -516,7 +571,7 @@ mod tests {
             [0.0, 0.0, 1.0],
         ];
         let img = render(&tris, &colors, &[], SIZE);
-        assert_eq!(px(&img, SIZE / 2, SIZE / 2), [255, 0, 0]);
+        assert_eq!(lit(px(&img, SIZE / 2, SIZE / 2)), [true, false, false]);
 
         // The ceiling alone is invisible from above.
         let img = render(&tris[2..], &colors[2..], &[], SIZE);
@@ -533,7 +588,7 @@ mod tests {
             [1.0, 0.0, 0.0],
         ];
         let img = render(&flipped, &colors, &[], SIZE);
-        assert_eq!(px(&img, SIZE / 2, SIZE / 2), [0, 0, 255]);
+        assert_eq!(px(&img, SIZE / 2, SIZE / 2), [0, 0, 255], "near side: no depth darkening");
     }
 
     #[test]
@@ -549,7 +604,7 @@ mod tests {
             [0.0, 0.0, 1.0],
         ];
         let img = render(&tris, &colors, &[], SIZE);
-        assert_eq!(px(&img, side_x0(SIZE) + SIZE / 2, SIZE / 2), [0, 255, 0]);
+        assert_eq!(lit(px(&img, side_x0(SIZE) + SIZE / 2, SIZE / 2)), [false, true, false]);
         // Walls are edge-on in the top view, which stays empty.
         assert_eq!(px(&img, SIZE / 2, SIZE / 2), BACKGROUND);
     }
@@ -563,12 +618,16 @@ mod tests {
             vec3(0.0, 1.0, -1.0),
         ]];
         let img = render(&slope, &[[1.0, 1.0, 1.0]], &[], SIZE);
-        let expected = linear_to_srgb8(0.35 + 0.65 * std::f64::consts::FRAC_1_SQRT_2);
-        assert!(expected > 150 && expected < 250);
-        assert_eq!(px(&img, SIZE / 2, SIZE / 2), [expected; 3]);
-        assert_eq!(px(&img, side_x0(SIZE) + SIZE / 2, SIZE / 2), [expected; 3]);
-        // Face-on white is full white.
-        let floor = quad(Vec3::ZERO, 1.0, Vec3::Y);
+        // Centroid (0, -1/3, 1/3) in the box [-1, 1]³: depth cue 0.6 + 0.4·(1/3)
+        // from above and 0.6 + 0.4·(2/3) from the side.
+        let lit = 0.35 + 0.65 * std::f64::consts::FRAC_1_SQRT_2;
+        let top = linear_to_srgb8(lit * (0.6 + 0.4 / 3.0));
+        let side = linear_to_srgb8(lit * (0.6 + 0.8 / 3.0));
+        assert!(top > 120 && top < side && side < 250, "{top} {side}");
+        assert_eq!(px(&img, SIZE / 2, SIZE / 2), [top; 3]);
+        assert_eq!(px(&img, side_x0(SIZE) + SIZE / 2, SIZE / 2), [side; 3]);
+        // Face-on white at the near side of the box is full white.
+        let floor = quad(Vec3::Y, 1.0, Vec3::Y);
         let img = render(&floor, &[[1.0; 3]; 2], &[], SIZE);
         assert_eq!(px(&img, SIZE / 2, SIZE / 2), [255; 3]);
     }
@@ -709,11 +768,7 @@ mod tests {
                 SIZE,
             );
             assert_eq!(img.dimensions(), (2 * SIZE + 4, SIZE));
-            assert_eq!(
-                px(&img, SIZE / 2 + 1, SIZE / 2 + 1),
-                [255, 0, 0],
-                "{lo} {hi}"
-            );
+            assert_eq!(lit(px(&img, SIZE / 2 + 1, SIZE / 2 + 1)), [true, false, false], "{lo} {hi}");
         }
     }
 
@@ -721,10 +776,11 @@ mod tests {
     fn missing_or_bad_colours_do_not_panic() {
         let floor = quad(Vec3::ZERO, 1.0, Vec3::Y);
         let img = render(&floor, &[], &[], SIZE);
-        let grey = linear_to_srgb8(0.5);
+        // The floor at y = 0 lies mid-depth in [-1, 1]³: depth cue 0.8.
+        let grey = linear_to_srgb8(0.5 * 0.8);
         assert_eq!(px(&img, SIZE / 2, SIZE / 2), [grey; 3]);
         let img = render(&floor, &[[f32::NAN, 2.0, -1.0]; 2], &[], SIZE);
-        assert_eq!(px(&img, SIZE / 2, SIZE / 2), [0, 255, 0]);
+        assert_eq!(px(&img, SIZE / 2, SIZE / 2), [0, linear_to_srgb8(0.8), 0]);
     }
 
     #[test]
