@@ -70,7 +70,9 @@ impl TryFrom<f64> for Degrees {
         if v > 0.0 && v < 90.0 {
             Ok(Degrees(v as f32))
         } else {
-            Err(format!("must lie strictly between 0 and 90 degrees, got {v}"))
+            Err(format!(
+                "must lie strictly between 0 and 90 degrees, got {v}"
+            ))
         }
     }
 }
@@ -122,7 +124,10 @@ impl TryFrom<RawBox> for BoxDomain {
                 b.min, b.max
             ));
         }
-        Ok(BoxDomain { min: b.min, max: b.max })
+        Ok(BoxDomain {
+            min: b.min,
+            max: b.max,
+        })
     }
 }
 
@@ -169,7 +174,9 @@ impl Placement {
     pub fn name(&self) -> String {
         match self {
             Placement::SdfSkeleton(_) => "sdf-skeleton".into(),
-            Placement::Grid(g) => format!("grid:{}x{}x{}", g.cells.0 .0, g.cells.1 .0, g.cells.2 .0),
+            Placement::Grid(g) => {
+                format!("grid:{}x{}x{}", g.cells.0 .0, g.cells.1 .0, g.cells.2 .0)
+            }
         }
     }
 
@@ -333,7 +340,8 @@ impl Config {
             ))
         };
         // Optional fields take plain values (`min_distance: 0.02`), not `Some(0.02)`.
-        let options = ron::Options::default().with_default_extension(ron::extensions::Extensions::IMPLICIT_SOME);
+        let options = ron::Options::default()
+            .with_default_extension(ron::extensions::Extensions::IMPLICIT_SOME);
         let mut de = ron::Deserializer::from_str_with_options(text, &options)
             .map_err(|e| located(e.span, "", &e.code))?;
         let config: Config = match serde_path_to_error::deserialize(&mut de) {

@@ -137,7 +137,11 @@ impl CoverageReference {
         free.sort_unstable();
         free.truncate(params.reference_points.0 as usize);
         let mut refs: Vec<Vec3> = free.iter().map(|&(_, i)| sdf.center(i)).collect();
-        refs.sort_by(|a, b| a.to_array().partial_cmp(&b.to_array()).unwrap_or(std::cmp::Ordering::Equal));
+        refs.sort_by(|a, b| {
+            a.to_array()
+                .partial_cmp(&b.to_array())
+                .unwrap_or(std::cmp::Ordering::Equal)
+        });
         let mut reference = CoverageReference {
             coverable: Vec::new(),
             reference_points: refs.len(),

@@ -6,7 +6,11 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 #[derive(Parser)]
-#[command(name = "probeplace", version, about = "Places light-field probes in a 3D scene")]
+#[command(
+    name = "probeplace",
+    version,
+    about = "Places light-field probes in a 3D scene"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,

@@ -74,7 +74,15 @@ pub fn place(config_path: &Path, options: &PlaceOptions) -> Result<PlaceOutcome>
     lap("bvh", t);
 
     let t = Instant::now();
-    let sdf = sdf::build(&scene, &bvh, &domain, config.voxel_size.0, &config.sdf, config.seed, &progress)?;
+    let sdf = sdf::build(
+        &scene,
+        &bvh,
+        &domain,
+        config.voxel_size.0,
+        &config.sdf,
+        config.seed,
+        &progress,
+    )?;
     lap("sdf", t);
 
     let t = Instant::now();
@@ -92,7 +100,8 @@ pub fn place(config_path: &Path, options: &PlaceOptions) -> Result<PlaceOutcome>
     lap("placement", t);
 
     let t = Instant::now();
-    let reference = CoverageReference::new(&scene, &bvh, &sdf, &config.coverage, config.seed, &progress);
+    let reference =
+        CoverageReference::new(&scene, &bvh, &sdf, &config.coverage, config.seed, &progress);
     let positions = probes.positions();
     let cov = reference.evaluate(&bvh, &positions, &progress);
     let health = coverage::probe_health(&sdf, &domain, &positions);
@@ -113,7 +122,10 @@ pub fn place(config_path: &Path, options: &PlaceOptions) -> Result<PlaceOutcome>
     ))?;
     let mut warnings = scene.warnings.clone();
     if health.probes_in_solid > 0 {
-        warnings.push(format!("{} probe(s) stand in solid space", health.probes_in_solid));
+        warnings.push(format!(
+            "{} probe(s) stand in solid space",
+            health.probes_in_solid
+        ));
     }
     timings.insert("total".into(), t_start.elapsed().as_secs_f64() * 1e3);
     let report = Report::new(
@@ -148,7 +160,8 @@ pub fn resolve_domain(domain: &Domain, scene: &Scene) -> Result<Bounds> {
                 min: Vec3::from_array(b.min),
                 max: Vec3::from_array(b.max),
             };
-            let overlap = d.min.cmplt(scene.bounds.max).all() && d.max.cmpgt(scene.bounds.min).all();
+            let overlap =
+                d.min.cmplt(scene.bounds.max).all() && d.max.cmpgt(scene.bounds.min).all();
             if !overlap {
                 return Err(Error::User(format!(
                     "domain: box {:?}..{:?} does not overlap the scene bounds {:?}..{:?}",
@@ -183,7 +196,10 @@ fn render_png(scene: &Scene, domain: &Bounds, probes: &ProbeSet) -> Result<Vec<u
     );
     let mut bytes = Vec::new();
     image
-        .write_to(&mut std::io::Cursor::new(&mut bytes), image::ImageFormat::Png)
+        .write_to(
+            &mut std::io::Cursor::new(&mut bytes),
+            image::ImageFormat::Png,
+        )
         .map_err(|e| Error::Internal(format!("encoding placement.png: {e}")))?;
     Ok(bytes)
 }

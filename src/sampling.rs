@@ -42,7 +42,9 @@ pub fn random_rotation(h: u64) -> Mat3 {
     let u3 = unit_f32(hash2(h, 3)) * 2.0 * PI;
     let a = (1.0 - u1).sqrt();
     let b = u1.sqrt();
-    Mat3::from_quat(Quat::from_xyzw(a * u2.sin(), a * u2.cos(), b * u3.sin(), b * u3.cos()).normalize())
+    Mat3::from_quat(
+        Quat::from_xyzw(a * u2.sin(), a * u2.cos(), b * u3.sin(), b * u3.cos()).normalize(),
+    )
 }
 
 /// A point uniformly distributed over triangle `t` from two uniforms in [0,1).
@@ -85,6 +87,9 @@ mod tests {
             }
         }
         // The sub-triangle x+y < 1/sqrt(2) holds half the area.
-        assert!((below_diag as f32 / 4000.0 - 0.5).abs() < 0.03, "{below_diag}");
+        assert!(
+            (below_diag as f32 / 4000.0 - 0.5).abs() < 0.03,
+            "{below_diag}"
+        );
     }
 }

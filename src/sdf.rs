@@ -196,7 +196,10 @@ fn nearest_surface_points(scene: &Scene, sdf: &Sdf) -> Vec<Option<Vec3>> {
     for (ti, t) in scene.triangles.iter().enumerate() {
         let lo = t[0].min(t[1]).min(t[2]) - reach;
         let hi = t[0].max(t[1]).max(t[2]) + reach;
-        let b0 = ((lo - sdf.origin) / brick_size).floor().as_ivec3().max(IVec3::ZERO);
+        let b0 = ((lo - sdf.origin) / brick_size)
+            .floor()
+            .as_ivec3()
+            .max(IVec3::ZERO);
         let b1 = ((hi - sdf.origin) / brick_size)
             .floor()
             .as_ivec3()
@@ -220,7 +223,11 @@ fn nearest_surface_points(scene: &Scene, sdf: &Sdf) -> Vec<Option<Vec3>> {
                 return out;
             }
             let b = b as u32;
-            let base = UVec3::new(b % bricks.x, (b / bricks.x) % bricks.y, b / (bricks.x * bricks.y)) * BRICK;
+            let base = UVec3::new(
+                b % bricks.x,
+                (b / bricks.x) % bricks.y,
+                b / (bricks.x * bricks.y),
+            ) * BRICK;
             let end = (base + BRICK).min(sdf.dims);
             for z in base.z..end.z {
                 for y in base.y..end.y {
@@ -342,7 +349,8 @@ fn classify(
                         // Decided when no remaining ray can change the outcome.
                         let left = (n as usize - cast) as f32;
                         if back as f32 + left <= solid_limit
-                            && (escaped as f32 > outside_limit || escaped as f32 + left <= outside_limit)
+                            && (escaped as f32 > outside_limit
+                                || escaped as f32 + left <= outside_limit)
                         {
                             break;
                         }
@@ -422,9 +430,18 @@ mod tests {
     pub(crate) fn room_with_box() -> Scene {
         let mut tris = Vec::new();
         add_box(&mut tris, Vec3::ZERO, Vec3::splat(4.0), true);
-        add_box(&mut tris, Vec3::new(1.0, 0.0, 1.0), Vec3::new(2.0, 1.0, 2.0), false);
-        Scene::from_triangles("room".into(), tris.into_iter().map(|t| (t, 0)), vec![Material::fallback()])
-            .unwrap()
+        add_box(
+            &mut tris,
+            Vec3::new(1.0, 0.0, 1.0),
+            Vec3::new(2.0, 1.0, 2.0),
+            false,
+        );
+        Scene::from_triangles(
+            "room".into(),
+            tris.into_iter().map(|t| (t, 0)),
+            vec![Material::fallback()],
+        )
+        .unwrap()
     }
 
     /// Adds the 12 triangles of box `[lo, hi]`, normals inward when `inward`.
@@ -460,7 +477,16 @@ mod tests {
     fn build_room(voxel: f32) -> Sdf {
         let scene = room_with_box();
         let bvh = SceneBvh::new(&scene);
-        build(&scene, &bvh, &scene.bounds, voxel, &SdfParams::default(), 1, &Progress::hidden()).unwrap()
+        build(
+            &scene,
+            &bvh,
+            &scene.bounds,
+            voxel,
+            &SdfParams::default(),
+            1,
+            &Progress::hidden(),
+        )
+        .unwrap()
     }
 
     #[test]
@@ -477,11 +503,19 @@ mod tests {
         assert_eq!(sdf.class[free], VoxelClass::Free);
         let c = sdf.center(free);
         let exact = (4.0 - c.x).min(4.0 - c.y).min(4.0 - c.z);
-        assert!((sdf.distance[free] - exact).abs() < 1e-4, "{} vs {exact}", sdf.distance[free]);
+        assert!(
+            (sdf.distance[free] - exact).abs() < 1e-4,
+            "{} vs {exact}",
+            sdf.distance[free]
+        );
         // Far from surfaces (propagated by jump flooding): within 2% of exact.
         // Centre (2.875, 2.625, 2.875): nearest are the +x and +z walls, 1.125 away.
         let mid = at(Vec3::new(2.9, 2.6, 2.9));
-        assert!((sdf.distance[mid] - 1.125).abs() < 0.02, "{}", sdf.distance[mid]);
+        assert!(
+            (sdf.distance[mid] - 1.125).abs() < 0.02,
+            "{}",
+            sdf.distance[mid]
+        );
         let (free_n, solid_n, outside_n) = sdf.class_counts();
         // The inner box is 1 m³ = 64 voxels.
         assert_eq!(solid_n, 64);
@@ -494,8 +528,14 @@ mod tests {
         // Just a floor: voxels above it see half sky and half floor front; at
         // 0.5 the rule needs "more than half" to escape, so lift the domain.
         let mut tris = Vec::new();
-        add_box(&mut tris, Vec3::new(0.0, -1.0, 0.0), Vec3::new(4.0, 0.0, 4.0), false);
-        let scene = Scene::from_triangles("f".into(), tris.into_iter().map(|t| (t, 0)), vec![]).unwrap();
+        add_box(
+            &mut tris,
+            Vec3::new(0.0, -1.0, 0.0),
+            Vec3::new(4.0, 0.0, 4.0),
+            false,
+        );
+        let scene =
+            Scene::from_triangles("f".into(), tris.into_iter().map(|t| (t, 0)), vec![]).unwrap();
         let bvh = SceneBvh::new(&scene);
         let domain = Bounds {
             min: Vec3::new(0.0, 1.0, 0.0),
@@ -509,7 +549,11 @@ mod tests {
         let sdf = build(&scene, &bvh, &domain, 0.5, &params, 3, &Progress::hidden()).unwrap();
         let (_, solid, outside) = sdf.class_counts();
         assert_eq!(solid, 0);
-        assert!(outside as f32 > 0.9 * sdf.len() as f32, "{outside} of {}", sdf.len());
+        assert!(
+            outside as f32 > 0.9 * sdf.len() as f32,
+            "{outside} of {}",
+            sdf.len()
+        );
     }
 
     #[test]
@@ -546,8 +590,14 @@ mod tests {
         let t = [Vec3::ZERO, Vec3::X, Vec3::Y];
         let inside = closest_point_on_triangle(Vec3::new(0.2, 0.2, 1.0), &t);
         assert!((inside - Vec3::new(0.2, 0.2, 0.0)).length() < 1e-6);
-        assert_eq!(closest_point_on_triangle(Vec3::new(-1.0, -1.0, 0.0), &t), Vec3::ZERO);
-        assert_eq!(closest_point_on_triangle(Vec3::new(2.0, -0.1, 0.0), &t), Vec3::X);
+        assert_eq!(
+            closest_point_on_triangle(Vec3::new(-1.0, -1.0, 0.0), &t),
+            Vec3::ZERO
+        );
+        assert_eq!(
+            closest_point_on_triangle(Vec3::new(2.0, -0.1, 0.0), &t),
+            Vec3::X
+        );
         let e = closest_point_on_triangle(Vec3::new(1.0, 1.0, 0.0), &t);
         assert!((e - Vec3::new(0.5, 0.5, 0.0)).length() < 1e-6);
     }

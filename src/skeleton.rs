@@ -50,15 +50,22 @@ pub fn medial_voxels(sdf: &Sdf, kept: &[usize]) -> Vec<usize> {
             return false;
         };
         let v = sdf.coords(i).as_ivec3();
-        [IVec3::X, IVec3::NEG_X, IVec3::Y, IVec3::NEG_Y, IVec3::Z, IVec3::NEG_Z]
-            .iter()
-            .any(|o| {
-                let n = v + *o;
-                if n.cmplt(IVec3::ZERO).any() || n.cmpge(dims).any() {
-                    return false;
-                }
-                sdf.nearest[sdf.index(n.as_uvec3())].is_some_and(|qn| qn.distance_squared(q) > jump2)
-            })
+        [
+            IVec3::X,
+            IVec3::NEG_X,
+            IVec3::Y,
+            IVec3::NEG_Y,
+            IVec3::Z,
+            IVec3::NEG_Z,
+        ]
+        .iter()
+        .any(|o| {
+            let n = v + *o;
+            if n.cmplt(IVec3::ZERO).any() || n.cmpge(dims).any() {
+                return false;
+            }
+            sdf.nearest[sdf.index(n.as_uvec3())].is_some_and(|qn| qn.distance_squared(q) > jump2)
+        })
     };
     kept.par_iter().copied().filter(|&i| on_axis(i)).collect()
 }
@@ -124,7 +131,10 @@ pub fn sdf_skeleton(params: &SdfSkeletonParams, input: &PlacementInput) -> Resul
             members
                 .iter()
                 .map(|&m| centers[m])
-                .min_by(|a, b| a.distance_squared(centroid).total_cmp(&b.distance_squared(centroid)))
+                .min_by(|a, b| {
+                    a.distance_squared(centroid)
+                        .total_cmp(&b.distance_squared(centroid))
+                })
                 .unwrap_or(seed)
         };
         probes.push(Probe {

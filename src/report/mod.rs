@@ -68,7 +68,14 @@ pub struct ProbeRecord {
 
 impl ProbesFile {
     /// Builds the file's contents from a placement.
-    pub fn new(probes: &ProbeSet, sdf: &Sdf, scene_path: &str, seed: u64, scale: f32, up: UpAxis) -> ProbesFile {
+    pub fn new(
+        probes: &ProbeSet,
+        sdf: &Sdf,
+        scene_path: &str,
+        seed: u64,
+        scale: f32,
+        up: UpAxis,
+    ) -> ProbesFile {
         let records = probes
             .probes
             .iter()
@@ -243,8 +250,8 @@ impl Report {
 
 /// Serializes `value` as pretty JSON with a trailing newline.
 pub fn to_json<T: Serialize>(value: &T) -> Result<Vec<u8>> {
-    let mut bytes =
-        serde_json::to_vec_pretty(value).map_err(|e| Error::Internal(format!("serializing JSON: {e}")))?;
+    let mut bytes = serde_json::to_vec_pretty(value)
+        .map_err(|e| Error::Internal(format!("serializing JSON: {e}")))?;
     bytes.push(b'\n');
     Ok(bytes)
 }
@@ -267,9 +274,13 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
 /// Creates the output directory, or explains in one line why it cannot.
 pub fn prepare_output_dir(dir: &Path) -> Result<()> {
     if dir.exists() && !dir.is_dir() {
-        return Err(Error::user_file(dir, "output path exists and is not a directory"));
+        return Err(Error::user_file(
+            dir,
+            "output path exists and is not a directory",
+        ));
     }
-    std::fs::create_dir_all(dir).map_err(|e| Error::user_file(dir, format!("cannot create output directory: {e}")))
+    std::fs::create_dir_all(dir)
+        .map_err(|e| Error::user_file(dir, format!("cannot create output directory: {e}")))
 }
 
 #[cfg(test)]
@@ -283,7 +294,10 @@ mod tests {
         write_atomic(&p, b"one").unwrap();
         write_atomic(&p, b"two").unwrap();
         assert_eq!(std::fs::read(&p).unwrap(), b"two");
-        let names: Vec<_> = std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().file_name()).collect();
+        let names: Vec<_> = std::fs::read_dir(dir.path())
+            .unwrap()
+            .map(|e| e.unwrap().file_name())
+            .collect();
         assert_eq!(names.len(), 1, "{names:?}");
     }
 

@@ -548,7 +548,10 @@ mod tests {
         // the side view looks along +Z and shows it.
         let wall = quad(vec3(0.0, 0.0, 1.0), 1.0, Vec3::NEG_Z);
         let img = render(&wall, &[[0.0, 1.0, 0.0]; 2], &[], SIZE);
-        assert_eq!(lit(px(&img, side_x0(SIZE) + SIZE / 2, SIZE / 2)), [false, true, false]);
+        assert_eq!(
+            lit(px(&img, side_x0(SIZE) + SIZE / 2, SIZE / 2)),
+            [false, true, false]
+        );
     }
 
     #[test]
@@ -588,7 +591,11 @@ mod tests {
             [1.0, 0.0, 0.0],
         ];
         let img = render(&flipped, &colors, &[], SIZE);
-        assert_eq!(px(&img, SIZE / 2, SIZE / 2), [0, 0, 255], "near side: no depth darkening");
+        assert_eq!(
+            px(&img, SIZE / 2, SIZE / 2),
+            [0, 0, 255],
+            "near side: no depth darkening"
+        );
     }
 
     #[test]
@@ -604,7 +611,10 @@ mod tests {
             [0.0, 0.0, 1.0],
         ];
         let img = render(&tris, &colors, &[], SIZE);
-        assert_eq!(lit(px(&img, side_x0(SIZE) + SIZE / 2, SIZE / 2)), [false, true, false]);
+        assert_eq!(
+            lit(px(&img, side_x0(SIZE) + SIZE / 2, SIZE / 2)),
+            [false, true, false]
+        );
         // Walls are edge-on in the top view, which stays empty.
         assert_eq!(px(&img, SIZE / 2, SIZE / 2), BACKGROUND);
     }
@@ -768,7 +778,11 @@ mod tests {
                 SIZE,
             );
             assert_eq!(img.dimensions(), (2 * SIZE + 4, SIZE));
-            assert_eq!(lit(px(&img, SIZE / 2 + 1, SIZE / 2 + 1)), [true, false, false], "{lo} {hi}");
+            assert_eq!(
+                lit(px(&img, SIZE / 2 + 1, SIZE / 2 + 1)),
+                [true, false, false],
+                "{lo} {hi}"
+            );
         }
     }
 

@@ -242,7 +242,11 @@ pub fn load_obj(path: &Path, scale: f32, up: UpAxis) -> Result<Scene> {
         let vertex = move |i: u32| {
             let i = i as usize * 3;
             to_world(
-                Vec3::new(mesh.positions[i], mesh.positions[i + 1], mesh.positions[i + 2]),
+                Vec3::new(
+                    mesh.positions[i],
+                    mesh.positions[i + 1],
+                    mesh.positions[i + 2],
+                ),
                 scale,
                 up,
             )
@@ -293,7 +297,11 @@ mod tests {
         let s = load_obj(&p, 2.0, UpAxis::Y).unwrap();
         assert_eq!(s.triangles.len(), 2);
         assert_eq!(s.bounds.max, Vec3::new(2.0, 0.0, 2.0));
-        assert!(s.warnings.iter().any(|w| w.contains("material")), "{:?}", s.warnings);
+        assert!(
+            s.warnings.iter().any(|w| w.contains("material")),
+            "{:?}",
+            s.warnings
+        );
         assert_eq!(s.materials[s.material_ids[0] as usize].name, "default");
         // Winding (0,0,0)->(0,0,1)->(1,0,1) gives a +Y normal.
         assert!(s.normals[0].y > 0.99);

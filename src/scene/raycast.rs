@@ -13,7 +13,7 @@ use obvhs::{
     cwbvh::{builder::build_cwbvh, CwBvh},
     ray::{Ray, RayHit},
     triangle::Triangle,
-    BvhBuildParams, Boundable,
+    Boundable, BvhBuildParams,
 };
 use std::time::Duration;
 
@@ -26,7 +26,10 @@ struct PaddedTriangle {
 impl Boundable for PaddedTriangle {
     fn aabb(&self) -> Aabb {
         let b = self.tri.aabb();
-        Aabb::new(b.min - Vec3A::splat(self.pad), b.max + Vec3A::splat(self.pad))
+        Aabb::new(
+            b.min - Vec3A::splat(self.pad),
+            b.max + Vec3A::splat(self.pad),
+        )
     }
 }
 
@@ -70,7 +73,11 @@ impl SceneBvh {
                 pad,
             })
             .collect();
-        let bvh = build_cwbvh(&prims, BvhBuildParams::medium_build(), &mut Duration::default());
+        let bvh = build_cwbvh(
+            &prims,
+            BvhBuildParams::medium_build(),
+            &mut Duration::default(),
+        );
         let scene_index: Vec<u32> = bvh.primitive_indices.clone();
         let triangles = scene_index.iter().map(|&i| prims[i as usize].tri).collect();
         let normals = scene_index

@@ -1,0 +1,239 @@
+//! Every user mistake exits 2 with one line naming the file or field, prints
+//! no panic, and writes nothing.
+
+mod common;
+use common::*;
+use std::path::Path;
+
+/// A config in `dir` pointing at `scene`, with `body` replacing the defaults.
+fn config(dir: &Path, scene: &str, extra: &str) -> std::path::PathBuf {
+    let p = dir.join("run.ron");
+    std::fs::write(
+        &p,
+        format!("(\n    scene: \"{scene}\",\n    voxel_size: 0.1,\n    placement: SdfSkeleton(()),\n{extra})\n"),
+    )
+    .unwrap();
+    p
+}
+
+fn obj(dir: &Path, name: &str, text: &str) {
+    std::fs::write(dir.join(name), text).unwrap();
+}
+
+/// Runs `place` and checks the failure contract; returns stderr.
+fn fails(config: &Path, extra: &[&str]) -> String {
+    let out = config.parent().unwrap().join("out");
+    let mut args = vec![
+        "place",
+        config.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    args.extend_from_slice(extra);
+    let o = probeplace(&args);
+    let stderr = String::from_utf8_lossy(&o.stderr).into_owned();
+    assert_eq!(
+        o.status.code(),
+        Some(2),
+        "expected exit 2, got {:?}; stderr: {stderr}",
+        o.status
+    );
+    assert!(!stderr.contains("panicked"), "panic: {stderr}");
+    assert_eq!(
+        stderr.trim_end().lines().count(),
+        1,
+        "one line expected: {stderr}"
+    );
+    assert!(stderr.starts_with("error: "), "{stderr}");
+    for f in ["report.json", "probes.json", "placement.png"] {
+        assert!(!out.join(f).exists(), "{f} written despite the error");
+    }
+    stderr
+}
+
+const CUBE_ROOM: &str = "v 0 0 0\nv 2 0 0\nv 2 0 2\nv 0 0 2\nv 0 2 0\nv 2 2 0\nv 2 2 2\nv 0 2 2\n\
+f 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\n";
+
+#[test]
+fn missing_config() {
+    let d = tempfile::tempdir().unwrap();
+    let e = fails(&d.path().join("nope.ron"), &[]);
+    assert!(e.contains("nope.ron"), "{e}");
+}
+
+#[test]
+fn missing_scene_file() {
+    let d = tempfile::tempdir().unwrap();
+    let e = fails(&config(d.path(), "absent.obj", ""), &[]);
+    assert!(e.contains("absent.obj") && e.contains("not found"), "{e}");
+}
+
+#[test]
+fn malformed_obj() {
+    let d = tempfile::tempdir().unwrap();
+    obj(d.path(), "bad.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 7\n");
+    let e = fails(&config(d.path(), "bad.obj", ""), &[]);
+    assert!(e.contains("bad.obj") && e.contains("malformed"), "{e}");
+    obj(d.path(), "junk.obj", "v one two three\nf 1 2 3\n");
+    let e = fails(&config(d.path(), "junk.obj", ""), &[]);
+    assert!(e.contains("junk.obj"), "{e}");
+}
+
+#[test]
+fn obj_with_nan_coordinates() {
+    let d = tempfile::tempdir().unwrap();
+    obj(
+        d.path(),
+        "nan.obj",
+        "v nan 0 0\nv 1 nan 0\nv 0 1 NaN\nv 1 1 1\nf 1 2 3\nf 2 3 4\n",
+    );
+    let e = fails(&config(d.path(), "nan.obj", ""), &[]);
+    assert!(
+        e.contains("nan.obj") && e.contains("no usable triangle"),
+        "{e}"
+    );
+}
+
+#[test]
+fn empty_obj() {
+    let d = tempfile::tempdir().unwrap();
+    obj(d.path(), "empty.obj", "# nothing here\n");
+    let e = fails(&config(d.path(), "empty.obj", ""), &[]);
+    assert!(
+        e.contains("empty.obj") && e.contains("no usable triangle"),
+        "{e}"
+    );
+}
+
+#[test]
+fn malformed_ron() {
+    let d = tempfile::tempdir().unwrap();
+    let p = d.path().join("broken.ron");
+    std::fs::write(
+        &p,
+        "(\n  scene: \"a.obj\",\n  voxel_size: 0.1\n  placement: Grid((cells: (1,1,1))),\n)",
+    )
+    .unwrap();
+    let e = fails(&p, &[]);
+    assert!(e.contains("broken.ron:4:"), "line and column expected: {e}");
+}
+
+#[test]
+fn unknown_field_and_wrong_type_name_the_field() {
+    let d = tempfile::tempdir().unwrap();
+    obj(d.path(), "room.obj", CUBE_ROOM);
+    let e = fails(&config(d.path(), "room.obj", "    voxels: 3,\n"), &[]);
+    assert!(e.contains("run.ron:5:") && e.contains("voxels"), "{e}");
+    let e = fails(&config(d.path(), "room.obj", "    seed: \"seven\",\n"), &[]);
+    assert!(e.contains("run.ron:5:") && e.contains("seed"), "{e}");
+}
+
+#[test]
+fn unknown_method() {
+    let d = tempfile::tempdir().unwrap();
+    obj(d.path(), "room.obj", CUBE_ROOM);
+    let c = config(d.path(), "room.obj", "");
+    let e = fails(&c, &["--method", "voronoi"]);
+    assert!(e.contains("--method voronoi"), "{e}");
+    let e = fails(&c, &["--method", "grid:2x0x2"]);
+    assert!(e.contains("grid:2x0x2"), "{e}");
+    let p = d.path().join("m.ron");
+    std::fs::write(
+        &p,
+        "(scene: \"room.obj\", voxel_size: 0.1, placement: Voronoi(()))",
+    )
+    .unwrap();
+    let e = fails(&p, &[]);
+    assert!(e.contains("placement") && e.contains("Voronoi"), "{e}");
+}
+
+#[test]
+fn impossible_parameters() {
+    let d = tempfile::tempdir().unwrap();
+    obj(d.path(), "room.obj", CUBE_ROOM);
+    // Out of range in the file: negative voxel size, zero rays.
+    let p = d.path().join("neg.ron");
+    std::fs::write(
+        &p,
+        "(scene: \"room.obj\", voxel_size: -1.0, placement: SdfSkeleton(()))",
+    )
+    .unwrap();
+    let e = fails(&p, &[]);
+    assert!(
+        e.contains("voxel_size") && e.contains("greater than 0"),
+        "{e}"
+    );
+    let e = fails(
+        &config(d.path(), "room.obj", "    sdf: (rays_per_voxel: 0),\n"),
+        &[],
+    );
+    assert!(e.contains("rays_per_voxel"), "{e}");
+    // Valid alone, impossible for this scene: a grid of 8e12 voxels.
+    let p = d.path().join("tiny.ron");
+    std::fs::write(
+        &p,
+        "(scene: \"room.obj\", voxel_size: 0.00001, placement: SdfSkeleton(()))",
+    )
+    .unwrap();
+    let e = fails(&p, &[]);
+    assert!(e.contains("voxel_size") && e.contains("voxels"), "{e}");
+}
+
+#[test]
+fn min_distance_that_culls_everything() {
+    let d = tempfile::tempdir().unwrap();
+    obj(d.path(), "room.obj", CUBE_ROOM);
+    let p = d.path().join("md.ron");
+    std::fs::write(
+        &p,
+        "(scene: \"room.obj\", voxel_size: 0.1, placement: SdfSkeleton((min_distance: 5.0)))",
+    )
+    .unwrap();
+    let e = fails(&p, &[]);
+    assert!(
+        e.contains("min_distance") && e.contains("culls every free voxel"),
+        "{e}"
+    );
+}
+
+#[test]
+fn domain_box_away_from_the_scene() {
+    let d = tempfile::tempdir().unwrap();
+    obj(d.path(), "room.obj", CUBE_ROOM);
+    let c = config(
+        d.path(),
+        "room.obj",
+        "    domain: Box((min: (10, 10, 10), max: (11, 11, 11))),\n",
+    );
+    let e = fails(&c, &[]);
+    assert!(e.contains("domain"), "{e}");
+}
+
+#[test]
+fn output_path_that_is_a_file() {
+    let d = tempfile::tempdir().unwrap();
+    obj(d.path(), "room.obj", CUBE_ROOM);
+    let c = config(d.path(), "room.obj", "");
+    let file = d.path().join("taken");
+    std::fs::write(&file, b"").unwrap();
+    let o = probeplace(&[
+        "place",
+        c.to_str().unwrap(),
+        "--out",
+        file.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("taken"));
+}
+
+#[test]
+fn a_valid_tiny_room_succeeds() {
+    // The control for the tests above: the same room with sane settings works.
+    let d = tempfile::tempdir().unwrap();
+    obj(d.path(), "room.obj", CUBE_ROOM);
+    let c = config(d.path(), "room.obj", "");
+    let r = place(&c, &d.path().join("out"), &[]);
+    assert_eq!(r["probes_in_solid"], 0);
+    assert!(r["coverage"].as_f64().unwrap() > 0.95);
+}
