@@ -237,8 +237,8 @@ impl Default for SdfParams {
 #[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct CoverageParams {
-    /// Area-uniform surface samples. 40 000 keeps the 95% interval within
-    /// ±0.5% for any coverage (1.96·sqrt(0.25/40000) = 0.0049).
+    /// Coverable area-uniform surface samples to collect. 40 000 keeps the
+    /// 95% interval within ±0.5% for any coverage (1.96·sqrt(0.25/40000) = 0.0049).
     pub samples: Count,
     /// Free voxel centres used as reference viewpoints (subsampled if more).
     pub reference_points: Count,

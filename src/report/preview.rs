@@ -222,7 +222,7 @@ impl Frame {
     /// of the framed box, 0.6 at its far side (clamped outside it).
     fn depth_cue(&self, d: f64) -> f64 {
         let (far, near) = self.depth_range;
-        if !(near > far) {
+        if near.partial_cmp(&far) != Some(std::cmp::Ordering::Greater) {
             return 1.0;
         }
         0.6 + 0.4 * ((d - far) / (near - far)).clamp(0.0, 1.0)

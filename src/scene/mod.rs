@@ -211,7 +211,6 @@ pub fn load_obj(path: &Path, scale: f32, up: UpAxis) -> Result<Scene> {
         single_index: false,
         ignore_points: true,
         ignore_lines: true,
-        ..Default::default()
     };
     let (models, materials) = quietly(|| tobj::load_obj(path, &options))
         .ok_or_else(|| Error::user_file(path, "malformed OBJ or MTL (the parser gave up)"))?

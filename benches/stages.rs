@@ -1,0 +1,70 @@
+//! Stage benchmarks: `cargo bench --bench stages`.
+//!
+//! Each stage of `place` timed on our Cornell box fixture (tiny, 32
+//! triangles) and on Dabrovic Sponza (66k triangles, read from
+//! ../shared/scenes). Figures and the machine they came from are recorded in
+//! BENCHMARKS.md; compare ratios within one run, the machines are shared.
+
+use criterion::{criterion_group, criterion_main, Criterion};
+use probeplace::config::{Config, CoverageParams, Placement, SdfParams, SdfSkeletonParams};
+use probeplace::coverage::CoverageReference;
+use probeplace::placement::{place, PlacementInput};
+use probeplace::progress::Progress;
+use probeplace::scene::{load_obj, raycast::SceneBvh};
+use probeplace::sdf;
+use std::path::Path;
+
+fn stages(c: &mut Criterion, name: &str, config: &str) {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let cfg = Config::load(&root.join(config)).expect("config loads");
+    let scene = load_obj(&cfg.scene, cfg.scale.0, cfg.up).expect("scene loads");
+    let progress = Progress::hidden();
+    let mut g = c.benchmark_group(name);
+    g.sample_size(10);
+    g.bench_function("load", |b| b.iter(|| load_obj(&cfg.scene, cfg.scale.0, cfg.up).unwrap()));
+    g.bench_function("bvh", |b| b.iter(|| SceneBvh::new(&scene)));
+    let bvh = SceneBvh::new(&scene);
+    let params = SdfParams::default();
+    g.bench_function("sdf", |b| {
+        b.iter(|| sdf::build(&scene, &bvh, &scene.bounds, cfg.voxel_size.0, &params, 1, &progress).unwrap())
+    });
+    let field = sdf::build(&scene, &bvh, &scene.bounds, cfg.voxel_size.0, &params, 1, &progress).unwrap();
+    let input = PlacementInput {
+        scene: &scene,
+        bvh: &bvh,
+        sdf: &field,
+        domain: &scene.bounds,
+        seed: 1,
+        progress: &progress,
+    };
+    let method = Placement::SdfSkeleton(SdfSkeletonParams::default());
+    g.bench_function("sdf-skeleton", |b| b.iter(|| place(&method, &input).unwrap()));
+    let probes = place(&method, &input).unwrap().positions();
+    let cov = CoverageParams::default();
+    g.bench_function("coverage", |b| {
+        b.iter(|| CoverageReference::new(&scene, &bvh, &field, &cov, 1, &progress).evaluate(&bvh, &probes, &progress))
+    });
+    // Ray throughput: 64k rays from the domain centre, closest hit.
+    let centre = (scene.bounds.min + scene.bounds.max) * 0.5;
+    let dirs = probeplace::sampling::fibonacci_sphere(65_536);
+    g.throughput(criterion::Throughput::Elements(dirs.len() as u64));
+    g.bench_function("closest_hit_64k_rays", |b| {
+        b.iter(|| {
+            dirs.iter()
+                .filter(|d| bvh.closest_hit(centre, **d, 0.0, f32::INFINITY).is_some())
+                .count()
+        })
+    });
+    g.finish();
+}
+
+fn cornell(c: &mut Criterion) {
+    stages(c, "cornell", "configs/cornell.ron");
+}
+
+fn sponza(c: &mut Criterion) {
+    stages(c, "sponza", "configs/sponza.ron");
+}
+
+criterion_group!(benches, cornell, sponza);
+criterion_main!(benches);
