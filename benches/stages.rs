@@ -21,14 +21,36 @@ fn stages(c: &mut Criterion, name: &str, config: &str) {
     let progress = Progress::hidden();
     let mut g = c.benchmark_group(name);
     g.sample_size(10);
-    g.bench_function("load", |b| b.iter(|| load_obj(&cfg.scene, cfg.scale.0, cfg.up).unwrap()));
+    g.bench_function("load", |b| {
+        b.iter(|| load_obj(&cfg.scene, cfg.scale.0, cfg.up).unwrap())
+    });
     g.bench_function("bvh", |b| b.iter(|| SceneBvh::new(&scene)));
     let bvh = SceneBvh::new(&scene);
     let params = SdfParams::default();
     g.bench_function("sdf", |b| {
-        b.iter(|| sdf::build(&scene, &bvh, &scene.bounds, cfg.voxel_size.0, &params, 1, &progress).unwrap())
+        b.iter(|| {
+            sdf::build(
+                &scene,
+                &bvh,
+                &scene.bounds,
+                cfg.voxel_size.0,
+                &params,
+                1,
+                &progress,
+            )
+            .unwrap()
+        })
     });
-    let field = sdf::build(&scene, &bvh, &scene.bounds, cfg.voxel_size.0, &params, 1, &progress).unwrap();
+    let field = sdf::build(
+        &scene,
+        &bvh,
+        &scene.bounds,
+        cfg.voxel_size.0,
+        &params,
+        1,
+        &progress,
+    )
+    .unwrap();
     let input = PlacementInput {
         scene: &scene,
         bvh: &bvh,
@@ -38,11 +60,16 @@ fn stages(c: &mut Criterion, name: &str, config: &str) {
         progress: &progress,
     };
     let method = Placement::SdfSkeleton(SdfSkeletonParams::default());
-    g.bench_function("sdf-skeleton", |b| b.iter(|| place(&method, &input).unwrap()));
+    g.bench_function("sdf-skeleton", |b| {
+        b.iter(|| place(&method, &input).unwrap())
+    });
     let probes = place(&method, &input).unwrap().positions();
     let cov = CoverageParams::default();
     g.bench_function("coverage", |b| {
-        b.iter(|| CoverageReference::new(&scene, &bvh, &field, &cov, 1, &progress).evaluate(&bvh, &probes, &progress))
+        b.iter(|| {
+            CoverageReference::new(&scene, &bvh, &field, &cov, 1, &progress)
+                .evaluate(&bvh, &probes, &progress)
+        })
     });
     // Ray throughput: 64k rays from the domain centre, closest hit.
     let centre = (scene.bounds.min + scene.bounds.max) * 0.5;

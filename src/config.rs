@@ -43,21 +43,27 @@ impl TryFrom<f64> for Fraction {
     }
 }
 
-/// A whole number of at least 1.
+/// A whole number in `1..=MAX`. The upper bounds keep a typo (an extra
+/// zero or three) from turning into an out-of-memory crash.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
 #[serde(try_from = "u64")]
-pub struct Count(pub u32);
+pub struct Count<const MAX: u32 = { u32::MAX }>(pub u32);
 
-impl TryFrom<u64> for Count {
+impl<const MAX: u32> TryFrom<u64> for Count<MAX> {
     type Error = String;
     fn try_from(v: u64) -> Result<Self, String> {
-        if (1..=u32::MAX as u64).contains(&v) {
+        if (1..=MAX as u64).contains(&v) {
             Ok(Count(v as u32))
         } else {
-            Err(format!("must be a whole number of at least 1, got {v}"))
+            Err(format!("must be a whole number from 1 to {MAX}, got {v}"))
         }
     }
 }
+
+/// Most grid cells along one axis.
+pub const MAX_GRID_CELLS_PER_AXIS: u32 = 1024;
+/// Most probes a grid may have.
+pub const MAX_GRID_PROBES: u64 = 1 << 20;
 
 /// An angle in degrees, strictly between 0 and 90.
 #[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
@@ -154,10 +160,37 @@ impl Default for SdfSkeletonParams {
 
 /// Parameters of the uniform grid (McGuire et al. 2017, §4: probes on a regular grid).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(try_from = "RawGrid")]
 pub struct GridParams {
     /// Number of cells along x, y and z; one probe at each cell centre.
-    pub cells: (Count, Count, Count),
+    pub cells: (
+        Count<MAX_GRID_CELLS_PER_AXIS>,
+        Count<MAX_GRID_CELLS_PER_AXIS>,
+        Count<MAX_GRID_CELLS_PER_AXIS>,
+    ),
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawGrid {
+    cells: (
+        Count<MAX_GRID_CELLS_PER_AXIS>,
+        Count<MAX_GRID_CELLS_PER_AXIS>,
+        Count<MAX_GRID_CELLS_PER_AXIS>,
+    ),
+}
+
+impl TryFrom<RawGrid> for GridParams {
+    type Error = String;
+    fn try_from(g: RawGrid) -> Result<Self, String> {
+        let total = g.cells.0 .0 as u64 * g.cells.1 .0 as u64 * g.cells.2 .0 as u64;
+        if total > MAX_GRID_PROBES {
+            return Err(format!(
+                "a grid of {total} probes exceeds the limit of {MAX_GRID_PROBES}"
+            ));
+        }
+        Ok(GridParams { cells: g.cells })
+    }
 }
 
 /// The placement method and its parameters.
@@ -203,9 +236,11 @@ impl Placement {
                     .map_err(|_| bad("grid dimensions must be whole numbers, e.g. grid:4x4x4"))?;
                 *slot = Count::try_from(v).map_err(|e| bad(&e))?;
             }
-            return Ok(Placement::Grid(GridParams {
+            let grid = GridParams::try_from(RawGrid {
                 cells: (n[0], n[1], n[2]),
-            }));
+            })
+            .map_err(|e| bad(&e))?;
+            return Ok(Placement::Grid(grid));
         }
         Err(bad("unknown method; expected sdf-skeleton or grid:NxMxK"))
     }
@@ -215,8 +250,8 @@ impl Placement {
 #[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct SdfParams {
-    /// Rays cast from each voxel centre to classify it.
-    pub rays_per_voxel: Count,
+    /// Rays cast from each voxel centre to classify it (at most 1024).
+    pub rays_per_voxel: Count<1024>,
     /// A voxel is solid when more than this share of its rays hit back faces.
     pub solid_backface_fraction: Fraction,
     /// A voxel is outside the scene when more than this share of its rays escape.
@@ -239,9 +274,11 @@ impl Default for SdfParams {
 pub struct CoverageParams {
     /// Coverable area-uniform surface samples to collect. 40 000 keeps the
     /// 95% interval within ±0.5% for any coverage (1.96·sqrt(0.25/40000) = 0.0049).
-    pub samples: Count,
-    /// Free voxel centres used as reference viewpoints (subsampled if more).
-    pub reference_points: Count,
+    /// At most 5 000 000.
+    pub samples: Count<5_000_000>,
+    /// Free voxel centres used as reference viewpoints (subsampled if more;
+    /// at most 1 000 000).
+    pub reference_points: Count<1_000_000>,
     /// A surface point counts as seen only under this incidence angle.
     pub max_incidence_deg: Degrees,
 }
@@ -366,9 +403,30 @@ impl Config {
             .map_err(|e| Error::user_file(file, format!("cannot read config: {e}")))?;
         let mut config = Config::parse(&text, file)?;
         let dir = file.parent().unwrap_or(Path::new(""));
-        config.scene = dir.join(&config.scene);
-        config.output = dir.join(&config.output);
+        config.scene = normalize(&dir.join(&config.scene));
+        config.output = normalize(&dir.join(&config.output));
         Ok(config)
+    }
+}
+
+/// Removes `.` and resolvable `..` components without touching the file
+/// system, so messages say `fixtures/a.obj` rather than `configs/../fixtures/a.obj`.
+pub fn normalize(path: &Path) -> PathBuf {
+    use std::path::Component;
+    let mut out: Vec<Component> = Vec::new();
+    for c in path.components() {
+        match c {
+            Component::CurDir => {}
+            Component::ParentDir if matches!(out.last(), Some(Component::Normal(_))) => {
+                out.pop();
+            }
+            other => out.push(other),
+        }
+    }
+    if out.is_empty() {
+        PathBuf::from(".")
+    } else {
+        out.iter().collect()
     }
 }
 
@@ -434,7 +492,16 @@ mod tests {
             "placement: Grid((cells: (2, 0, 2)))",
         );
         let m = user_message(parse(&text));
-        assert!(m.contains("placement") && m.contains("at least 1"), "{m}");
+        assert!(m.contains("placement") && m.contains("from 1 to"), "{m}");
+        let text = MINIMAL.replace(
+            "voxel_size: 0.1,",
+            "voxel_size: 0.1, coverage: (samples: 900000000),",
+        );
+        let m = user_message(parse(&text));
+        assert!(
+            m.contains("coverage.samples") && m.contains("5000000"),
+            "{m}"
+        );
         let text = MINIMAL.replace(
             "voxel_size: 0.1,",
             "voxel_size: 0.1, domain: Box((min: (0,0,0), max: (1,0,1))),",
@@ -450,6 +517,21 @@ mod tests {
     }
 
     #[test]
+    fn paths_are_normalized_lexically() {
+        assert_eq!(
+            normalize(Path::new("configs/../fixtures/a.obj")),
+            Path::new("fixtures/a.obj")
+        );
+        assert_eq!(
+            normalize(Path::new("configs/../../shared/x")),
+            Path::new("../shared/x")
+        );
+        assert_eq!(normalize(Path::new("./a/./b")), Path::new("a/b"));
+        assert_eq!(normalize(Path::new("/r/a/../b")), Path::new("/r/b"));
+        assert_eq!(normalize(Path::new("a/..")), Path::new("."));
+    }
+
+    #[test]
     fn cli_method_parsing() {
         let base = Placement::SdfSkeleton(SdfSkeletonParams::default());
         let g = Placement::parse_cli("grid:4x2x3", &base).unwrap();
@@ -457,6 +539,9 @@ mod tests {
         assert!(Placement::parse_cli("grid:4x2", &base).is_err());
         assert!(Placement::parse_cli("grid:0x2x2", &base).is_err());
         assert!(Placement::parse_cli("voronoi", &base).is_err());
+        assert!(Placement::parse_cli("grid:2000x1x1", &base).is_err());
+        assert!(Placement::parse_cli("grid:1024x1024x2", &base).is_err());
+        assert!(Placement::parse_cli("grid:1024x1024x1", &base).is_ok());
         assert_eq!(Placement::parse_cli("sdf-skeleton", &g).unwrap(), base);
     }
 }

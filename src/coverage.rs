@@ -298,3 +298,104 @@ pub fn probe_health(sdf: &Sdf, domain: &Bounds, probes: &[Vec3]) -> ProbeHealth 
     }
     h
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::{Count, Degrees, SdfParams};
+    use crate::scene::testing::room_with_box;
+
+    fn setup() -> (Scene, SceneBvh, Sdf, CoverageReference) {
+        let scene = room_with_box();
+        let bvh = SceneBvh::new(&scene);
+        let sdf = crate::sdf::build(
+            &scene,
+            &bvh,
+            &scene.bounds,
+            0.25,
+            &SdfParams::default(),
+            2,
+            &Progress::hidden(),
+        )
+        .unwrap();
+        let params = CoverageParams {
+            samples: Count(4000),
+            reference_points: Count(512),
+            max_incidence_deg: Degrees(85.0),
+        };
+        let reference = CoverageReference::new(&scene, &bvh, &sdf, &params, 2, &Progress::hidden());
+        (scene, bvh, sdf, reference)
+    }
+
+    #[test]
+    fn samples_are_area_uniform() {
+        let scene = room_with_box();
+        let samples = sample_surface(&scene, 20_000, 4);
+        // The room's floor is 16 m² of the 96 + 5 m² total (the inner box's
+        // bottom lies on the floor but is a separate 1 m² face).
+        let total = scene.area();
+        let on_room_floor = samples
+            .iter()
+            .filter(|s| s.position.y.abs() < 1e-5 && s.normal.y > 0.5)
+            .count();
+        let expected = 16.0 / total;
+        let got = on_room_floor as f64 / samples.len() as f64;
+        assert!((got - expected).abs() < 0.01, "{got} vs {expected}");
+        assert_eq!(samples, sample_surface(&scene, 20_000, 4));
+    }
+
+    #[test]
+    fn reference_reaches_its_target_and_excludes_hidden_faces() {
+        let (scene, _, _, reference) = setup();
+        let coverable = reference.coverable.iter().filter(|&&c| c).count();
+        assert!(coverable >= 4000);
+        // The inner box's bottom face lies on the floor: nobody sees it. Its
+        // area (1 m²) over the total bounds the uncoverable share from below.
+        let hidden = reference
+            .samples
+            .iter()
+            .zip(&reference.coverable)
+            .filter(|(s, &c)| !c && s.normal.y < -0.5 && s.position.y.abs() < 1e-5)
+            .count();
+        assert!(hidden > 0);
+        let share = 1.0 - coverable as f64 / reference.samples.len() as f64;
+        assert!(share > 0.5 / scene.area(), "{share}");
+    }
+
+    #[test]
+    fn coverage_grows_with_probes_and_is_zero_from_inside_a_solid() {
+        let (_, bvh, sdf, reference) = setup();
+        let p = Progress::hidden();
+        let inside_box = reference.evaluate(&bvh, &[Vec3::new(1.5, 0.5, 1.5)], &p);
+        assert_eq!(inside_box.covered_samples, 0);
+        let one = reference.evaluate(&bvh, &[Vec3::new(3.0, 2.0, 3.0)], &p);
+        let two = reference.evaluate(
+            &bvh,
+            &[Vec3::new(3.0, 2.0, 3.0), Vec3::new(0.5, 0.5, 0.5)],
+            &p,
+        );
+        assert!(one.coverage > 0.5 && one.coverage < 1.0, "{}", one.coverage);
+        assert!(
+            two.coverage > one.coverage,
+            "{} vs {}",
+            two.coverage,
+            one.coverage
+        );
+        assert!(one.ci95 > 0.0 && one.ci95 < 0.02, "{}", one.ci95);
+        let health = probe_health(
+            &sdf,
+            &Bounds {
+                min: Vec3::ZERO,
+                max: Vec3::splat(4.0),
+            },
+            &[
+                Vec3::new(1.5, 0.5, 1.5),
+                Vec3::new(3.0, 2.0, 3.0),
+                Vec3::splat(9.0),
+            ],
+        );
+        assert_eq!(health.probes_in_solid, 1);
+        assert_eq!(health.probes_outside_domain, 1);
+        assert_eq!(health.probes_outside_scene, 0);
+    }
+}

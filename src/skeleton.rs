@@ -144,3 +144,135 @@ pub fn sdf_skeleton(params: &SdfSkeletonParams, input: &PlacementInput) -> Resul
     }
     Ok(probes)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::{Positive, SdfParams};
+    use crate::progress::Progress;
+    use crate::scene::raycast::SceneBvh;
+    use crate::scene::testing::room_with_box;
+    use crate::scene::Scene;
+
+    fn setup(voxel: f32) -> (Scene, SceneBvh, Sdf) {
+        let scene = room_with_box();
+        let bvh = SceneBvh::new(&scene);
+        let sdf = crate::sdf::build(
+            &scene,
+            &bvh,
+            &scene.bounds,
+            voxel,
+            &SdfParams::default(),
+            5,
+            &Progress::hidden(),
+        )
+        .unwrap();
+        (scene, bvh, sdf)
+    }
+
+    fn run(
+        scene: &Scene,
+        bvh: &SceneBvh,
+        sdf: &Sdf,
+        params: SdfSkeletonParams,
+    ) -> Result<Vec<Probe>> {
+        let input = PlacementInput {
+            scene,
+            bvh,
+            sdf,
+            domain: &scene.bounds,
+            seed: 5,
+            progress: &Progress::hidden(),
+        };
+        sdf_skeleton(&params, &input)
+    }
+
+    #[test]
+    fn medial_voxels_lie_midway_between_walls() {
+        let (_, _, sdf) = setup(0.25);
+        let kept = cull(&sdf, 0.5);
+        let medial = medial_voxels(&sdf, &kept);
+        assert!(!medial.is_empty() && medial.len() < kept.len());
+        // In the 4 m room, the plane x = 2 (midway between the x walls) is
+        // medial wherever the x walls are the nearest surfaces.
+        let c = sdf.center(sdf.voxel_at(glam::Vec3::new(2.1, 3.1, 3.1)).unwrap());
+        assert!((c.x - 2.125).abs() < 1e-5);
+        assert!(
+            medial.iter().any(|&i| sdf.center(i) == c),
+            "voxel at {c} should be medial"
+        );
+        // A voxel close to one wall only is not.
+        let near_wall = sdf.voxel_at(glam::Vec3::new(3.4, 2.6, 2.6)).unwrap();
+        assert!(!medial.contains(&near_wall));
+    }
+
+    #[test]
+    fn probes_stand_in_free_space_clear_of_surfaces() {
+        let (scene, bvh, sdf) = setup(0.2);
+        let min_distance = 0.6;
+        let probes = run(
+            &scene,
+            &bvh,
+            &sdf,
+            SdfSkeletonParams {
+                min_distance: Some(Positive(min_distance)),
+                cluster_radius: Positive(2.0),
+            },
+        )
+        .unwrap();
+        assert!(!probes.is_empty());
+        for p in &probes {
+            let v = sdf.voxel_at(p.position).unwrap();
+            assert_eq!(sdf.class[v], VoxelClass::Free, "{:?}", p.position);
+            assert!(
+                sdf.distance[v] >= min_distance - sdf.voxel_size,
+                "{:?} {}",
+                p.position,
+                sdf.distance[v]
+            );
+            assert!(p.cluster_voxels >= 1);
+        }
+    }
+
+    #[test]
+    fn larger_clusters_mean_fewer_probes() {
+        let (scene, bvh, sdf) = setup(0.2);
+        let counts: Vec<usize> = [0.75, 1.5, 3.0, 6.0]
+            .iter()
+            .map(|&r| {
+                run(
+                    &scene,
+                    &bvh,
+                    &sdf,
+                    SdfSkeletonParams {
+                        min_distance: None,
+                        cluster_radius: Positive(r),
+                    },
+                )
+                .unwrap()
+                .len()
+            })
+            .collect();
+        assert!(counts.windows(2).all(|w| w[0] >= w[1]), "{counts:?}");
+        assert!(counts[0] > counts[3], "{counts:?}");
+    }
+
+    #[test]
+    fn culling_everything_is_a_user_error_naming_the_parameter() {
+        let (scene, bvh, sdf) = setup(0.25);
+        let err = run(
+            &scene,
+            &bvh,
+            &sdf,
+            SdfSkeletonParams {
+                min_distance: Some(Positive(3.0)),
+                cluster_radius: Positive(2.0),
+            },
+        )
+        .unwrap_err();
+        match err {
+            Error::User(m) => assert!(m.starts_with("placement.min_distance"), "{m}"),
+            e => panic!("{e:?}"),
+        }
+    }
+}

@@ -271,6 +271,62 @@ fn quietly<T>(f: impl FnOnce() -> T + std::panic::UnwindSafe) -> Option<T> {
     result
 }
 
+/// Small analytic scenes shared by the unit tests of several stages.
+#[cfg(test)]
+pub mod testing {
+    use super::{Material, Scene};
+    use glam::Vec3;
+
+    /// A closed room (single-sided walls facing inward) with a solid box inside
+    /// (faces outward), all axis-aligned.
+    pub fn room_with_box() -> Scene {
+        let mut tris = Vec::new();
+        add_box(&mut tris, Vec3::ZERO, Vec3::splat(4.0), true);
+        add_box(
+            &mut tris,
+            Vec3::new(1.0, 0.0, 1.0),
+            Vec3::new(2.0, 1.0, 2.0),
+            false,
+        );
+        Scene::from_triangles(
+            "room".into(),
+            tris.into_iter().map(|t| (t, 0)),
+            vec![Material::fallback()],
+        )
+        .unwrap()
+    }
+
+    /// Adds the 12 triangles of box `[lo, hi]`, normals inward when `inward`.
+    pub fn add_box(out: &mut Vec<[Vec3; 3]>, lo: Vec3, hi: Vec3, inward: bool) {
+        let corner = |i: usize| {
+            Vec3::new(
+                if i & 1 == 0 { lo.x } else { hi.x },
+                if i & 2 == 0 { lo.y } else { hi.y },
+                if i & 4 == 0 { lo.z } else { hi.z },
+            )
+        };
+        // Faces as corner quads, counter-clockwise seen from outside.
+        let quads = [
+            [0, 2, 3, 1], // -z
+            [4, 5, 7, 6], // +z
+            [0, 4, 6, 2], // -x
+            [1, 3, 7, 5], // +x
+            [0, 1, 5, 4], // -y
+            [2, 6, 7, 3], // +y
+        ];
+        for q in quads {
+            let [a, b, c, d] = q.map(corner);
+            if inward {
+                out.push([a, c, b]);
+                out.push([a, d, c]);
+            } else {
+                out.push([a, b, c]);
+                out.push([a, c, d]);
+            }
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
