@@ -27,30 +27,20 @@ fn stages(c: &mut Criterion, name: &str, config: &str) {
     g.bench_function("bvh", |b| b.iter(|| SceneBvh::new(&scene)));
     let bvh = SceneBvh::new(&scene);
     let params = SdfParams::default();
-    g.bench_function("sdf", |b| {
-        b.iter(|| {
-            sdf::build(
-                &scene,
-                &bvh,
-                &scene.bounds,
-                cfg.voxel_size.0,
-                &params,
-                1,
-                &progress,
-            )
-            .unwrap()
-        })
-    });
-    let field = sdf::build(
-        &scene,
-        &bvh,
-        &scene.bounds,
-        cfg.voxel_size.0,
-        &params,
-        1,
-        &progress,
-    )
-    .unwrap();
+    let build_sdf = || {
+        sdf::build(
+            &scene,
+            &bvh,
+            &scene.bounds,
+            cfg.voxel_size.0,
+            &params,
+            1,
+            &progress,
+        )
+        .unwrap()
+    };
+    g.bench_function("sdf", |b| b.iter(build_sdf));
+    let field = build_sdf();
     let input = PlacementInput {
         scene: &scene,
         bvh: &bvh,

@@ -302,22 +302,11 @@ pub fn probe_health(sdf: &Sdf, domain: &Bounds, probes: &[Vec3]) -> ProbeHealth 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::config::{Count, Degrees, SdfParams};
-    use crate::scene::testing::room_with_box;
+    use crate::config::{Count, Degrees};
+    use crate::scene::testing::{room_sdf, room_with_box};
 
     fn setup() -> (Scene, SceneBvh, Sdf, CoverageReference) {
-        let scene = room_with_box();
-        let bvh = SceneBvh::new(&scene);
-        let sdf = crate::sdf::build(
-            &scene,
-            &bvh,
-            &scene.bounds,
-            0.25,
-            &SdfParams::default(),
-            2,
-            &Progress::hidden(),
-        )
-        .unwrap();
+        let (scene, bvh, sdf) = room_sdf(0.25, 2);
         let params = CoverageParams {
             samples: Count(4000),
             reference_points: Count(512),

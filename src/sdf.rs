@@ -423,21 +423,10 @@ pub fn closest_point_on_triangle(p: Vec3, t: &[Vec3; 3]) -> Vec3 {
 mod tests {
     use super::*;
     use crate::config::{Count, Fraction};
-    use crate::scene::testing::{add_box, room_with_box};
+    use crate::scene::testing::{add_box, room_sdf};
 
     fn build_room(voxel: f32) -> Sdf {
-        let scene = room_with_box();
-        let bvh = SceneBvh::new(&scene);
-        build(
-            &scene,
-            &bvh,
-            &scene.bounds,
-            voxel,
-            &SdfParams::default(),
-            1,
-            &Progress::hidden(),
-        )
-        .unwrap()
+        room_sdf(voxel, 1).2
     }
 
     #[test]

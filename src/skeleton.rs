@@ -148,26 +148,14 @@ pub fn sdf_skeleton(params: &SdfSkeletonParams, input: &PlacementInput) -> Resul
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::config::{Positive, SdfParams};
+    use crate::config::Positive;
     use crate::progress::Progress;
     use crate::scene::raycast::SceneBvh;
-    use crate::scene::testing::room_with_box;
+    use crate::scene::testing::room_sdf;
     use crate::scene::Scene;
 
     fn setup(voxel: f32) -> (Scene, SceneBvh, Sdf) {
-        let scene = room_with_box();
-        let bvh = SceneBvh::new(&scene);
-        let sdf = crate::sdf::build(
-            &scene,
-            &bvh,
-            &scene.bounds,
-            voxel,
-            &SdfParams::default(),
-            5,
-            &Progress::hidden(),
-        )
-        .unwrap();
-        (scene, bvh, sdf)
+        room_sdf(voxel, 5)
     }
 
     fn run(

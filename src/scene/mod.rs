@@ -274,8 +274,29 @@ fn quietly<T>(f: impl FnOnce() -> T + std::panic::UnwindSafe) -> Option<T> {
 /// Small analytic scenes shared by the unit tests of several stages.
 #[cfg(test)]
 pub mod testing {
+    use super::raycast::SceneBvh;
     use super::{Material, Scene};
+    use crate::config::SdfParams;
+    use crate::progress::Progress;
+    use crate::sdf::{self, Sdf};
     use glam::Vec3;
+
+    /// [`room_with_box`] with its BVH and its SDF at `voxel` (default SDF parameters).
+    pub fn room_sdf(voxel: f32, seed: u64) -> (Scene, SceneBvh, Sdf) {
+        let scene = room_with_box();
+        let bvh = SceneBvh::new(&scene);
+        let sdf = sdf::build(
+            &scene,
+            &bvh,
+            &scene.bounds,
+            voxel,
+            &SdfParams::default(),
+            seed,
+            &Progress::hidden(),
+        )
+        .expect("the test room's SDF builds");
+        (scene, bvh, sdf)
+    }
 
     /// A closed room (single-sided walls facing inward) with a solid box inside
     /// (faces outward), all axis-aligned.
