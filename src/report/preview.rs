@@ -26,14 +26,20 @@
 //! triangles whose front normal `(b-a)×(c-a)` points towards the viewer
 //! (`n.y > 0` in the top view, `n.z > 0` in the side view) are drawn.
 //!
+//! # Cut plane for buildings modelled from outside
+//!
+//! Culling alone only opens rooms whose outside is not modelled. A whole
+//! building with exterior walls and a roof facing outwards (Dabrovic Sponza
+//! has a full outward-facing wall on its +Z side) would show only its facade.
+//! When more than half of a view is covered by surfaces within the nearest
+//! tenth of the framed box, the view is redrawn with everything nearer than
+//! the box's mid-depth removed: a section through the building (kept only if
+//! the section still shows something, so a lone floor is never cut away). The probe
+//! markers are drawn on top of all geometry regardless of depth, so they
+//! always stay visible.
+//!
 //! # Limitations
 //!
-//! The cutaway only works for rooms whose outside is not modelled. A scene
-//! built as a whole building, with exterior walls and a roof facing outwards
-//! (Dabrovic Sponza has a full outward-facing wall on its +Z side), is seen
-//! from outside: that wall hides the side view's interior, and an outer roof
-//! hides whatever is under it in the top view. The probe markers are drawn on
-//! top of all geometry regardless of depth, so they always stay visible.
 //! Shading is flat per triangle with no lighting beyond a view-facing term,
 //! and there is no anti-aliasing.
 
@@ -102,7 +108,7 @@ pub fn render_preview(input: &PreviewInput, view_size: u32) -> RgbImage {
         };
         canvas.clear(BACKGROUND);
         let frame = Frame::new(view, lo, hi, size);
-        draw_triangles(&mut canvas, &mut zbuf, input, view, &frame);
+        draw_scene(&mut canvas, &mut zbuf, input, view, &frame);
         draw_bounds(&mut canvas, view, &frame, lo, hi);
         draw_probes(&mut canvas, input.probes, view, &frame);
     }
@@ -329,6 +335,7 @@ fn draw_triangles(
     input: &PreviewInput,
     view: View,
     frame: &Frame,
+    cut: f32,
 ) {
     for (i, tri) in input.triangles.iter().enumerate() {
         if !tri.iter().all(|p| p.is_finite()) {
@@ -345,13 +352,66 @@ fn draw_triangles(
         let depth = view.axes((a + b + c) / 3.0)[2];
         let rgb = shade(input.colors.get(i), facing / len, frame.depth_cue(depth));
         let p = [a, b, c].map(|v| frame.project(view, v));
-        rasterize(canvas, zbuf, p, rgb);
+        rasterize(canvas, zbuf, p, rgb, cut);
     }
 }
 
+/// Draws the scene's triangles, cutting the view open at mid-depth when a
+/// facade hides it (module docs), unless the facade was all there was to see.
+fn draw_scene(
+    canvas: &mut Canvas,
+    zbuf: &mut [f32],
+    input: &PreviewInput,
+    view: View,
+    frame: &Frame,
+) {
+    draw_triangles(canvas, zbuf, input, view, frame, f32::INFINITY);
+    if facade_share(zbuf, frame) <= FACADE_SHARE_LIMIT {
+        return;
+    }
+    let drawn = drawn_pixels(zbuf);
+    let (far, near) = frame.depth_range;
+    let mut redraw = |cut: f64, zbuf: &mut [f32]| {
+        zbuf.fill(f32::NEG_INFINITY);
+        canvas.clear(BACKGROUND);
+        draw_triangles(canvas, zbuf, input, view, frame, cut as f32);
+    };
+    redraw(0.5 * (far + near), zbuf);
+    if (drawn_pixels(zbuf) as f64) < CUT_KEEPS * drawn as f64 {
+        redraw(f64::INFINITY, zbuf);
+    }
+}
+
+/// Share of the drawn pixels taken by surfaces in the nearest
+/// [`FACADE_DEPTH`] of the framed box: high when an outer wall or roof faces
+/// the viewer and hides everything behind it.
+fn facade_share(zbuf: &[f32], frame: &Frame) -> f64 {
+    let (far, near) = frame.depth_range;
+    let limit = (near - FACADE_DEPTH * (near - far)) as f32;
+    let facade = zbuf
+        .iter()
+        .filter(|&&z| z.is_finite() && z >= limit)
+        .count();
+    facade as f64 / drawn_pixels(zbuf).max(1) as f64
+}
+
+/// Pixels some surface was drawn on.
+fn drawn_pixels(zbuf: &[f32]) -> usize {
+    zbuf.iter().filter(|z| z.is_finite()).count()
+}
+
+/// The cut view is kept only when it still shows at least this share of the
+/// uncut view's drawn pixels.
+const CUT_KEEPS: f64 = 0.25;
+
+/// Depth band, as a share of the box, that counts as a facade.
+const FACADE_DEPTH: f64 = 0.1;
+/// A view whose facade share exceeds this is redrawn cut at mid-depth.
+const FACADE_SHARE_LIMIT: f64 = 0.5;
+
 /// Fills the pixels whose centres lie inside the projected triangle `p` and
 /// are nearer than what the z-buffer holds.
-fn rasterize(canvas: &mut Canvas, zbuf: &mut [f32], p: [[f64; 3]; 3], rgb: [u8; 3]) {
+fn rasterize(canvas: &mut Canvas, zbuf: &mut [f32], p: [[f64; 3]; 3], rgb: [u8; 3], cut: f32) {
     let size = canvas.size;
     let min_x = p[0][0].min(p[1][0]).min(p[2][0]);
     let max_x = p[0][0].max(p[1][0]).max(p[2][0]);
@@ -393,7 +453,7 @@ fn rasterize(canvas: &mut Canvas, zbuf: &mut [f32], p: [[f64; 3]; 3], rgb: [u8; 
                 continue;
             }
             let depth = ((w0 * z0 + w1 * z1 + w2 * z2) * inv_area) as f32;
-            if depth > *zslot {
+            if depth > *zslot && depth <= cut {
                 *zslot = depth;
                 canvas.put(x, y, rgb);
             }
@@ -555,6 +615,37 @@ mod tests {
     }
 
     #[test]
+    fn buildings_modelled_from_outside_are_cut_open() {
+        // A roof facing up at the top of the box hides a red floor inside.
+        let mut tris = quad(vec3(0.0, 1.0, 0.0), 1.0, Vec3::Y).to_vec();
+        tris.extend(quad(vec3(0.0, -0.5, 0.0), 0.8, Vec3::Y));
+        let colors = [
+            [0.0, 0.0, 1.0],
+            [0.0, 0.0, 1.0],
+            [1.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+        ];
+        let img = render(&tris, &colors, &[], SIZE);
+        assert_eq!(
+            lit(px(&img, SIZE / 2, SIZE / 2)),
+            [true, false, false],
+            "roof not cut away"
+        );
+        // A floor near the top but not covering most of the view stays (no cut).
+        let small_roof = quad(vec3(0.8, 1.0, 0.8), 0.1, Vec3::Y);
+        let mut tris = small_roof.to_vec();
+        tris.extend(quad(vec3(0.0, -0.5, 0.0), 0.5, Vec3::Y));
+        let img = render(&tris, &colors, &[], SIZE);
+        assert_eq!(lit(px(&img, SIZE / 2, SIZE / 2)), [true, false, false]);
+        // World 0.8 is 47 pixels from the centre (see view_orientation).
+        assert_eq!(
+            lit(px(&img, SIZE / 2 + 47, SIZE / 2 + 47)),
+            [false, false, true],
+            "small roof should stay"
+        );
+    }
+
+    #[test]
     fn image_dimensions() {
         let img = render(&[], &[], &[], 100);
         assert_eq!(img.dimensions(), (2 * 100 + 4, 100));
@@ -580,9 +671,10 @@ mod tests {
         let img = render(&tris[2..], &colors[2..], &[], SIZE);
         assert_eq!(px(&img, SIZE / 2, SIZE / 2), BACKGROUND);
 
-        // Flipped to face up, the higher quad occludes the floor whatever the
-        // drawing order: the z-buffer works.
-        let mut flipped: Vec<_> = quad(vec3(0.0, 1.0, 0.0), 1.0, Vec3::Y).to_vec();
+        // Flipped to face up (and lowered out of the facade band, so no cut),
+        // the higher quad occludes the floor whatever the drawing order: the
+        // z-buffer works.
+        let mut flipped: Vec<_> = quad(vec3(0.0, 0.5, 0.0), 1.0, Vec3::Y).to_vec();
         flipped.extend_from_slice(&tris[..2]);
         let colors = [
             [0.0, 0.0, 1.0],
@@ -591,11 +683,7 @@ mod tests {
             [1.0, 0.0, 0.0],
         ];
         let img = render(&flipped, &colors, &[], SIZE);
-        assert_eq!(
-            px(&img, SIZE / 2, SIZE / 2),
-            [0, 0, 255],
-            "near side: no depth darkening"
-        );
+        assert_eq!(lit(px(&img, SIZE / 2, SIZE / 2)), [false, false, true]);
     }
 
     #[test]
