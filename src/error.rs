@@ -29,6 +29,15 @@ impl Error {
         Error::Internal(format!("{}: {}", file.display(), err))
     }
 
+    /// Prefixes a user error with the file whose field it names (the config),
+    /// so stage errors like `voxel_size: ...` read `run.ron: voxel_size: ...`.
+    pub fn in_file(self, file: &Path) -> Self {
+        match self {
+            Error::User(m) => Error::user_file(file, m),
+            other => other,
+        }
+    }
+
     /// Exit status the command line should use for this error.
     pub fn exit_code(&self) -> i32 {
         match self {

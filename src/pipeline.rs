@@ -68,7 +68,8 @@ pub fn place(config_path: &Path, options: &PlaceOptions) -> Result<PlaceOutcome>
     let scene = scene::load_obj(&config.scene, config.scale.0, config.up)?;
     lap("load", t);
 
-    let domain = resolve_domain(&config.domain, &scene)?;
+    // Errors of the stages below name a config field: say which config.
+    let domain = resolve_domain(&config.domain, &scene).map_err(|e| e.in_file(config_path))?;
     let t = Instant::now();
     let bvh = SceneBvh::new(&scene);
     lap("bvh", t);
@@ -82,7 +83,8 @@ pub fn place(config_path: &Path, options: &PlaceOptions) -> Result<PlaceOutcome>
         &config.sdf,
         config.seed,
         &progress,
-    )?;
+    )
+    .map_err(|e| e.in_file(config_path))?;
     lap("sdf", t);
 
     let t = Instant::now();
@@ -96,7 +98,8 @@ pub fn place(config_path: &Path, options: &PlaceOptions) -> Result<PlaceOutcome>
             seed: config.seed,
             progress: &progress,
         },
-    )?;
+    )
+    .map_err(|e| e.in_file(config_path))?;
     lap("placement", t);
 
     let t = Instant::now();

@@ -176,7 +176,10 @@ fn impossible_parameters() {
     )
     .unwrap();
     let e = fails(&p, &[]);
-    assert!(e.contains("voxel_size") && e.contains("voxels"), "{e}");
+    assert!(
+        e.contains("tiny.ron: voxel_size") && e.contains("voxels"),
+        "{e}"
+    );
 }
 
 #[test]
@@ -236,4 +239,23 @@ fn a_valid_tiny_room_succeeds() {
     let r = place(&c, &d.path().join("out"), &[]);
     assert_eq!(r["probes_in_solid"], 0);
     assert!(r["coverage"].as_f64().unwrap() > 0.95);
+}
+
+#[test]
+fn command_line_mistakes_are_one_line_and_exit_2() {
+    for args in [
+        &["place"][..],
+        &["place", "configs/cornell.ron", "--bogus"],
+        &["place", "configs/cornell.ron", "--seed", "x"],
+        &["frobnicate"],
+    ] {
+        let o = probeplace(args);
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {stderr}");
+        assert_eq!(stderr.trim_end().lines().count(), 1, "{args:?}: {stderr}");
+        assert!(stderr.starts_with("error: "), "{args:?}: {stderr}");
+    }
+    let help = probeplace(&["place", "--help"]);
+    assert_eq!(help.status.code(), Some(0));
+    assert!(String::from_utf8_lossy(&help.stdout).contains("--method"));
 }
