@@ -161,6 +161,7 @@ impl CoverageReference {
         let bar = progress.bar("coverage: reference", target as u64);
         let mut batch = target;
         for round in 0..MAX_ROUNDS {
+            bar.set_length((reference.samples.len() + batch) as u64);
             let samples = sample_surface(scene, batch, hash2(seed, 0xC0FE + round));
             let coverable = reference.seen_by_all(bvh, &samples, &refs, &bar);
             reference.samples.extend(samples);
