@@ -246,9 +246,27 @@ impl CoverageReference {
 
     /// Coverage of the probes at `probes` (module docs).
     pub fn evaluate(&self, bvh: &SceneBvh, probes: &[Vec3], progress: &Progress) -> Coverage {
+        self.evaluate_with_holes(bvh, probes, progress).0
+    }
+
+    /// [`CoverageReference::evaluate`], plus the coverable samples no probe
+    /// sees (the holes), for pictures and later refinement.
+    pub fn evaluate_with_holes(
+        &self,
+        bvh: &SceneBvh,
+        probes: &[Vec3],
+        progress: &Progress,
+    ) -> (Coverage, Vec<Vec3>) {
         let bar = progress.bar("coverage: probes", self.samples.len() as u64);
         let seen = self.seen_by_all(bvh, &self.samples, probes, &bar);
         bar.finish_and_clear();
+        let holes = self
+            .samples
+            .iter()
+            .zip(self.coverable.iter().zip(&seen))
+            .filter(|(_, (&c, &s))| c && !s)
+            .map(|(sample, _)| sample.position)
+            .collect();
         let coverable = self.coverable.iter().filter(|&&c| c).count();
         let covered = self
             .coverable
@@ -268,7 +286,7 @@ impl CoverageReference {
         } else {
             1.96 * (p * (1.0 - p) / coverable as f64).sqrt()
         };
-        Coverage {
+        let coverage = Coverage {
             coverage: p,
             ci95,
             samples: self.samples.len(),
@@ -276,7 +294,8 @@ impl CoverageReference {
             covered_samples: covered,
             coverable_fraction: coverable as f64 / self.samples.len().max(1) as f64,
             reference_points: self.reference_points,
-        }
+        };
+        (coverage, holes)
     }
 }
 
@@ -359,7 +378,7 @@ mod tests {
         let inside_box = reference.evaluate(&bvh, &[Vec3::new(1.5, 0.5, 1.5)], &p);
         assert_eq!(inside_box.covered_samples, 0);
         let one = reference.evaluate(&bvh, &[Vec3::new(3.0, 2.0, 3.0)], &p);
-        let two = reference.evaluate(
+        let (two, holes) = reference.evaluate_with_holes(
             &bvh,
             &[Vec3::new(3.0, 2.0, 3.0), Vec3::new(0.5, 0.5, 0.5)],
             &p,
@@ -372,6 +391,7 @@ mod tests {
             one.coverage
         );
         assert!(one.ci95 > 0.0 && one.ci95 < 0.02, "{}", one.ci95);
+        assert_eq!(holes.len(), two.coverable_samples - two.covered_samples);
         let health = probe_health(
             &sdf,
             &Bounds {

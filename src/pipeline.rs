@@ -106,12 +106,12 @@ pub fn place(config_path: &Path, options: &PlaceOptions) -> Result<PlaceOutcome>
     let reference =
         CoverageReference::new(&scene, &bvh, &sdf, &config.coverage, config.seed, &progress);
     let positions = probes.positions();
-    let cov = reference.evaluate(&bvh, &positions, &progress);
+    let (cov, holes) = reference.evaluate_with_holes(&bvh, &positions, &progress);
     let health = coverage::probe_health(&sdf, &domain, &positions);
     lap("coverage", t);
 
     let t = Instant::now();
-    let png = render_png(&scene, &domain, &probes)?;
+    let png = render_png(&scene, &domain, &probes, &holes)?;
     lap("preview", t);
 
     let scene_name = config.scene.display().to_string();
@@ -179,8 +179,13 @@ pub fn resolve_domain(domain: &Domain, scene: &Scene) -> Result<Bounds> {
     }
 }
 
-/// Renders `placement.png` to PNG bytes.
-fn render_png(scene: &Scene, domain: &Bounds, probes: &ProbeSet) -> Result<Vec<u8>> {
+/// Renders `placement.png` (with the coverage holes marked) to PNG bytes.
+fn render_png(
+    scene: &Scene,
+    domain: &Bounds,
+    probes: &ProbeSet,
+    holes: &[Vec3],
+) -> Result<Vec<u8>> {
     let colors: Vec<[f32; 3]> = scene
         .material_ids
         .iter()
@@ -192,6 +197,7 @@ fn render_png(scene: &Scene, domain: &Bounds, probes: &ProbeSet) -> Result<Vec<u
             triangles: &scene.triangles,
             colors: &colors,
             probes: &positions,
+            holes,
             bounds_min: domain.min,
             bounds_max: domain.max,
         },

@@ -18,6 +18,11 @@
 //!   as above a roofless building or in front of the open Cornell box;
 //! * otherwise **free**.
 //!
+//! A back face coplanar with a front face (within 0.001 voxel) wins the tie:
+//! solids resting against walls and floors (a box's bottom on the floor, a
+//! platform's side against a wall) would otherwise look open from inside
+//! wherever the wall's front face happened to be returned first.
+//!
 //! Two stages keep this affordable on large grids: the first 8 directions
 //! (spread over the whole sphere) are cast, and when every one of them hits a
 //! front face the voxel is free at once, which settles the bulk of open space
@@ -321,6 +326,8 @@ fn classify(
     let outside_limit = params.outside_escape_fraction.0 * n as f32;
     // Hits closer than this are the surface the centre lies on: skipped.
     let tmin = 1e-4 * sdf.voxel_size;
+    // Coplanar front/back pairs within this distance count as back faces.
+    let tie = 1e-3 * sdf.voxel_size;
     let bar = progress.bar("sdf: classify voxels", sdf.len() as u64);
     let classes = (0..sdf.len())
         .into_par_iter()
@@ -333,7 +340,7 @@ fn classify(
                     let rot = random_rotation(hash2(seed, i as u64));
                     let (mut back, mut escaped) = (0u32, 0u32);
                     for (k, d) in directions.iter().enumerate() {
-                        match bvh.closest_hit(c, rot * *d, tmin, f32::INFINITY) {
+                        match bvh.closest_hit_prefer_back(c, rot * *d, tmin, f32::INFINITY, tie) {
                             Some(h) if h.backface => back += 1,
                             Some(_) => {}
                             None => escaped += 1,

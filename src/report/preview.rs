@@ -58,6 +58,9 @@ pub struct PreviewInput<'a> {
     pub colors: &'a [[f32; 3]],
     /// Probe positions in world space. Non-finite positions are skipped.
     pub probes: &'a [Vec3],
+    /// Surface points no probe sees (coverage holes), drawn as small red marks
+    /// where they lie on a visible surface of the view.
+    pub holes: &'a [Vec3],
     /// Minimum corner of the box to frame (the probe domain); both views fit
     /// it with a small margin, keeping aspect ratio.
     pub bounds_min: Vec3,
@@ -108,7 +111,8 @@ pub fn render_preview(input: &PreviewInput, view_size: u32) -> RgbImage {
         };
         canvas.clear(BACKGROUND);
         let frame = Frame::new(view, lo, hi, size);
-        draw_scene(&mut canvas, &mut zbuf, input, view, &frame);
+        let cut = draw_scene(&mut canvas, &mut zbuf, input, view, &frame);
+        draw_holes(&mut canvas, &zbuf, input.holes, view, &frame, cut);
         draw_bounds(&mut canvas, view, &frame, lo, hi);
         draw_probes(&mut canvas, input.probes, view, &frame);
     }
@@ -358,16 +362,17 @@ fn draw_triangles(
 
 /// Draws the scene's triangles, cutting the view open at mid-depth when a
 /// facade hides it (module docs), unless the facade was all there was to see.
+/// Returns the depth beyond which nothing was drawn.
 fn draw_scene(
     canvas: &mut Canvas,
     zbuf: &mut [f32],
     input: &PreviewInput,
     view: View,
     frame: &Frame,
-) {
+) -> f64 {
     draw_triangles(canvas, zbuf, input, view, frame, f32::INFINITY);
     if facade_share(zbuf, frame) <= FACADE_SHARE_LIMIT {
-        return;
+        return f64::INFINITY;
     }
     let drawn = drawn_pixels(zbuf);
     let (far, near) = frame.depth_range;
@@ -376,9 +381,46 @@ fn draw_scene(
         canvas.clear(BACKGROUND);
         draw_triangles(canvas, zbuf, input, view, frame, cut as f32);
     };
-    redraw(0.5 * (far + near), zbuf);
+    let cut = 0.5 * (far + near);
+    redraw(cut, zbuf);
     if (drawn_pixels(zbuf) as f64) < CUT_KEEPS * drawn as f64 {
         redraw(f64::INFINITY, zbuf);
+        return f64::INFINITY;
+    }
+    cut
+}
+
+/// Colour of a coverage-hole mark.
+const HOLE_COLOR: [u8; 3] = [235, 40, 40];
+
+/// Marks each hole that lies on the surface drawn at its pixel (within 2% of
+/// the view's depth range) and was not cut away, as a 2×2 red square.
+fn draw_holes(
+    canvas: &mut Canvas,
+    zbuf: &[f32],
+    holes: &[Vec3],
+    view: View,
+    frame: &Frame,
+    cut: f64,
+) {
+    let (far, near) = frame.depth_range;
+    let tolerance = 0.02 * (near - far).max(1e-9);
+    let size = canvas.size as f64;
+    for h in holes.iter().filter(|p| p.is_finite()) {
+        let [x, y, d] = frame.project(view, h.as_dvec3());
+        if !(x >= 0.0 && y >= 0.0 && x < size && y < size) || d > cut {
+            continue;
+        }
+        let (px, py) = (x as usize, y as usize);
+        let z = f64::from(zbuf[py * canvas.size + px]);
+        if !z.is_finite() || d < z - tolerance {
+            continue;
+        }
+        for (dx, dy) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
+            if px + dx < canvas.size && py + dy < canvas.size {
+                canvas.put(px + dx, py + dy, HOLE_COLOR);
+            }
+        }
     }
 }
 
@@ -582,6 +624,7 @@ mod tests {
                 triangles: tris,
                 colors,
                 probes,
+                holes: &[],
                 bounds_min: Vec3::splat(-1.0),
                 bounds_max: Vec3::splat(1.0),
             },
@@ -643,6 +686,31 @@ mod tests {
             [false, false, true],
             "small roof should stay"
         );
+    }
+
+    #[test]
+    fn holes_show_on_visible_surfaces_only() {
+        // A floor at y = -1 and a roof quad at y = 0.5 over its left half (x < 0).
+        let mut tris = quad(vec3(0.0, -1.0, 0.0), 1.0, Vec3::Y).to_vec();
+        tris.extend(quad(vec3(-0.5, 0.5, 0.0), 0.5, Vec3::Y));
+        let colors = [[0.2; 3]; 4];
+        let holes = [vec3(0.5, -1.0, 0.0), vec3(-0.5, -1.0, 0.0)];
+        let img = render_preview(
+            &PreviewInput {
+                triangles: &tris,
+                colors: &colors,
+                probes: &[],
+                holes: &holes,
+                bounds_min: Vec3::splat(-1.0),
+                bounds_max: Vec3::splat(1.0),
+            },
+            SIZE,
+        );
+        // 0.5 world units is about 29 pixels from the centre (0.8 is 47).
+        let visible = px(&img, SIZE / 2 + 29, SIZE / 2);
+        let hidden = px(&img, SIZE / 2 - 29, SIZE / 2);
+        assert_eq!(visible, HOLE_COLOR, "hole on the open floor is marked");
+        assert_ne!(hidden, HOLE_COLOR, "hole under the roof is not");
     }
 
     #[test]
@@ -860,6 +928,7 @@ mod tests {
                     triangles: &floor,
                     colors: &colors,
                     probes: &[],
+                    holes: &[],
                     bounds_min: lo,
                     bounds_max: hi,
                 },

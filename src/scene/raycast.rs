@@ -111,6 +111,44 @@ impl SceneBvh {
         }
     }
 
+    /// Closest hit, where a back face within `tie` beyond a front face wins.
+    ///
+    /// Solids often rest against other surfaces with coplanar faces (a box's
+    /// bottom on a floor, a platform's side on a wall); seen from inside the
+    /// solid, the wall's front face and the solid's back face are at the same
+    /// distance and which one a plain closest hit returns is arbitrary. What
+    /// lies behind such a pair is solid, so the back face is preferred.
+    pub fn closest_hit_prefer_back(
+        &self,
+        origin: Vec3,
+        dir: Vec3,
+        tmin: f32,
+        tmax: f32,
+        tie: f32,
+    ) -> Option<Hit> {
+        let ray = Ray::new(origin.into(), dir.into(), tmin, tmax);
+        let d: Vec3A = dir.into();
+        let mut hit = RayHit::none();
+        let found = self.bvh.ray_traverse(ray, &mut hit, |r, id| {
+            let t = self.triangles[id].intersect(r);
+            if t.is_finite() && self.normals[id].dot(d) > 0.0 {
+                t - tie
+            } else {
+                t
+            }
+        });
+        if !found {
+            return None;
+        }
+        let slot = hit.primitive_id as usize;
+        let backface = self.normals[slot].dot(d) > 0.0;
+        Some(Hit {
+            t: if backface { hit.t + tie } else { hit.t },
+            triangle: self.scene_index[slot],
+            backface,
+        })
+    }
+
     /// Closest hit ignoring triangles whose front faces away from the ray
     /// (back-face culling), for cut-away views of closed rooms.
     pub fn closest_front_hit(&self, origin: Vec3, dir: Vec3, tmax: f32) -> Option<Hit> {
@@ -197,6 +235,28 @@ mod tests {
             .closest_front_hit(Vec3::new(-0.5, -1.0, 0.5), up_dir, f32::INFINITY)
             .unwrap();
         assert_eq!(culled.triangle, 1);
+    }
+
+    #[test]
+    fn coplanar_back_face_wins_the_tie() {
+        // A floor facing up and, on the same plane, the bottom of a box facing down.
+        let floor = [
+            Vec3::new(-1.0, 0.0, -1.0),
+            Vec3::new(-1.0, 0.0, 1.0),
+            Vec3::new(1.0, 0.0, 1.0),
+        ];
+        let bottom = [floor[0], floor[2], floor[1]];
+        for tris in [[(floor, 0), (bottom, 0)], [(bottom, 0), (floor, 0)]] {
+            let s = Scene::from_triangles("t".into(), tris, vec![Material::fallback()]).unwrap();
+            let bvh = SceneBvh::new(&s);
+            let o = Vec3::new(-0.5, 0.5, 0.5);
+            let d = Vec3::new(0.001, -1.0, 0.002).normalize();
+            let h = bvh
+                .closest_hit_prefer_back(o, d, 0.0, f32::INFINITY, 1e-4)
+                .unwrap();
+            assert!(h.backface, "{tris:?}");
+            assert!((h.t - 0.5).abs() < 1e-3);
+        }
     }
 
     #[test]
