@@ -471,6 +471,43 @@ mod tests {
     }
 
     #[test]
+    fn solids_against_walls_stay_solid() {
+        // A box in the room's corner shares three coplanar faces with the
+        // floor and two walls: from inside it, those walls' front faces tie
+        // with the box's back faces.
+        let mut tris = Vec::new();
+        add_box(&mut tris, Vec3::ZERO, Vec3::splat(4.0), true);
+        add_box(&mut tris, Vec3::ZERO, Vec3::splat(1.0), false);
+        let scene =
+            Scene::from_triangles("corner".into(), tris.into_iter().map(|t| (t, 0)), vec![])
+                .unwrap();
+        let bvh = SceneBvh::new(&scene);
+        let sdf = build(
+            &scene,
+            &bvh,
+            &scene.bounds,
+            0.25,
+            &SdfParams::default(),
+            9,
+            &Progress::hidden(),
+        )
+        .unwrap();
+        let inside: Vec<usize> = (0..sdf.len())
+            .filter(|&i| sdf.center(i).max_element() < 1.0)
+            .collect();
+        assert_eq!(inside.len(), 64);
+        let free: Vec<Vec3> = inside
+            .iter()
+            .filter(|&&i| sdf.class[i] != VoxelClass::Solid)
+            .map(|&i| sdf.center(i))
+            .collect();
+        assert!(
+            free.is_empty(),
+            "voxels inside the corner box not solid: {free:?}"
+        );
+    }
+
+    #[test]
     fn open_sky_is_outside() {
         // Just a floor: voxels above it see half sky and half floor front; at
         // 0.5 the rule needs "more than half" to escape, so lift the domain.
