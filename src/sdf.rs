@@ -23,7 +23,15 @@
 //! platform's side against a wall) would otherwise look open from inside
 //! wherever the wall's front face happened to be returned first.
 //!
-//! Two stages keep this affordable on large grids: the first 8 directions
+//! Only one voxel in eight, those with even coordinates, is always
+//! classified by rays. Any other voxel lies inside a cell of that lattice; if
+//! the (up to 8) lattice voxels bracketing it agree, and its own distance to
+//! the nearest surface exceeds a voxel diagonal (so no surface can separate it
+//! from them), it takes their class without casting a ray. This skips most of
+//! the open space and the interiors of thick solids; near surfaces, and where
+//! the corners disagree, every voxel is classified by its own rays.
+//!
+//! Two stages keep the rays themselves affordable: the first 8 directions
 //! (spread over the whole sphere) are cast, and when every one of them hits a
 //! front face the voxel is free at once, which settles the bulk of open space
 //! in a quarter of the rays; otherwise all `rays_per_voxel` are cast, stopping
@@ -312,7 +320,10 @@ fn jump_flood(sdf: &Sdf, mut nearest: Vec<Option<Vec3>>) -> Vec<Option<Vec3>> {
 /// free without casting the rest (module docs).
 const FIRST_STAGE_RAYS: usize = 8;
 
-/// Classifies every voxel by casting rays from its centre (module docs).
+/// Classifies every voxel (module docs): first the voxels with even
+/// coordinates by rays, then each other voxel by inheriting the class its
+/// lattice corners agree on when no surface can lie between them, by rays
+/// otherwise.
 fn classify(
     sdf: &Sdf,
     bvh: &SceneBvh,
@@ -320,61 +331,134 @@ fn classify(
     seed: u64,
     progress: &Progress,
 ) -> Vec<VoxelClass> {
-    let n = params.rays_per_voxel.0;
-    let directions = interleaved(fibonacci_sphere(n), FIRST_STAGE_RAYS);
-    let solid_limit = params.solid_backface_fraction.0 * n as f32;
-    let outside_limit = params.outside_escape_fraction.0 * n as f32;
-    // Hits closer than this are the surface the centre lies on: skipped.
-    let tmin = 1e-4 * sdf.voxel_size;
-    // Coplanar front/back pairs within this distance count as back faces.
-    let tie = 1e-3 * sdf.voxel_size;
+    let rays = RayClassifier::new(sdf, params, seed);
     let bar = progress.bar("sdf: classify voxels", sdf.len() as u64);
+    let lattice: Vec<Option<VoxelClass>> = (0..sdf.len())
+        .into_par_iter()
+        .with_min_len(256)
+        .map(|i| {
+            let on_lattice = sdf.coords(i).to_array().iter().all(|c| c % 2 == 0);
+            on_lattice.then(|| {
+                bar.inc(1);
+                rays.classify(bvh, i)
+            })
+        })
+        .collect();
+    // A centre farther than this from every surface sees all its lattice
+    // corners (at most one voxel diagonal away) without crossing a surface.
+    let reach = 3f32.sqrt() * sdf.voxel_size;
     let classes = (0..sdf.len())
         .into_par_iter()
-        .chunks(4096)
-        .flat_map_iter(|chunk| {
-            let out: Vec<VoxelClass> = chunk
-                .iter()
-                .map(|&i| {
-                    let c = sdf.center(i);
-                    let rot = random_rotation(hash2(seed, i as u64));
-                    let (mut back, mut escaped) = (0u32, 0u32);
-                    for (k, d) in directions.iter().enumerate() {
-                        match bvh.closest_hit_prefer_back(c, rot * *d, tmin, f32::INFINITY, tie) {
-                            Some(h) if h.backface => back += 1,
-                            Some(_) => {}
-                            None => escaped += 1,
-                        }
-                        if back as f32 > solid_limit {
-                            return VoxelClass::Solid;
-                        }
-                        let cast = k + 1;
-                        // First stage: a unanimous first octet of front-face hits settles free space.
-                        if cast == FIRST_STAGE_RAYS && back == 0 && escaped == 0 {
-                            return VoxelClass::Free;
-                        }
-                        // Decided when no remaining ray can change the outcome.
-                        let left = (n as usize - cast) as f32;
-                        if back as f32 + left <= solid_limit
-                            && (escaped as f32 > outside_limit
-                                || escaped as f32 + left <= outside_limit)
-                        {
-                            break;
-                        }
-                    }
-                    if escaped as f32 > outside_limit {
-                        VoxelClass::Outside
-                    } else {
-                        VoxelClass::Free
-                    }
-                })
-                .collect();
-            bar.inc(out.len() as u64);
-            out
+        .with_min_len(256)
+        .map(|i| {
+            if let Some(class) = lattice[i] {
+                return class;
+            }
+            bar.inc(1);
+            match agreed_corner_class(sdf, &lattice, i) {
+                Some(class) if sdf.distance[i] > reach => class,
+                _ => rays.classify(bvh, i),
+            }
         })
         .collect();
     bar.finish_and_clear();
     classes
+}
+
+/// The class shared by all lattice voxels bracketing voxel `i` (per axis: the
+/// coordinate itself when even, its two odd neighbours' even neighbours
+/// otherwise), or `None` when they disagree or the grid edge cuts the bracket.
+fn agreed_corner_class(sdf: &Sdf, lattice: &[Option<VoxelClass>], i: usize) -> Option<VoxelClass> {
+    let v = sdf.coords(i);
+    let bracket = |c: u32, n: u32| -> Option<(u32, u32)> {
+        if c.is_multiple_of(2) {
+            Some((c, c))
+        } else if c + 1 < n {
+            Some((c - 1, c + 1))
+        } else {
+            None
+        }
+    };
+    let (x0, x1) = bracket(v.x, sdf.dims.x)?;
+    let (y0, y1) = bracket(v.y, sdf.dims.y)?;
+    let (z0, z1) = bracket(v.z, sdf.dims.z)?;
+    let mut agreed = None;
+    for z in [z0, z1] {
+        for y in [y0, y1] {
+            for x in [x0, x1] {
+                let class = lattice[sdf.index(UVec3::new(x, y, z))]?;
+                if agreed.is_some_and(|a| a != class) {
+                    return None;
+                }
+                agreed = Some(class);
+            }
+        }
+    }
+    agreed
+}
+
+/// The per-voxel ray rule of the module docs.
+struct RayClassifier<'a> {
+    sdf: &'a Sdf,
+    seed: u64,
+    directions: Vec<Vec3>,
+    solid_limit: f32,
+    outside_limit: f32,
+    /// Hits closer than this are the surface the centre lies on: skipped.
+    tmin: f32,
+    /// Coplanar front/back pairs within this distance count as back faces.
+    tie: f32,
+}
+
+impl<'a> RayClassifier<'a> {
+    fn new(sdf: &'a Sdf, params: &SdfParams, seed: u64) -> Self {
+        let n = params.rays_per_voxel.0;
+        RayClassifier {
+            sdf,
+            seed,
+            directions: interleaved(fibonacci_sphere(n), FIRST_STAGE_RAYS),
+            solid_limit: params.solid_backface_fraction.0 * n as f32,
+            outside_limit: params.outside_escape_fraction.0 * n as f32,
+            tmin: 1e-4 * sdf.voxel_size,
+            tie: 1e-3 * sdf.voxel_size,
+        }
+    }
+
+    /// Classifies voxel `i` by casting rays from its centre.
+    fn classify(&self, bvh: &SceneBvh, i: usize) -> VoxelClass {
+        let c = self.sdf.center(i);
+        let rot = random_rotation(hash2(self.seed, i as u64));
+        let n = self.directions.len();
+        let (mut back, mut escaped) = (0u32, 0u32);
+        for (k, d) in self.directions.iter().enumerate() {
+            match bvh.closest_hit_prefer_back(c, rot * *d, self.tmin, f32::INFINITY, self.tie) {
+                Some(h) if h.backface => back += 1,
+                Some(_) => {}
+                None => escaped += 1,
+            }
+            if back as f32 > self.solid_limit {
+                return VoxelClass::Solid;
+            }
+            let cast = k + 1;
+            // First stage: a unanimous first octet of front-face hits settles free space.
+            if cast == FIRST_STAGE_RAYS && back == 0 && escaped == 0 {
+                return VoxelClass::Free;
+            }
+            // Decided when no remaining ray can change the outcome.
+            let left = (n - cast) as f32;
+            if back as f32 + left <= self.solid_limit
+                && (escaped as f32 > self.outside_limit
+                    || escaped as f32 + left <= self.outside_limit)
+            {
+                break;
+            }
+        }
+        if escaped as f32 > self.outside_limit {
+            VoxelClass::Outside
+        } else {
+            VoxelClass::Free
+        }
+    }
 }
 
 /// Reorders `dirs` so that its first `k` entries stride across the whole
@@ -505,6 +589,22 @@ mod tests {
             free.is_empty(),
             "voxels inside the corner box not solid: {free:?}"
         );
+    }
+
+    #[test]
+    fn lattice_inheritance_matches_direct_rays_on_solidity() {
+        let (_, bvh, sdf) = room_sdf(0.2, 3);
+        let rays = RayClassifier::new(&sdf, &SdfParams::default(), 3);
+        for i in 0..sdf.len() {
+            let direct = rays.classify(&bvh, i);
+            assert_eq!(
+                direct == VoxelClass::Solid,
+                sdf.class[i] == VoxelClass::Solid,
+                "voxel {} at {}",
+                i,
+                sdf.center(i)
+            );
+        }
     }
 
     #[test]
