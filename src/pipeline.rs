@@ -63,6 +63,8 @@ pub fn place(config_path: &Path, options: &PlaceOptions) -> Result<PlaceOutcome>
         config.seed = s;
     }
     let out_dir = options.out.clone().unwrap_or_else(|| config.output.clone());
+    // Fail before the expensive stages, not after them.
+    report::check_output_dir(&out_dir)?;
 
     let t = Instant::now();
     let scene = scene::load_obj(&config.scene, config.scale.0, config.up)?;
