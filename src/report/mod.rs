@@ -271,14 +271,20 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     Ok(())
 }
 
-/// Creates the output directory, or explains in one line why it cannot.
-pub fn prepare_output_dir(dir: &Path) -> Result<()> {
+/// Refuses an output path that exists and is not a directory.
+pub fn check_output_dir(dir: &Path) -> Result<()> {
     if dir.exists() && !dir.is_dir() {
         return Err(Error::user_file(
             dir,
             "output path exists and is not a directory",
         ));
     }
+    Ok(())
+}
+
+/// Creates the output directory, or explains in one line why it cannot.
+pub fn prepare_output_dir(dir: &Path) -> Result<()> {
+    check_output_dir(dir)?;
     std::fs::create_dir_all(dir)
         .map_err(|e| Error::user_file(dir, format!("cannot create output directory: {e}")))
 }
