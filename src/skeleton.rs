@@ -18,8 +18,12 @@
 //!    distance to the surface *and visible from it*, so that a cluster's voxels
 //!    share most of their view (the visibility-region property above).
 //! 4. **Place** one probe at each cluster's centroid; when the centroid is
-//!    not a free, unculled voxel (clusters bend around corners), the probe
-//!    moves to the cluster's voxel nearest to the centroid.
+//!    not in a free, unculled voxel or not visible from the seed (clusters
+//!    bend around corners), the probe moves to the cluster's voxel nearest to
+//!    the centroid.
+//!
+//! A domain too small for a medial axis to show clusters all unculled voxels
+//! instead.
 
 use crate::config::SdfSkeletonParams;
 use crate::error::{Error, Result};
