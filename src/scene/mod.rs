@@ -196,7 +196,10 @@ pub fn to_file(p: Vec3, scale: f32, up: UpAxis) -> Vec3 {
 
 /// Loads an OBJ file into world space.
 ///
-/// Contract: quads and polygons are fan-triangulated by tobj; negative
+/// Contract: every stage works with geometric normals (the winding's
+/// `(b-a)×(c-a)`), whether or not the file has normals: placement and
+/// coverage need the side a face is seen from, not a smoothed shading normal.
+/// Quads and polygons are fan-triangulated by tobj; negative
 /// indices are resolved; faces are kept in file order; degenerate or
 /// non-finite triangles are dropped and counted in one warning; a missing or
 /// unreadable MTL is a warning and every face gets [`Material::fallback`].
