@@ -94,21 +94,7 @@ impl SceneBvh {
 
     /// Closest hit along `origin + t·dir` for `t` in `(tmin, tmax)`; `dir` must be unit length.
     pub fn closest_hit(&self, origin: Vec3, dir: Vec3, tmin: f32, tmax: f32) -> Option<Hit> {
-        let ray = Ray::new(origin.into(), dir.into(), tmin, tmax);
-        let mut hit = RayHit::none();
-        if self
-            .bvh
-            .ray_traverse(ray, &mut hit, |r, id| self.triangles[id].intersect(r))
-        {
-            let slot = hit.primitive_id as usize;
-            Some(Hit {
-                t: hit.t,
-                triangle: self.scene_index[slot],
-                backface: self.normals[slot].dot(dir.into()) > 0.0,
-            })
-        } else {
-            None
-        }
+        self.closest_hit_prefer_back(origin, dir, tmin, tmax, 0.0)
     }
 
     /// Closest hit, where a back face within `tie` beyond a front face wins.
@@ -147,30 +133,6 @@ impl SceneBvh {
             triangle: self.scene_index[slot],
             backface,
         })
-    }
-
-    /// Closest hit ignoring triangles whose front faces away from the ray
-    /// (back-face culling), for cut-away views of closed rooms.
-    pub fn closest_front_hit(&self, origin: Vec3, dir: Vec3, tmax: f32) -> Option<Hit> {
-        let ray = Ray::new(origin.into(), dir.into(), 0.0, tmax);
-        let d: Vec3A = dir.into();
-        let mut hit = RayHit::none();
-        if self.bvh.ray_traverse(ray, &mut hit, |r, id| {
-            if self.normals[id].dot(d) > 0.0 {
-                f32::INFINITY
-            } else {
-                self.triangles[id].intersect(r)
-            }
-        }) {
-            let slot = hit.primitive_id as usize;
-            Some(Hit {
-                t: hit.t,
-                triangle: self.scene_index[slot],
-                backface: false,
-            })
-        } else {
-            None
-        }
     }
 
     /// Whether anything blocks the open segment from `a` to `b`. The ends are
@@ -230,11 +192,6 @@ mod tests {
             .unwrap();
         assert!(below.backface);
         assert!(bvh.closest_hit(o, Vec3::X, 0.0, f32::INFINITY).is_none());
-        // Culling skips the floor's back and finds the ceiling's front.
-        let culled = bvh
-            .closest_front_hit(Vec3::new(-0.5, -1.0, 0.5), up_dir, f32::INFINITY)
-            .unwrap();
-        assert_eq!(culled.triangle, 1);
     }
 
     #[test]
