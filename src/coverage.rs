@@ -107,8 +107,8 @@ pub struct ProbeHealth {
 pub fn sample_surface(scene: &Scene, n: usize, seed: u64) -> Vec<SurfaceSample> {
     let mut cdf = Vec::with_capacity(scene.triangles.len());
     let mut total = 0.0f64;
-    for t in &scene.triangles {
-        total += 0.5 * (t[1] - t[0]).cross(t[2] - t[0]).length() as f64;
+    for area in scene.triangle_areas() {
+        total += area;
         cdf.push(total);
     }
     (0..n)

@@ -5,14 +5,19 @@ mod common;
 use common::*;
 use std::path::Path;
 
-/// A config in `dir` pointing at `scene`, with `body` replacing the defaults.
+/// `dir/run.ron`: the minimal config for `scene`, plus the fields in `extra`.
 fn config(dir: &Path, scene: &str, extra: &str) -> std::path::PathBuf {
-    let p = dir.join("run.ron");
-    std::fs::write(
-        &p,
-        format!("(\n    scene: \"{scene}\",\n    voxel_size: 0.1,\n    placement: SdfSkeleton(()),\n{extra})\n"),
+    raw_config(
+        dir,
+        "run.ron",
+        &format!("(\n    scene: \"{scene}\",\n    voxel_size: 0.1,\n    placement: SdfSkeleton(()),\n{extra})\n"),
     )
-    .unwrap();
+}
+
+/// Writes a config of exactly `text` as `dir/name`.
+fn raw_config(dir: &Path, name: &str, text: &str) -> std::path::PathBuf {
+    let p = dir.join(name);
+    std::fs::write(&p, text).unwrap();
     p
 }
 
@@ -108,12 +113,11 @@ fn empty_obj() {
 #[test]
 fn malformed_ron() {
     let d = tempfile::tempdir().unwrap();
-    let p = d.path().join("broken.ron");
-    std::fs::write(
-        &p,
+    let p = raw_config(
+        d.path(),
+        "broken.ron",
         "(\n  scene: \"a.obj\",\n  voxel_size: 0.1\n  placement: Grid((cells: (1,1,1))),\n)",
-    )
-    .unwrap();
+    );
     let e = fails(&p, &[]);
     assert!(e.contains("broken.ron:4:"), "line and column expected: {e}");
 }
@@ -137,12 +141,11 @@ fn unknown_method() {
     assert!(e.contains("--method voronoi"), "{e}");
     let e = fails(&c, &["--method", "grid:2x0x2"]);
     assert!(e.contains("grid:2x0x2"), "{e}");
-    let p = d.path().join("m.ron");
-    std::fs::write(
-        &p,
+    let p = raw_config(
+        d.path(),
+        "m.ron",
         "(scene: \"room.obj\", voxel_size: 0.1, placement: Voronoi(()))",
-    )
-    .unwrap();
+    );
     let e = fails(&p, &[]);
     assert!(e.contains("placement") && e.contains("Voronoi"), "{e}");
 }
@@ -152,12 +155,11 @@ fn impossible_parameters() {
     let d = tempfile::tempdir().unwrap();
     obj(d.path(), "room.obj", CUBE_ROOM);
     // Out of range in the file: negative voxel size, zero rays.
-    let p = d.path().join("neg.ron");
-    std::fs::write(
-        &p,
+    let p = raw_config(
+        d.path(),
+        "neg.ron",
         "(scene: \"room.obj\", voxel_size: -1.0, placement: SdfSkeleton(()))",
-    )
-    .unwrap();
+    );
     let e = fails(&p, &[]);
     assert!(
         e.contains("voxel_size") && e.contains("greater than 0"),
@@ -169,12 +171,11 @@ fn impossible_parameters() {
     );
     assert!(e.contains("rays_per_voxel"), "{e}");
     // Valid alone, impossible for this scene: a grid of 8e12 voxels.
-    let p = d.path().join("tiny.ron");
-    std::fs::write(
-        &p,
+    let p = raw_config(
+        d.path(),
+        "tiny.ron",
         "(scene: \"room.obj\", voxel_size: 0.00001, placement: SdfSkeleton(()))",
-    )
-    .unwrap();
+    );
     let e = fails(&p, &[]);
     assert!(
         e.contains("tiny.ron: voxel_size") && e.contains("voxels"),
@@ -186,12 +187,11 @@ fn impossible_parameters() {
 fn min_distance_that_culls_everything() {
     let d = tempfile::tempdir().unwrap();
     obj(d.path(), "room.obj", CUBE_ROOM);
-    let p = d.path().join("md.ron");
-    std::fs::write(
-        &p,
+    let p = raw_config(
+        d.path(),
+        "md.ron",
         "(scene: \"room.obj\", voxel_size: 0.1, placement: SdfSkeleton((min_distance: 5.0)))",
-    )
-    .unwrap();
+    );
     let e = fails(&p, &[]);
     assert!(
         e.contains("min_distance") && e.contains("culls every free voxel"),

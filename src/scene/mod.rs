@@ -169,10 +169,14 @@ impl Scene {
 
     /// Total surface area (one side of each triangle).
     pub fn area(&self) -> f64 {
+        self.triangle_areas().sum()
+    }
+
+    /// Area of each triangle, in order.
+    pub fn triangle_areas(&self) -> impl Iterator<Item = f64> + '_ {
         self.triangles
             .iter()
             .map(|t| 0.5 * (t[1] - t[0]).cross(t[2] - t[0]).length() as f64)
-            .sum()
     }
 }
 
