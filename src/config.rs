@@ -158,6 +158,64 @@ impl Default for SdfSkeletonParams {
     }
 }
 
+/// Most surface points the medial-axis method may sample; a `point_spacing`
+/// far below the scene's scale is a mistake, not a request for a billion points.
+pub const MAX_SURFACE_POINTS: u64 = 20_000_000;
+
+/// Parameters of the ball-shrinking medial axis placement (Wang et al. 2019,
+/// §3.1 "Ball Shrinking Skeletonization", Fig. 3; Ma, Bae, Choi 2012). Lengths
+/// left out scale with `voxel_size`, so one set of defaults suits every scene.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct MedialAxisParams {
+    /// Mean spacing of the oriented surface points (world units): one point
+    /// per `point_spacing`² of surface. `None`: 1 voxel.
+    pub point_spacing: Option<Positive>,
+    /// Pre-clustering radius (world units): surface points within it of a
+    /// cluster's seed, with normals within `precluster_angle_deg`, shrink one
+    /// ball together, and medial balls within it of a larger visible ball
+    /// merge into that ball's probe. The density control (Wang Fig. 3):
+    /// larger means fewer probes. `None`: 1.25 × the largest clearance in
+    /// the domain (the radius of its biggest empty ball), so that one value
+    /// suits a Cornell box and a palace alike.
+    pub precluster_radius: Option<Positive>,
+    /// Largest angle between a pre-cluster seed's normal and a member's.
+    pub precluster_angle_deg: Degrees,
+    /// Radius of the ball every shrink starts from (world units). `None`: the
+    /// domain's diagonal, larger than any ball that fits inside it.
+    pub initial_radius: Option<Positive>,
+    /// Guard against noise: a shrink towards a point q that the new centre c
+    /// sees at less than this angle from p (∠pcq) is refused and the ball
+    /// stops (Ma et al. 2012's separation-angle denoising).
+    pub min_separation_deg: Degrees,
+    /// Guard: most shrinking steps per ball.
+    pub max_iterations: Count<10_000>,
+    /// Medial balls smaller than this (world units) are dropped: they sit in
+    /// creases and narrow gaps, too close to a surface for a useful probe.
+    /// `None`: 3 voxels.
+    pub min_radius: Option<Positive>,
+    /// Medial balls within `cluster_radius` × the seed ball's radius (or
+    /// `precluster_radius`, if larger), and visible from its centre, join its
+    /// cluster; one probe per cluster. 1: balls whose centres lie inside the
+    /// seed's ball.
+    pub cluster_radius: Positive,
+}
+
+impl Default for MedialAxisParams {
+    fn default() -> Self {
+        MedialAxisParams {
+            point_spacing: None,
+            precluster_radius: None,
+            precluster_angle_deg: Degrees(30.0),
+            initial_radius: None,
+            min_separation_deg: Degrees(20.0),
+            max_iterations: Count(64),
+            min_radius: None,
+            cluster_radius: Positive(1.0),
+        }
+    }
+}
+
 /// Parameters of the uniform grid (McGuire et al. 2017, §4: probes on a regular grid).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
 #[serde(try_from = "RawGrid")]
@@ -198,6 +256,9 @@ impl TryFrom<RawGrid> for GridParams {
 pub enum Placement {
     /// Wang et al. 2019 §3.1: SDF culling, skeleton, clustering.
     SdfSkeleton(SdfSkeletonParams),
+    /// Wang et al. 2019 §3.1: ball-shrinking medial axis of pre-clustered
+    /// oriented surface points, clustered.
+    MedialAxis(MedialAxisParams),
     /// McGuire et al. 2017: uniform grid over the domain.
     Grid(GridParams),
 }
@@ -207,21 +268,29 @@ impl Placement {
     pub fn name(&self) -> String {
         match self {
             Placement::SdfSkeleton(_) => "sdf-skeleton".into(),
+            Placement::MedialAxis(_) => "medial-axis".into(),
             Placement::Grid(g) => {
                 format!("grid:{}x{}x{}", g.cells.0 .0, g.cells.1 .0, g.cells.2 .0)
             }
         }
     }
 
-    /// Parses a method given on the command line: `sdf-skeleton` or
-    /// `grid:NxMxK`. `base` supplies the sdf-skeleton parameters when the
-    /// config already uses that method.
+    /// Parses a method given on the command line: `sdf-skeleton`,
+    /// `medial-axis` or `grid:NxMxK`. `base` supplies the method's parameters
+    /// when the config already uses that method; otherwise they take their
+    /// defaults.
     pub fn parse_cli(text: &str, base: &Placement) -> Result<Placement> {
         let bad = |why: &str| Error::User(format!("--method {text}: {why}"));
         if text == "sdf-skeleton" {
             return Ok(match base {
                 Placement::SdfSkeleton(p) => Placement::SdfSkeleton(*p),
                 _ => Placement::SdfSkeleton(SdfSkeletonParams::default()),
+            });
+        }
+        if text == "medial-axis" {
+            return Ok(match base {
+                Placement::MedialAxis(p) => Placement::MedialAxis(*p),
+                _ => Placement::MedialAxis(MedialAxisParams::default()),
             });
         }
         if let Some(dims) = text.strip_prefix("grid:") {
@@ -242,7 +311,9 @@ impl Placement {
             .map_err(|e| bad(&e))?;
             return Ok(Placement::Grid(grid));
         }
-        Err(bad("unknown method; expected sdf-skeleton or grid:NxMxK"))
+        Err(bad(
+            "unknown method; expected sdf-skeleton, medial-axis or grid:NxMxK",
+        ))
     }
 }
 
@@ -511,6 +582,31 @@ mod tests {
     }
 
     #[test]
+    fn medial_axis_parameters_parse_and_validate() {
+        let text = MINIMAL.replace(
+            "placement: SdfSkeleton(())",
+            "placement: MedialAxis((precluster_radius: 0.5, precluster_angle_deg: 45, max_iterations: 10))",
+        );
+        let c = parse(&text).unwrap();
+        let Placement::MedialAxis(p) = c.placement else {
+            panic!("{:?}", c.placement)
+        };
+        assert_eq!(p.precluster_radius, Some(Positive(0.5)));
+        assert_eq!(p.precluster_angle_deg, Degrees(45.0));
+        assert_eq!(p.max_iterations, Count(10));
+        assert_eq!(p.cluster_radius, MedialAxisParams::default().cluster_radius);
+        let text = MINIMAL.replace(
+            "placement: SdfSkeleton(())",
+            "placement: MedialAxis((min_separation_deg: 120))",
+        );
+        let m = user_message(parse(&text));
+        assert!(
+            m.contains("placement.MedialAxis.min_separation_deg") && m.contains("90"),
+            "{m}"
+        );
+    }
+
+    #[test]
     fn trailing_garbage_is_an_error() {
         let m = user_message(parse(&format!("{MINIMAL} )")));
         assert!(m.starts_with("c.ron:"), "{m}");
@@ -543,5 +639,13 @@ mod tests {
         assert!(Placement::parse_cli("grid:1024x1024x2", &base).is_err());
         assert!(Placement::parse_cli("grid:1024x1024x1", &base).is_ok());
         assert_eq!(Placement::parse_cli("sdf-skeleton", &g).unwrap(), base);
+        let m = Placement::parse_cli("medial-axis", &base).unwrap();
+        assert_eq!(m, Placement::MedialAxis(MedialAxisParams::default()));
+        assert_eq!(m.name(), "medial-axis");
+        let tuned = Placement::MedialAxis(MedialAxisParams {
+            cluster_radius: Positive(3.0),
+            ..MedialAxisParams::default()
+        });
+        assert_eq!(Placement::parse_cli("medial-axis", &tuned).unwrap(), tuned);
     }
 }

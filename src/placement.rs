@@ -12,14 +12,16 @@ use crate::scene::{Bounds, Scene};
 use crate::sdf::Sdf;
 use crate::skeleton;
 use glam::Vec3;
+use std::collections::BTreeMap;
 
 /// One probe.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Probe {
     /// World-space position.
     pub position: Vec3,
-    /// How many skeleton voxels the probe stands for (0 for grid probes).
-    pub cluster_voxels: u32,
+    /// How many skeleton points (sdf-skeleton voxels, medial-axis balls) the
+    /// probe's cluster holds; 0 for grid probes.
+    pub cluster_size: u32,
 }
 
 /// The output of a placement stage.
@@ -29,6 +31,12 @@ pub struct ProbeSet {
     pub method: String,
     /// The probes, in a deterministic order.
     pub probes: Vec<Probe>,
+    /// What the method's steps kept and dropped (e.g. `preclusters`,
+    /// `dropped_small`), for `report.json`; empty for grids.
+    pub stats: BTreeMap<&'static str, u64>,
+    /// The method's parameters as used, defaults resolved to world units
+    /// (lengths) or degrees, for `report.json`; empty for grids.
+    pub params: BTreeMap<&'static str, f64>,
 }
 
 impl ProbeSet {
@@ -56,13 +64,15 @@ pub struct PlacementInput<'a> {
 
 /// Runs the configured placement method.
 pub fn place(method: &Placement, input: &PlacementInput) -> Result<ProbeSet> {
-    let probes = match method {
-        Placement::Grid(g) => grid(g, input.domain),
+    Ok(match method {
+        Placement::Grid(g) => ProbeSet {
+            method: method.name(),
+            probes: grid(g, input.domain),
+            stats: BTreeMap::new(),
+            params: BTreeMap::new(),
+        },
         Placement::SdfSkeleton(p) => skeleton::sdf_skeleton(p, input)?,
-    };
-    Ok(ProbeSet {
-        method: method.name(),
-        probes,
+        Placement::MedialAxis(p) => skeleton::medial_axis(p, input)?,
     })
 }
 
@@ -77,7 +87,7 @@ pub fn grid(params: &GridParams, domain: &Bounds) -> Vec<Probe> {
             for x in 0..n[0] {
                 probes.push(Probe {
                     position: domain.min + (Vec3::new(x as f32, y as f32, z as f32) + 0.5) * cell,
-                    cluster_voxels: 0,
+                    cluster_size: 0,
                 });
             }
         }

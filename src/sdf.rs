@@ -130,6 +130,18 @@ impl Sdf {
         self.len() == 0
     }
 
+    /// The largest distance to a surface over free voxels (0 when none is
+    /// free): the radius of the biggest empty ball centred in free space,
+    /// i.e. the scale of the scene's largest room.
+    pub fn largest_clearance(&self) -> f32 {
+        self.class
+            .iter()
+            .zip(&self.distance)
+            .filter(|(c, _)| **c == VoxelClass::Free)
+            .map(|(_, d)| *d)
+            .fold(0.0, f32::max)
+    }
+
     /// Voxel counts per class: (free, solid, outside).
     pub fn class_counts(&self) -> (usize, usize, usize) {
         self.class.iter().fold((0, 0, 0), |(f, s, o), c| match c {

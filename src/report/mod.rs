@@ -63,7 +63,7 @@ pub struct ProbeRecord {
     /// Class of the voxel holding the probe; `null` outside the grid.
     pub voxel_class: Option<VoxelClass>,
     /// Skeleton voxels the probe stands for (0 for grid probes).
-    pub cluster_voxels: u32,
+    pub cluster_size: u32,
 }
 
 impl ProbesFile {
@@ -88,7 +88,7 @@ impl ProbesFile {
                     position_file: to_file(p.position, scale, up).to_array(),
                     clearance: voxel.map_or(f32::NAN, |v| sdf.distance[v]),
                     voxel_class: voxel.map(|v| sdf.class[v]),
-                    cluster_voxels: p.cluster_voxels,
+                    cluster_size: p.cluster_size,
                 }
             })
             .collect();
@@ -198,6 +198,10 @@ pub struct Report {
     pub sdf: SdfRecord,
     /// Sample counts behind `coverage`.
     pub coverage_detail: Coverage,
+    /// What the placement method's steps kept and dropped (see docs/formats.md).
+    pub placement_stats: BTreeMap<&'static str, u64>,
+    /// The placement method's parameters as used, defaults resolved.
+    pub placement_params: BTreeMap<&'static str, f64>,
     /// Wall time per stage, in milliseconds, plus `total`.
     pub timings_ms: BTreeMap<String, f64>,
     /// Warnings raised during the run.
@@ -242,6 +246,8 @@ impl Report {
             domain: domain.into(),
             sdf: sdf.into(),
             coverage_detail: coverage,
+            placement_stats: probes.stats.clone(),
+            placement_params: probes.params.clone(),
             timings_ms,
             warnings,
         }

@@ -1,10 +1,6 @@
-//! Stage 2 (Wang et al. 2019 §3.1, Fig. 2): an approximate skeleton of the
-//! free space, clustered into initial probe positions.
-//!
-//! The paper's argument: each element of the scene's straight skeleton sees a
-//! region of constant visibility, so one probe per skeleton element covers the
-//! scene. The exact 3D straight skeleton is numerically fragile, so the paper
-//! approximates it from the SDF. Here, following Fig. 2 left to right:
+//! The `sdf-skeleton` method (Wang et al. 2019 §3.1 "Signed Distance Function
+//! Skeletonization", Fig. 2): the skeleton approximated from the SDF.
+//! Following Fig. 2 left to right:
 //!
 //! 1. **Cull** voxels that are solid, outside the scene, or nearer to a
 //!    surface than `min_distance` (default 4 voxels).
@@ -16,7 +12,7 @@
 //! 3. **Cluster** skeleton voxels greedily, largest distance first: a seed
 //!    takes every unclustered skeleton voxel within `cluster_radius` × its own
 //!    distance to the surface *and visible from it*, so that a cluster's voxels
-//!    share most of their view (the visibility-region property above).
+//!    share most of their view ([`super::cluster`]).
 //! 4. **Place** one probe at each cluster's centroid; when the centroid is
 //!    not in a free, unculled voxel or not visible from the seed (clusters
 //!    bend around corners), the probe moves to the cluster's voxel nearest to
@@ -25,12 +21,14 @@
 //! A domain too small for a medial axis to show clusters all unculled voxels
 //! instead.
 
+use super::cluster::cluster_by_visibility;
 use crate::config::SdfSkeletonParams;
 use crate::error::{Error, Result};
-use crate::placement::{PlacementInput, Probe};
+use crate::placement::{PlacementInput, Probe, ProbeSet};
 use crate::sdf::{Sdf, VoxelClass};
 use glam::{IVec3, Vec3};
 use rayon::prelude::*;
+use std::collections::BTreeMap;
 
 /// Default culling distance, in voxels.
 pub const DEFAULT_MIN_DISTANCE_VOXELS: f32 = 4.0;
@@ -79,19 +77,17 @@ pub fn medial_voxels(sdf: &Sdf, kept: &[usize]) -> Vec<usize> {
 /// Contract: every probe lies at the centre of a free voxel at least
 /// `min_distance` from any surface, or at a cluster centroid that itself is
 /// such a point; probes come in order of decreasing clearance; the result is
-/// deterministic. Errors ([`Error::User`], naming the parameter) when culling
+/// deterministic. The set's stats count the voxels of steps 1 and 2. Errors
+/// ([`Error::User`], naming the parameter) when culling
 /// leaves nothing.
-pub fn sdf_skeleton(params: &SdfSkeletonParams, input: &PlacementInput) -> Result<Vec<Probe>> {
+pub fn sdf_skeleton(params: &SdfSkeletonParams, input: &PlacementInput) -> Result<ProbeSet> {
     let sdf = input.sdf;
     let min_distance = params
         .min_distance
         .map_or(DEFAULT_MIN_DISTANCE_VOXELS * sdf.voxel_size, |d| d.0);
     let kept = cull(sdf, min_distance);
     if kept.is_empty() {
-        let largest = (0..sdf.len())
-            .filter(|&i| sdf.class[i] == VoxelClass::Free)
-            .map(|i| sdf.distance[i])
-            .fold(0.0f32, f32::max);
+        let largest = sdf.largest_clearance();
         return Err(Error::User(format!(
             "placement.min_distance: {min_distance} culls every free voxel (the largest clearance in the domain is {largest:.4}); lower it or the voxel_size"
         )));
@@ -101,52 +97,57 @@ pub fn sdf_skeleton(params: &SdfSkeletonParams, input: &PlacementInput) -> Resul
         // A domain too small for a medial axis to show: its clearest voxel stands in.
         skeleton = kept.clone();
     }
-    // Largest clearance first; ties by index so the order is total.
-    skeleton.sort_by(|&a, &b| sdf.distance[b].total_cmp(&sdf.distance[a]).then(a.cmp(&b)));
     let centers: Vec<Vec3> = skeleton.iter().map(|&i| sdf.center(i)).collect();
-    let mut cluster_of = vec![u32::MAX; skeleton.len()];
-    let mut probes = Vec::new();
+    let clearance: Vec<f32> = skeleton.iter().map(|&i| sdf.distance[i]).collect();
     let eps = 1e-3 * sdf.voxel_size;
-    for s in 0..skeleton.len() {
-        if cluster_of[s] != u32::MAX {
-            continue;
-        }
-        let id = probes.len() as u32;
-        let seed = centers[s];
-        let radius = params.cluster_radius.0 * sdf.distance[skeleton[s]];
-        let members: Vec<usize> = (s..skeleton.len())
-            .into_par_iter()
-            .filter(|&m| {
-                cluster_of[m] == u32::MAX
-                    && centers[m].distance_squared(seed) <= radius * radius
-                    && (m == s || !input.bvh.occluded(seed, centers[m], eps))
-            })
-            .collect();
-        for &m in &members {
-            cluster_of[m] = id;
-        }
-        let centroid = members.iter().map(|&m| centers[m]).sum::<Vec3>() / members.len() as f32;
-        let free = sdf
-            .voxel_at(centroid)
-            .is_some_and(|v| sdf.class[v] == VoxelClass::Free && sdf.distance[v] >= min_distance);
-        let position = if free && !input.bvh.occluded(seed, centroid, eps) {
-            centroid
-        } else {
-            members
-                .iter()
-                .map(|&m| centers[m])
-                .min_by(|a, b| {
-                    a.distance_squared(centroid)
-                        .total_cmp(&b.distance_squared(centroid))
-                })
-                .unwrap_or(seed)
-        };
-        probes.push(Probe {
-            position,
-            cluster_voxels: members.len() as u32,
-        });
-    }
-    Ok(probes)
+    let clusters = cluster_by_visibility(
+        &centers,
+        &clearance,
+        params.cluster_radius.0,
+        0.0,
+        input.bvh,
+        eps,
+    );
+    let stats = BTreeMap::from([
+        ("unculled_voxels", kept.len() as u64),
+        ("skeleton_voxels", skeleton.len() as u64),
+    ]);
+    let probes = clusters
+        .par_iter()
+        .map(|c| {
+            let seed = centers[c.seed];
+            let centroid =
+                c.members.iter().map(|&m| centers[m]).sum::<Vec3>() / c.members.len() as f32;
+            let free = sdf.voxel_at(centroid).is_some_and(|v| {
+                sdf.class[v] == VoxelClass::Free && sdf.distance[v] >= min_distance
+            });
+            let position = if free && !input.bvh.occluded(seed, centroid, eps) {
+                centroid
+            } else {
+                c.members
+                    .iter()
+                    .map(|&m| centers[m])
+                    .min_by(|a, b| {
+                        a.distance_squared(centroid)
+                            .total_cmp(&b.distance_squared(centroid))
+                    })
+                    .unwrap_or(seed)
+            };
+            Probe {
+                position,
+                cluster_size: c.members.len() as u32,
+            }
+        })
+        .collect();
+    Ok(ProbeSet {
+        method: "sdf-skeleton".into(),
+        probes,
+        stats,
+        params: BTreeMap::from([
+            ("min_distance", min_distance as f64),
+            ("cluster_radius", params.cluster_radius.0 as f64),
+        ]),
+    })
 }
 
 #[cfg(test)]
@@ -176,7 +177,7 @@ mod tests {
             seed: 5,
             progress: &Progress::hidden(),
         };
-        sdf_skeleton(&params, &input)
+        sdf_skeleton(&params, &input).map(|set| set.probes)
     }
 
     #[test]
@@ -222,7 +223,7 @@ mod tests {
                 p.position,
                 sdf.distance[v]
             );
-            assert!(p.cluster_voxels >= 1);
+            assert!(p.cluster_size >= 1);
         }
     }
 
