@@ -6,7 +6,9 @@
 //! BENCHMARKS.md; compare ratios within one run, the machines are shared.
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use probeplace::config::{Config, CoverageParams, Placement, SdfParams, SdfSkeletonParams};
+use probeplace::config::{
+    Config, CoverageParams, MedialAxisParams, Placement, SdfParams, SdfSkeletonParams,
+};
 use probeplace::coverage::CoverageReference;
 use probeplace::placement::{place, PlacementInput};
 use probeplace::progress::Progress;
@@ -52,6 +54,10 @@ fn stages(c: &mut Criterion, name: &str, config: &str) {
     let method = Placement::SdfSkeleton(SdfSkeletonParams::default());
     g.bench_function("sdf-skeleton", |b| {
         b.iter(|| place(&method, &input).unwrap())
+    });
+    let medial = Placement::MedialAxis(MedialAxisParams::default());
+    g.bench_function("medial-axis", |b| {
+        b.iter(|| place(&medial, &input).unwrap())
     });
     let probes = place(&method, &input).unwrap().positions();
     let cov = CoverageParams::default();

@@ -9,7 +9,7 @@
 //! | load the scene | [`scene`] | — |
 //! | ray casting | [`scene::raycast`] | — |
 //! | signed distance field | [`sdf`] | Wang §3.1 |
-//! | skeleton and clustering | [`skeleton`] | Wang §3.1, Fig. 2 |
+//! | skeletons (SDF, medial axis) and clustering | [`skeleton`] | Wang §3.1, Figs. 2–3; Ma et al. 2012 |
 //! | uniform grid baseline | [`placement`] | McGuire §4 |
 //! | coverage | [`coverage`] | Wang §2, §3.2 |
 //! | outputs | [`report`] | — |

@@ -25,7 +25,7 @@ enum Command {
         /// Output directory (default: the config's `output`).
         #[arg(long)]
         out: Option<PathBuf>,
-        /// Placement method: `sdf-skeleton` or `grid:NxMxK` (default: the config's).
+        /// Placement method: `sdf-skeleton`, `medial-axis` or `grid:NxMxK` (default: the config's).
         #[arg(long)]
         method: Option<String>,
         /// Random seed (default: the config's).

@@ -25,7 +25,7 @@ pub const PREVIEW_VIEW_SIZE: u32 = 512;
 pub struct PlaceOptions {
     /// Output directory instead of the config's `output`.
     pub out: Option<PathBuf>,
-    /// Method instead of the config's `placement` (`sdf-skeleton`, `grid:NxMxK`).
+    /// Method instead of the config's `placement` (`sdf-skeleton`, `medial-axis`, `grid:NxMxK`).
     pub method: Option<String>,
     /// Seed instead of the config's `seed`.
     pub seed: Option<u64>,

@@ -200,6 +200,54 @@ fn min_distance_that_culls_everything() {
 }
 
 #[test]
+fn medial_axis_mistakes_name_their_field() {
+    let d = tempfile::tempdir().unwrap();
+    obj(d.path(), "room.obj", CUBE_ROOM);
+    for (placement, field, why) in [
+        // 1e-5 spacing over the 24 m² room: 2.4e11 points.
+        (
+            "MedialAxis((point_spacing: 0.00001))",
+            "ma.ron: placement.point_spacing",
+            "limit",
+        ),
+        // The 2 m room's largest ball has a radius of 1.
+        (
+            "MedialAxis((min_radius: 5.0))",
+            "ma.ron: placement.min_radius",
+            "no medial ball",
+        ),
+        (
+            "MedialAxis((precluster_angle_deg: 0))",
+            "ma.ron:1:",
+            "precluster_angle_deg",
+        ),
+        (
+            "MedialAxis((max_iterations: 0))",
+            "ma.ron:1:",
+            "max_iterations",
+        ),
+        (
+            "MedialAxis((cluster_radius: -1))",
+            "ma.ron:1:",
+            "cluster_radius",
+        ),
+        (
+            "MedialAxis((precluster_radius: 1, shrink: 2))",
+            "ma.ron:1:",
+            "shrink",
+        ),
+    ] {
+        let p = raw_config(
+            d.path(),
+            "ma.ron",
+            &format!("(scene: \"room.obj\", voxel_size: 0.1, placement: {placement})"),
+        );
+        let e = fails(&p, &[]);
+        assert!(e.contains(field) && e.contains(why), "{placement}: {e}");
+    }
+}
+
+#[test]
 fn domain_box_away_from_the_scene() {
     let d = tempfile::tempdir().unwrap();
     obj(d.path(), "room.obj", CUBE_ROOM);

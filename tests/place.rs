@@ -79,16 +79,18 @@ fn grid_method_from_the_command_line() {
 
 #[test]
 fn same_config_and_seed_give_byte_identical_probes() {
-    let (a, b) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
-    let cfg = root().join("configs/cornell.ron");
-    place(&cfg, a.path(), &[]);
-    place(&cfg, b.path(), &[]);
-    for f in ["probes.json", "placement.png"] {
-        assert_eq!(
-            std::fs::read(a.path().join(f)).unwrap(),
-            std::fs::read(b.path().join(f)).unwrap(),
-            "{f} differs between identical runs"
-        );
+    for method in ["sdf-skeleton", "medial-axis"] {
+        let (a, b) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
+        let cfg = root().join("configs/cornell.ron");
+        place(&cfg, a.path(), &["--method", method]);
+        place(&cfg, b.path(), &["--method", method]);
+        for f in ["probes.json", "placement.png"] {
+            assert_eq!(
+                std::fs::read(a.path().join(f)).unwrap(),
+                std::fs::read(b.path().join(f)).unwrap(),
+                "{method}: {f} differs between identical runs"
+            );
+        }
     }
 }
 

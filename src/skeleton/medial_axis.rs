@@ -17,9 +17,9 @@
 //!    catches a ball that slipped through a hole in the mesh.
 //! 5. **Cluster** the kept centres by visibility, largest ball first
 //!    ([`super::cluster`]): a seed takes the visible centres within
-//!    `cluster_radius` × its clearance (by default its own ball: a centre
-//!    inside a larger empty ball sees little that ball's centre does not),
-//!    or within `precluster_radius`, whichever is larger. One probe stands
+//!    `cluster_radius` × its clearance (by default its own ball, so the
+//!    merged centres lie in empty space the seed's ball already spans), or
+//!    within `precluster_radius`, whichever is larger. One probe stands
 //!    at each seed, the centre of the cluster's largest ball, where a probe
 //!    sees the most. A seed is a kept centre, so no probe stands in solid or
 //!    outside space.
@@ -133,7 +133,17 @@ impl Resolved {
 pub fn medial_axis(params: &MedialAxisParams, input: &PlacementInput) -> Result<ProbeSet> {
     let sdf = input.sdf;
     let r = Resolved::new(params, sdf, input.domain.size().length());
-    let mut stats = BTreeMap::new();
+    let mut stats: BTreeMap<&'static str, u64> = [
+        "unconverged_balls",
+        "dropped_unbounded",
+        "dropped_noise",
+        "dropped_small",
+        "dropped_outside_domain",
+        "dropped_not_free",
+    ]
+    .into_iter()
+    .map(|k| (k, 0))
+    .collect();
 
     let surface = sample_surface_points(input.scene, sdf, r.point_spacing, input.seed)?;
     stats.insert("surface_points", surface.positions.len() as u64);
@@ -284,10 +294,19 @@ mod tests {
     }
 
     #[test]
-    fn deterministic_for_a_seed() {
+    fn deterministic_for_a_seed_whatever_the_thread_count() {
         let (scene, bvh, sdf) = room_sdf(0.2, 5);
-        let a = run(&scene, &bvh, &sdf, MedialAxisParams::default()).unwrap();
-        let b = run(&scene, &bvh, &sdf, MedialAxisParams::default()).unwrap();
+        let params = MedialAxisParams {
+            precluster_radius: Some(Positive(0.4)),
+            ..MedialAxisParams::default()
+        };
+        let a = run(&scene, &bvh, &sdf, params).unwrap();
+        let one_thread = rayon::ThreadPoolBuilder::new()
+            .num_threads(1)
+            .build()
+            .unwrap();
+        let b = one_thread.install(|| run(&scene, &bvh, &sdf, params).unwrap());
+        assert!(a.probes.len() > 1);
         assert_eq!(a, b);
     }
 
