@@ -232,6 +232,60 @@ mod tests {
     }
 
     #[test]
+    fn a_flipped_face_is_oriented_by_free_space_not_winding() {
+        // The room of `room_with_box`, with the box's top face wound the
+        // wrong way (normal into the box).
+        use crate::scene::testing::add_box;
+        use crate::scene::{Material, Scene};
+        let mut tris = Vec::new();
+        add_box(&mut tris, Vec3::ZERO, Vec3::splat(4.0), true);
+        add_box(
+            &mut tris,
+            Vec3::new(1.0, 0.0, 1.0),
+            Vec3::new(2.0, 1.0, 2.0),
+            false,
+        );
+        let mut flipped = 0;
+        for t in tris.iter_mut() {
+            if t.iter().all(|v| v.y == 1.0) {
+                t.swap(1, 2);
+                flipped += 1;
+            }
+        }
+        assert_eq!(flipped, 2);
+        let scene = Scene::from_triangles(
+            "flipped".into(),
+            tris.into_iter().map(|t| (t, 0)),
+            vec![Material::fallback()],
+        )
+        .unwrap();
+        let bvh = crate::scene::raycast::SceneBvh::new(&scene);
+        let sdf = crate::sdf::build(
+            &scene,
+            &bvh,
+            &scene.bounds,
+            0.2,
+            &crate::config::SdfParams::default(),
+            1,
+            &crate::progress::Progress::hidden(),
+        )
+        .unwrap();
+        let pts = sample_surface_points(&scene, &sdf, 0.1, 1).unwrap();
+        let on_top: Vec<&OrientedPoint> = pts
+            .oriented
+            .iter()
+            .filter(|p| {
+                (p.position.y - 1.0).abs() < 1e-6 && p.position.x > 1.0 && p.position.x < 2.0
+            })
+            .collect();
+        assert!(on_top.len() > 50, "{}", on_top.len());
+        assert!(
+            on_top.iter().all(|p| p.normal == Vec3::Y),
+            "top points face up"
+        );
+    }
+
+    #[test]
     fn samples_are_evenly_spread() {
         // One 1 m² square (two triangles) at spacing 0.1: ~100 points, and
         // no point far from the others, unlike independent random samples.
