@@ -11,7 +11,7 @@ use crate::progress::Progress;
 use crate::report::{self, preview, ProbesFile, Report};
 use crate::scene::raycast::SceneBvh;
 use crate::scene::{self, Bounds, Scene};
-use crate::sdf;
+use crate::sdf::{self, Sdf};
 use glam::Vec3;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -50,9 +50,6 @@ pub struct PlaceOutcome {
 pub fn place(config_path: &Path, options: &PlaceOptions) -> Result<PlaceOutcome> {
     let t_start = Instant::now();
     let mut timings = BTreeMap::new();
-    let mut lap = |name: &str, since: Instant| {
-        timings.insert(name.to_string(), since.elapsed().as_secs_f64() * 1e3);
-    };
     let progress = Progress::new(options.progress);
 
     let mut config = Config::load(config_path)?;
@@ -66,60 +63,38 @@ pub fn place(config_path: &Path, options: &PlaceOptions) -> Result<PlaceOutcome>
     // Fail before the expensive stages, not after them.
     report::check_output_dir(&out_dir)?;
 
-    let t = Instant::now();
-    let scene = scene::load_obj(&config.scene, config.scale.0, config.up)?;
-    lap("load", t);
-
-    // Errors of the stages below name a config field: say which config.
-    let domain = resolve_domain(&config.domain, &scene).map_err(|e| e.in_file(config_path))?;
-    let t = Instant::now();
-    let bvh = SceneBvh::new(&scene);
-    lap("bvh", t);
-
-    let t = Instant::now();
-    let sdf = sdf::build(
-        &scene,
-        &bvh,
-        &domain,
-        config.voxel_size.0,
-        &config.sdf,
-        config.seed,
-        &progress,
-    )
-    .map_err(|e| e.in_file(config_path))?;
-    lap("sdf", t);
+    let prepared = prepare(&config, config_path, &progress, &mut timings)?;
+    let Prepared {
+        scene,
+        domain,
+        bvh,
+        sdf,
+    } = &prepared;
 
     let t = Instant::now();
     let probes = placement::place(
         &config.placement,
-        &PlacementInput {
-            scene: &scene,
-            bvh: &bvh,
-            sdf: &sdf,
-            domain: &domain,
-            seed: config.seed,
-            progress: &progress,
-        },
+        &prepared.placement_input(config.seed, &progress),
     )
     .map_err(|e| e.in_file(config_path))?;
-    lap("placement", t);
+    lap(&mut timings, "placement", t);
 
     let t = Instant::now();
     let reference =
-        CoverageReference::new(&scene, &bvh, &sdf, &config.coverage, config.seed, &progress);
+        CoverageReference::new(scene, bvh, sdf, &config.coverage, config.seed, &progress);
     let positions = probes.positions();
-    let (cov, holes) = reference.evaluate_with_holes(&bvh, &positions, &progress);
-    let health = coverage::probe_health(&sdf, &domain, &positions);
-    lap("coverage", t);
+    let (cov, holes) = reference.evaluate_with_holes(bvh, &positions, &progress);
+    let health = coverage::probe_health(sdf, domain, &positions);
+    lap(&mut timings, "coverage", t);
 
     let t = Instant::now();
-    let png = render_png(&scene, &domain, &probes, &holes)?;
-    lap("preview", t);
+    let png = render_png(scene, domain, &probes, &holes)?;
+    lap(&mut timings, "preview", t);
 
     let scene_name = config.scene.display().to_string();
     let probes_json = report::to_json(&ProbesFile::new(
         &probes,
-        &sdf,
+        sdf,
         &scene_name,
         config.seed,
         config.scale.0,
@@ -136,9 +111,9 @@ pub fn place(config_path: &Path, options: &PlaceOptions) -> Result<PlaceOutcome>
     let report = Report::new(
         &config_path.display().to_string(),
         &scene_name,
-        &scene,
-        &domain,
-        &sdf,
+        scene,
+        domain,
+        sdf,
         &probes,
         config.seed,
         cov,
@@ -153,6 +128,77 @@ pub fn place(config_path: &Path, options: &PlaceOptions) -> Result<PlaceOutcome>
     report::write_atomic(&out_dir.join("placement.png"), &png)?;
     report::write_atomic(&out_dir.join("report.json"), &report_json)?;
     Ok(PlaceOutcome { out_dir, report })
+}
+
+/// The scene and what every placement method reads, built by [`prepare`].
+pub struct Prepared {
+    /// The loaded scene.
+    pub scene: Scene,
+    /// Where probes may go.
+    pub domain: Bounds,
+    /// The scene's BVH.
+    pub bvh: SceneBvh,
+    /// The SDF of the domain.
+    pub sdf: Sdf,
+}
+
+impl Prepared {
+    /// The input of a placement method over this scene.
+    pub fn placement_input<'a>(&'a self, seed: u64, progress: &'a Progress) -> PlacementInput<'a> {
+        PlacementInput {
+            scene: &self.scene,
+            bvh: &self.bvh,
+            sdf: &self.sdf,
+            domain: &self.domain,
+            seed,
+            progress,
+        }
+    }
+}
+
+/// The stages before placement (load, domain, BVH, SDF) for `config`, read
+/// from `config_path`; each stage's wall time goes into `timings` (ms).
+///
+/// Contract: errors of the stages that read config fields (domain, SDF) are
+/// prefixed with `config_path`; scene errors name the scene file themselves.
+pub fn prepare(
+    config: &Config,
+    config_path: &Path,
+    progress: &Progress,
+    timings: &mut BTreeMap<String, f64>,
+) -> Result<Prepared> {
+    let t = Instant::now();
+    let scene = scene::load_obj(&config.scene, config.scale.0, config.up)?;
+    lap(timings, "load", t);
+
+    let domain = resolve_domain(&config.domain, &scene).map_err(|e| e.in_file(config_path))?;
+    let t = Instant::now();
+    let bvh = SceneBvh::new(&scene);
+    lap(timings, "bvh", t);
+
+    let t = Instant::now();
+    let sdf = sdf::build(
+        &scene,
+        &bvh,
+        &domain,
+        config.voxel_size.0,
+        &config.sdf,
+        config.seed,
+        progress,
+    )
+    .map_err(|e| e.in_file(config_path))?;
+    lap(timings, "sdf", t);
+    Ok(Prepared {
+        scene,
+        domain,
+        bvh,
+        sdf,
+    })
+}
+
+/// Records the milliseconds since `since` as stage `name`.
+fn lap(timings: &mut BTreeMap<String, f64>, name: &str, since: Instant) {
+    timings.insert(name.to_string(), since.elapsed().as_secs_f64() * 1e3);
 }
 
 /// The domain box in world space: the scene bounds, or the config's box,

@@ -5,37 +5,21 @@
 mod common;
 use common::*;
 use probeplace::config::{Config, MedialAxisParams, Placement, Positive};
-use probeplace::placement::{self, PlacementInput};
+use probeplace::placement;
 use probeplace::progress::Progress;
-use probeplace::scene::raycast::SceneBvh;
-use probeplace::{pipeline, scene, sdf};
+use probeplace::{pipeline, sdf};
 
 /// Probe counts of `medial-axis` on `config` for each pre-clustering radius
 /// (in voxels), everything else at its defaults; the SDF is built once.
 fn counts_by_precluster_radius(config: &str, radii_voxels: &[f32]) -> Vec<usize> {
-    let config = Config::load(&root().join(config)).unwrap();
-    let scene = scene::load_obj(&config.scene, config.scale.0, config.up).unwrap();
-    let domain = pipeline::resolve_domain(&config.domain, &scene).unwrap();
-    let bvh = SceneBvh::new(&scene);
+    let path = root().join(config);
+    let config = Config::load(&path).unwrap();
     let progress = Progress::hidden();
-    let sdf = sdf::build(
-        &scene,
-        &bvh,
-        &domain,
-        config.voxel_size.0,
-        &config.sdf,
-        config.seed,
-        &progress,
-    )
-    .unwrap();
-    let input = PlacementInput {
-        scene: &scene,
-        bvh: &bvh,
-        sdf: &sdf,
-        domain: &domain,
-        seed: config.seed,
-        progress: &progress,
-    };
+    let prepared = pipeline::prepare(&config, &path, &progress, &mut Default::default()).unwrap();
+    let (input, sdf) = (
+        prepared.placement_input(config.seed, &progress),
+        &prepared.sdf,
+    );
     radii_voxels
         .iter()
         .map(|&r| {

@@ -283,7 +283,8 @@ fn quietly<T>(f: impl FnOnce() -> T + std::panic::UnwindSafe) -> Option<T> {
 pub mod testing {
     use super::raycast::SceneBvh;
     use super::{Material, Scene};
-    use crate::config::SdfParams;
+    use crate::config::{Placement, SdfParams};
+    use crate::placement::{PlacementInput, ProbeSet};
     use crate::progress::Progress;
     use crate::sdf::{self, Sdf};
     use glam::Vec3;
@@ -291,9 +292,15 @@ pub mod testing {
     /// [`room_with_box`] with its BVH and its SDF at `voxel` (default SDF parameters).
     pub fn room_sdf(voxel: f32, seed: u64) -> (Scene, SceneBvh, Sdf) {
         let scene = room_with_box();
-        let bvh = SceneBvh::new(&scene);
+        let (bvh, sdf) = bvh_and_sdf(&scene, voxel, seed);
+        (scene, bvh, sdf)
+    }
+
+    /// `scene`'s BVH and its SDF over its bounds at `voxel` (default SDF parameters).
+    pub fn bvh_and_sdf(scene: &Scene, voxel: f32, seed: u64) -> (SceneBvh, Sdf) {
+        let bvh = SceneBvh::new(scene);
         let sdf = sdf::build(
-            &scene,
+            scene,
             &bvh,
             &scene.bounds,
             voxel,
@@ -301,8 +308,28 @@ pub mod testing {
             seed,
             &Progress::hidden(),
         )
-        .expect("the test room's SDF builds");
-        (scene, bvh, sdf)
+        .expect("the test scene's SDF builds");
+        (bvh, sdf)
+    }
+
+    /// Runs placement `method` over `scene`'s bounds with seed 5.
+    pub fn place_in(
+        method: &Placement,
+        scene: &Scene,
+        bvh: &SceneBvh,
+        sdf: &Sdf,
+    ) -> crate::Result<ProbeSet> {
+        crate::placement::place(
+            method,
+            &PlacementInput {
+                scene,
+                bvh,
+                sdf,
+                domain: &scene.bounds,
+                seed: 5,
+                progress: &Progress::hidden(),
+            },
+        )
     }
 
     /// A closed room (single-sided walls facing inward) with a solid box inside

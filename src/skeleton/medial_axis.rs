@@ -241,24 +241,13 @@ pub fn medial_axis(params: &MedialAxisParams, input: &PlacementInput) -> Result<
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::config::Positive;
-    use crate::progress::Progress;
+    use crate::config::{Placement, Positive};
     use crate::scene::raycast::SceneBvh;
-    use crate::scene::testing::room_sdf;
+    use crate::scene::testing::{place_in, room_sdf};
     use crate::scene::Scene;
 
     fn run(scene: &Scene, bvh: &SceneBvh, sdf: &Sdf, params: MedialAxisParams) -> Result<ProbeSet> {
-        medial_axis(
-            &params,
-            &PlacementInput {
-                scene,
-                bvh,
-                sdf,
-                domain: &scene.bounds,
-                seed: 5,
-                progress: &Progress::hidden(),
-            },
-        )
+        place_in(&Placement::MedialAxis(params), scene, bvh, sdf)
     }
 
     #[test]

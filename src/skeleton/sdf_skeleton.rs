@@ -153,10 +153,9 @@ pub fn sdf_skeleton(params: &SdfSkeletonParams, input: &PlacementInput) -> Resul
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::config::Positive;
-    use crate::progress::Progress;
+    use crate::config::{Placement, Positive};
     use crate::scene::raycast::SceneBvh;
-    use crate::scene::testing::room_sdf;
+    use crate::scene::testing::{place_in, room_sdf};
     use crate::scene::Scene;
 
     fn setup(voxel: f32) -> (Scene, SceneBvh, Sdf) {
@@ -169,15 +168,7 @@ mod tests {
         sdf: &Sdf,
         params: SdfSkeletonParams,
     ) -> Result<Vec<Probe>> {
-        let input = PlacementInput {
-            scene,
-            bvh,
-            sdf,
-            domain: &scene.bounds,
-            seed: 5,
-            progress: &Progress::hidden(),
-        };
-        sdf_skeleton(&params, &input).map(|set| set.probes)
+        place_in(&Placement::SdfSkeleton(params), scene, bvh, sdf).map(|set| set.probes)
     }
 
     #[test]

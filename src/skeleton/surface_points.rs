@@ -76,13 +76,13 @@ pub fn sample_surface_points(
     seed: u64,
 ) -> Result<SurfacePoints> {
     let per_area = 1.0 / (spacing as f64 * spacing as f64);
-    let expected = scene.area() * per_area;
+    let areas: Vec<f64> = scene.triangle_areas().collect();
+    let expected = areas.iter().sum::<f64>() * per_area;
     if expected > MAX_SURFACE_POINTS as f64 {
         return Err(Error::User(format!(
             "placement.point_spacing: {spacing} would sample {expected:.3e} surface points (the limit is {MAX_SURFACE_POINTS}); raise it"
         )));
     }
-    let areas: Vec<f64> = scene.triangle_areas().collect();
     let a1 = 1.0 / PLASTIC;
     let a2 = 1.0 / (PLASTIC * PLASTIC);
     let samples: Vec<(Vec3, Vec3)> = (0..scene.triangles.len())
@@ -259,17 +259,7 @@ mod tests {
             vec![Material::fallback()],
         )
         .unwrap();
-        let bvh = crate::scene::raycast::SceneBvh::new(&scene);
-        let sdf = crate::sdf::build(
-            &scene,
-            &bvh,
-            &scene.bounds,
-            0.2,
-            &crate::config::SdfParams::default(),
-            1,
-            &crate::progress::Progress::hidden(),
-        )
-        .unwrap();
+        let (_, sdf) = crate::scene::testing::bvh_and_sdf(&scene, 0.2, 1);
         let pts = sample_surface_points(&scene, &sdf, 0.1, 1).unwrap();
         let on_top: Vec<&OrientedPoint> = pts
             .oriented
