@@ -43,6 +43,22 @@ impl TryFrom<f64> for Fraction {
     }
 }
 
+/// A finite number of at least zero.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(try_from = "f64")]
+pub struct NonNegative(pub f32);
+
+impl TryFrom<f64> for NonNegative {
+    type Error = String;
+    fn try_from(v: f64) -> Result<Self, String> {
+        if v.is_finite() && v >= 0.0 && v <= f32::MAX as f64 {
+            Ok(NonNegative(v as f32))
+        } else {
+            Err(format!("must be a finite number of at least 0, got {v}"))
+        }
+    }
+}
+
 /// A whole number in `1..=MAX`. The upper bounds keep a typo (an extra
 /// zero or three) from turning into an out-of-memory crash.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
@@ -364,6 +380,85 @@ impl Default for CoverageParams {
     }
 }
 
+/// Which fitness the refinement maximizes (see the `refine` module docs).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, serde::Serialize)]
+pub enum FitnessKind {
+    /// Each atlas texel is credited once, by the probe that sees it best:
+    /// `π_ij = max_k (w1·Ω^k_ij + w2·d^k_ij)·V^k_ij`, with the per-view terms
+    /// whose probe averages are Wang et al.'s Ω̄_k and d̄_k.
+    Saturating,
+    /// Wang et al. 2019 eq. 2 as written: `π_ij = Σ_k (w1·Ω̄_k + w2·d̄_k)·V^k_ij`.
+    AsWritten,
+}
+
+/// Parameters of the position refinement and the pruning and filling that
+/// follow it (Wang et al. 2019 §3.2–3.3; `refine` module docs). Lengths left
+/// out scale with the scene.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RefineParams {
+    /// Run the refinement stage at all (`--no-refine` turns it off).
+    pub enabled: bool,
+    /// The fitness to maximize.
+    pub fitness: FitnessKind,
+    /// w1 of eq. 2: weight of the view-distortion term Ω (cosine of incidence).
+    pub w_orientation: NonNegative,
+    /// w2 of eq. 2: weight of the distance term d (distance over the domain diagonal).
+    pub w_distance: NonNegative,
+    /// Side of the octahedral direction map each probe is evaluated with:
+    /// `directions`² rays per probe position (at most 256).
+    pub directions: Count<256>,
+    /// Edge of an atlas texel (world units). `None`: the spacing of the
+    /// probe's directions at the scene's largest clearance.
+    pub texel_size: Option<Positive>,
+    /// Most sweeps over all probes.
+    pub iterations: Count<10_000>,
+    /// First step of every probe (world units). `None`: half the
+    /// scene's largest clearance.
+    pub initial_step: Option<Positive>,
+    /// A probe whose step falls below this stops moving (world units). `None`: 1 voxel.
+    pub min_step: Option<Positive>,
+    /// Exponent β of the acceptance test ξ < (R(P′)/R(P))^β. `None`: the
+    /// probe count, which makes one probe's move as decisive as if it were
+    /// alone (β = 1 is the paper's rule).
+    pub acceptance_exponent: Option<Positive>,
+    /// Coverage that filling must reach and pruning must keep, as a share
+    /// of the coverable area measured by the `coverage` stage.
+    pub coverage_target: Fraction,
+    /// Drop probes the coverage target does not need.
+    pub prune: bool,
+    /// Add probes where coverage falls short of the target.
+    pub fill: bool,
+    /// Free positions tried when filling, besides the coverage reference
+    /// points (at most 1 000 000).
+    pub fill_candidates: Count<1_000_000>,
+    /// No probe moves or is added nearer than this to a surface (world
+    /// units). `None`: the placement method's own threshold.
+    pub min_clearance: Option<Positive>,
+}
+
+impl Default for RefineParams {
+    fn default() -> Self {
+        RefineParams {
+            enabled: true,
+            fitness: FitnessKind::Saturating,
+            w_orientation: NonNegative(1.0),
+            w_distance: NonNegative(1.0),
+            directions: Count(32),
+            texel_size: None,
+            iterations: Count(20),
+            initial_step: None,
+            min_step: None,
+            acceptance_exponent: None,
+            coverage_target: Fraction(0.999),
+            prune: true,
+            fill: true,
+            fill_candidates: Count(8192),
+            min_clearance: None,
+        }
+    }
+}
+
 /// A light, for the lighting stages to come (probe bake, validation render).
 #[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
 pub enum Light {
@@ -417,6 +512,9 @@ pub struct Config {
     /// Lights for the later lighting stages.
     #[serde(default)]
     pub lights: Vec<Light>,
+    /// Refinement, pruning and filling.
+    #[serde(default)]
+    pub refine: RefineParams,
 }
 
 fn unit_scale() -> Positive {

@@ -21,8 +21,12 @@
 //!   viewer is behind the surface, the very rule the SDF uses for solid space;
 //!   the outer sides of single-sided walls are thereby nobody's business;
 //! * **coverable** when some reference point sees it: references are free
-//!   voxel centres of the SDF (subsampled deterministically to
-//!   `reference_points`), i.e. wherever a probe could legally stand;
+//!   voxel centres of the SDF at least [`REFERENCE_MIN_CLEARANCE_VOXELS`]
+//!   from every surface (subsampled deterministically to
+//!   `reference_points`), i.e. wherever a probe could legally stand. Voxels
+//!   nearer than that are crossed by a surface or touch one; the only
+//!   surfaces they alone see are slivers such as the top of a roof that
+//!   reaches the domain's ceiling, which no probe can serve;
 //! * **covered** when some probe sees it (and it is coverable).
 //!
 //! `coverage = covered area / coverable area`, estimated as the ratio of
@@ -40,6 +44,10 @@ use glam::Vec3;
 use kiddo::{ImmutableKdTree, SquaredEuclidean};
 use rayon::prelude::*;
 use std::num::NonZero;
+
+/// Reference points stand at least this many voxels from every surface
+/// (module docs); no placement method puts a probe nearer.
+pub const REFERENCE_MIN_CLEARANCE_VOXELS: f32 = 1.0;
 
 /// Nearest references tried first for each sample, before all others.
 const NEAREST_FIRST: usize = 32;
@@ -66,6 +74,8 @@ pub struct CoverageReference {
     pub coverable: Vec<bool>,
     /// Number of reference points used.
     pub reference_points: usize,
+    /// The reference points (free voxel centres) themselves.
+    pub references: Vec<Vec3>,
     min_cos: f32,
     eps: f32,
 }
@@ -137,7 +147,10 @@ impl CoverageReference {
         progress: &Progress,
     ) -> CoverageReference {
         let mut free: Vec<(u64, usize)> = (0..sdf.len())
-            .filter(|&i| sdf.class[i] == VoxelClass::Free)
+            .filter(|&i| {
+                sdf.class[i] == VoxelClass::Free
+                    && sdf.distance[i] >= REFERENCE_MIN_CLEARANCE_VOXELS * sdf.voxel_size
+            })
             .map(|i| (hash2(seed, i as u64), i))
             .collect();
         free.sort_unstable();
@@ -152,6 +165,7 @@ impl CoverageReference {
             samples: Vec::new(),
             coverable: Vec::new(),
             reference_points: refs.len(),
+            references: Vec::new(),
             min_cos: params.max_incidence_deg.0.to_radians().cos(),
             eps: 1e-3 * sdf.voxel_size,
         };
@@ -174,11 +188,18 @@ impl CoverageReference {
             batch = (((target - have) as f64 / rate) * 1.05).ceil() as usize;
         }
         bar.finish_and_clear();
+        reference.references = refs;
         reference
     }
 
-    /// Whether `viewer` sees `sample` (module docs).
-    fn sees(&self, bvh: &SceneBvh, viewer: Vec3, sample: &SurfaceSample) -> bool {
+    /// Cosine of the largest incidence angle at which a sample counts as seen.
+    pub fn min_cos(&self) -> f32 {
+        self.min_cos
+    }
+
+    /// Whether `viewer` sees `sample` (module docs): the one rule behind
+    /// every coverage figure.
+    pub fn sees(&self, bvh: &SceneBvh, viewer: Vec3, sample: &SurfaceSample) -> bool {
         let to_viewer = viewer - sample.position;
         let len = to_viewer.length();
         if len <= self.eps {

@@ -12,6 +12,8 @@
 //! | skeletons (SDF, medial axis) and clustering | [`skeleton`] | Wang §3.1, Figs. 2–3; Ma et al. 2012 |
 //! | uniform grid baseline | [`placement`] | McGuire §4 |
 //! | coverage | [`coverage`] | Wang §2, §3.2 |
+//! | refinement, filling, pruning | [`refine`] | Wang §3.2–3.3, eqs. 1–3, Figs. 4–6 |
+//! | octahedral probe maps | [`lightfield`] | McGuire §3 |
 //! | outputs | [`report`] | — |
 //!
 //! [`pipeline::place`] runs them in order; the `probeplace` binary is a thin
@@ -21,9 +23,11 @@ pub mod config;
 pub mod coverage;
 pub mod error;
 pub mod fixtures;
+pub mod lightfield;
 pub mod pipeline;
 pub mod placement;
 pub mod progress;
+pub mod refine;
 pub mod report;
 pub mod sampling;
 pub mod scene;

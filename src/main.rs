@@ -34,6 +34,9 @@ enum Command {
         /// No progress bars and no summary.
         #[arg(long)]
         quiet: bool,
+        /// Skip refinement, filling and pruning (the config's `refine.enabled: false`).
+        #[arg(long)]
+        no_refine: bool,
     },
 }
 
@@ -49,12 +52,14 @@ fn main() -> ExitCode {
             method,
             seed,
             quiet,
+            no_refine,
         } => {
             let options = probeplace::pipeline::PlaceOptions {
                 out,
                 method,
                 seed,
                 progress: !quiet && std::io::stderr().is_terminal(),
+                no_refine,
             };
             match probeplace::pipeline::place(&config, &options) {
                 Ok(outcome) => {

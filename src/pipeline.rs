@@ -1,5 +1,5 @@
-//! The `place` job: config → scene → BVH → SDF → placement → coverage →
-//! outputs. Each stage is a function from the previous stage's typed output
+//! The `place` job: config → scene → BVH → SDF → placement → coverage
+//! reference → refinement → coverage → outputs. Each stage is a function from the previous stage's typed output
 //! to its own; this module only sequences them, times them, and writes the
 //! results once everything has succeeded.
 
@@ -8,6 +8,7 @@ use crate::coverage::{self, CoverageReference};
 use crate::error::{Error, Result};
 use crate::placement::{self, PlacementInput, ProbeSet};
 use crate::progress::Progress;
+use crate::refine::{self, RefineInput};
 use crate::report::{self, preview, ProbesFile, Report};
 use crate::scene::raycast::SceneBvh;
 use crate::scene::{self, Bounds, Scene};
@@ -31,6 +32,8 @@ pub struct PlaceOptions {
     pub seed: Option<u64>,
     /// Show progress bars.
     pub progress: bool,
+    /// Skip refinement whatever the config says.
+    pub no_refine: bool,
 }
 
 /// What a finished run produced.
@@ -48,16 +51,29 @@ pub struct PlaceOutcome {
 /// in the output directory (report last); on any error nothing new is written
 /// there. User mistakes come back as [`Error::User`].
 pub fn place(config_path: &Path, options: &PlaceOptions) -> Result<PlaceOutcome> {
+    place_with(Config::load(config_path)?, config_path, options)
+}
+
+/// [`place`] for a config already loaded from `config_path` (and perhaps
+/// changed by the caller, e.g. a test or a parameter sweep); `config_path`
+/// only names the file in messages and the report.
+pub fn place_with(
+    mut config: Config,
+    config_path: &Path,
+    options: &PlaceOptions,
+) -> Result<PlaceOutcome> {
     let t_start = Instant::now();
     let mut timings = BTreeMap::new();
     let progress = Progress::new(options.progress);
 
-    let mut config = Config::load(config_path)?;
     if let Some(m) = &options.method {
         config.placement = Placement::parse_cli(m, &config.placement)?;
     }
     if let Some(s) = options.seed {
         config.seed = s;
+    }
+    if options.no_refine {
+        config.refine.enabled = false;
     }
     let out_dir = options.out.clone().unwrap_or_else(|| config.output.clone());
     // Fail before the expensive stages, not after them.
@@ -82,6 +98,28 @@ pub fn place(config_path: &Path, options: &PlaceOptions) -> Result<PlaceOutcome>
     let t = Instant::now();
     let reference =
         CoverageReference::new(scene, bvh, sdf, &config.coverage, config.seed, &progress);
+    lap(&mut timings, "coverage_reference", t);
+
+    let (probes, refined) = if config.refine.enabled {
+        let t = Instant::now();
+        let input = RefineInput {
+            scene,
+            bvh,
+            sdf,
+            domain,
+            reference: &reference,
+            seed: config.seed,
+            progress: &progress,
+        };
+        let out =
+            refine::refine(&config.refine, probes, &input).map_err(|e| e.in_file(config_path))?;
+        lap(&mut timings, "refine", t);
+        (out.probes, Some((out.report, out.atlas_image)))
+    } else {
+        (probes, None)
+    };
+
+    let t = Instant::now();
     let positions = probes.positions();
     let (cov, holes) = reference.evaluate_with_holes(bvh, &positions, &progress);
     let health = coverage::probe_health(sdf, domain, &positions);
@@ -121,11 +159,28 @@ pub fn place(config_path: &Path, options: &PlaceOptions) -> Result<PlaceOutcome>
         timings,
         warnings,
     );
+    let mut report = report;
+    let atlas_png = match refined {
+        Some((refine_report, image)) => {
+            report.refine = Some(refine_report);
+            Some(encode_png(&image, "atlas.png")?)
+        }
+        None => None,
+    };
     let report_json = report::to_json(&report)?;
 
     report::prepare_output_dir(&out_dir)?;
     report::write_atomic(&out_dir.join("probes.json"), &probes_json)?;
     report::write_atomic(&out_dir.join("placement.png"), &png)?;
+    let atlas_path = out_dir.join("atlas.png");
+    match &atlas_png {
+        Some(bytes) => report::write_atomic(&atlas_path, bytes)?,
+        // An atlas from an earlier refined run would no longer match.
+        None if atlas_path.exists() => {
+            std::fs::remove_file(&atlas_path).map_err(|e| Error::io(&atlas_path, e))?
+        }
+        None => {}
+    }
     report::write_atomic(&out_dir.join("report.json"), &report_json)?;
     Ok(PlaceOutcome { out_dir, report })
 }
@@ -251,12 +306,17 @@ fn render_png(
         },
         PREVIEW_VIEW_SIZE,
     );
+    encode_png(&image, "placement.png")
+}
+
+/// PNG bytes of `image`, which will be written as `name`.
+fn encode_png(image: &image::RgbImage, name: &str) -> Result<Vec<u8>> {
     let mut bytes = Vec::new();
     image
         .write_to(
             &mut std::io::Cursor::new(&mut bytes),
             image::ImageFormat::Png,
         )
-        .map_err(|e| Error::Internal(format!("encoding placement.png: {e}")))?;
+        .map_err(|e| Error::Internal(format!("encoding {name}: {e}")))?;
     Ok(bytes)
 }

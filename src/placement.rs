@@ -37,6 +37,10 @@ pub struct ProbeSet {
     /// The method's parameters as used, defaults resolved to world units
     /// (lengths) or degrees, for `report.json`; empty for grids.
     pub params: BTreeMap<&'static str, f64>,
+    /// The nearest a probe may stand to a surface under the method's own
+    /// rule (world units): what refinement must keep to (Wang et al. 2019
+    /// §3.1 culls voxels near surfaces for the same reason).
+    pub min_clearance: f32,
 }
 
 impl ProbeSet {
@@ -70,6 +74,9 @@ pub fn place(method: &Placement, input: &PlacementInput) -> Result<ProbeSet> {
             probes: grid(g, input.domain),
             stats: BTreeMap::new(),
             params: BTreeMap::new(),
+            // A grid has no clearance rule of its own: refinement keeps its
+            // probes where the coverage measure's reference points may be.
+            min_clearance: crate::coverage::REFERENCE_MIN_CLEARANCE_VOXELS * input.sdf.voxel_size,
         },
         Placement::SdfSkeleton(p) => skeleton::sdf_skeleton(p, input)?,
         Placement::MedialAxis(p) => skeleton::medial_axis(p, input)?,

@@ -1,5 +1,5 @@
-//! The `medial-axis` method end to end: acceptance on the Cornell box and
-//! Sponza, and its density control (Wang et al. 2019 Fig. 3: pre-clustering
+//! The `medial-axis` method end to end (placement alone, `--no-refine`):
+//! acceptance on the Cornell box and Sponza, and its density control (Wang et al. 2019 Fig. 3: pre-clustering
 //! more coarsely gives fewer probes) on several scenes.
 
 mod common;
@@ -79,7 +79,7 @@ fn cornell_box_acceptance() {
     let r = place(
         &root().join("configs/cornell.ron"),
         out.path(),
-        &["--method", "medial-axis"],
+        &["--method", "medial-axis", "--no-refine"],
     );
     assert_eq!(r["method"], "medial-axis");
     assert_eq!(r["probes_in_solid"], 0);
@@ -106,7 +106,7 @@ fn dabrovic_sponza_acceptance() {
     let r = place(
         &root().join("configs/sponza.ron"),
         out.path(),
-        &["--method", "medial-axis"],
+        &["--method", "medial-axis", "--no-refine"],
     );
     assert_eq!(r["probes_in_solid"], 0);
     assert_eq!(r["probes_outside_scene"], 0);

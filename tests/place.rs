@@ -7,13 +7,32 @@ use common::*;
 fn cornell_default_run_meets_the_acceptance_bar() {
     let out = tempfile::tempdir().unwrap();
     let r = place(&root().join("configs/cornell.ron"), out.path(), &[]);
-    assert_eq!(r["method"], "sdf-skeleton");
+    // Issue 4's bar: refinement on by default, full coverage with no more
+    // probes than a 2×2×2 grid (the paper places 7).
+    assert_eq!(r["method"], "sdf-skeleton+refine");
     assert_eq!(r["probes_in_solid"], 0);
     assert_eq!(r["probes_outside_domain"], 0);
     let n = r["probe_count"].as_u64().unwrap();
-    assert!((1..=12).contains(&n), "probe_count {n}");
+    assert!((1..=8).contains(&n), "probe_count {n}");
     let cov = r["coverage"].as_f64().unwrap();
-    assert!(cov >= 0.95, "coverage {cov}");
+    assert!(cov >= 0.999, "coverage {cov}");
+    let refine = &r["refine"];
+    for field in [
+        "iterations",
+        "accepted",
+        "r_initial",
+        "r_final",
+        "coverage_initial",
+        "coverage_final",
+        "removed",
+        "added",
+    ] {
+        assert!(refine[field].is_number(), "refine.{field} missing");
+    }
+    assert_eq!(refine["coverage_final"].as_f64().unwrap(), cov);
+    assert_eq!(refine["probes_final"].as_u64().unwrap(), n);
+    assert!(refine["accepted"].as_u64().unwrap() <= refine["proposals"].as_u64().unwrap());
+    assert!(refine["r_refined"].as_f64().unwrap() >= refine["r_initial"].as_f64().unwrap());
     assert!(r["coverage_ci95"].as_f64().unwrap() <= 0.005);
     assert_eq!(r["scene"]["triangles"], 32);
     for stage in [
@@ -21,6 +40,8 @@ fn cornell_default_run_meets_the_acceptance_bar() {
         "bvh",
         "sdf",
         "placement",
+        "coverage_reference",
+        "refine",
         "coverage",
         "preview",
         "total",
@@ -51,7 +72,25 @@ fn cornell_default_run_meets_the_acceptance_bar() {
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
         .collect();
     names.sort();
-    assert_eq!(names, ["placement.png", "probes.json", "report.json"]);
+    assert_eq!(
+        names,
+        ["atlas.png", "placement.png", "probes.json", "report.json"]
+    );
+    let atlas = image::open(out.path().join("atlas.png")).unwrap().to_rgb8();
+    // Both colours of the paper's Fig. 5: seen texels and unseen ones.
+    let green = atlas.pixels().filter(|p| p.0 == [70, 180, 95]).count();
+    let red = atlas.pixels().filter(|p| p.0 == [225, 45, 40]).count();
+    assert!(green > red && red > 0, "{green} seen, {red} unseen pixels");
+
+    // --no-refine in the same directory: the placement alone, and no stale atlas.
+    let r = place(
+        &root().join("configs/cornell.ron"),
+        out.path(),
+        &["--no-refine"],
+    );
+    assert_eq!(r["method"], "sdf-skeleton");
+    assert!(r["refine"].is_null());
+    assert!(!out.path().join("atlas.png").exists());
 }
 
 #[test]
@@ -60,7 +99,7 @@ fn grid_method_from_the_command_line() {
     let r = place(
         &root().join("configs/cornell.ron"),
         out.path(),
-        &["--method", "grid:2x2x2"],
+        &["--method", "grid:2x2x2", "--no-refine"],
     );
     assert_eq!(r["method"], "grid:2x2x2");
     assert_eq!(r["probe_count"], 8);
@@ -79,12 +118,13 @@ fn grid_method_from_the_command_line() {
 
 #[test]
 fn same_config_and_seed_give_byte_identical_probes() {
-    for method in ["sdf-skeleton", "medial-axis"] {
+    // Refinement is on (the default): its Gibbs sampling is seeded too.
+    for method in ["sdf-skeleton", "medial-axis", "grid:3x3x3"] {
         let (a, b) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
         let cfg = root().join("configs/cornell.ron");
         place(&cfg, a.path(), &["--method", method]);
         place(&cfg, b.path(), &["--method", method]);
-        for f in ["probes.json", "placement.png"] {
+        for f in ["probes.json", "placement.png", "atlas.png"] {
             assert_eq!(
                 std::fs::read(a.path().join(f)).unwrap(),
                 std::fs::read(b.path().join(f)).unwrap(),

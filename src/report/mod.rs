@@ -12,6 +12,7 @@ use crate::config::UpAxis;
 use crate::coverage::{Coverage, ProbeHealth};
 use crate::error::{Error, Result};
 use crate::placement::ProbeSet;
+use crate::refine::RefineReport;
 use crate::scene::{to_file, Bounds, Scene};
 use crate::sdf::{Sdf, VoxelClass};
 use serde::Serialize;
@@ -202,6 +203,8 @@ pub struct Report {
     pub placement_stats: BTreeMap<&'static str, u64>,
     /// The placement method's parameters as used, defaults resolved.
     pub placement_params: BTreeMap<&'static str, f64>,
+    /// What refinement did; `null` when it was off.
+    pub refine: Option<RefineReport>,
     /// Wall time per stage, in milliseconds, plus `total`.
     pub timings_ms: BTreeMap<String, f64>,
     /// Warnings raised during the run.
@@ -248,6 +251,7 @@ impl Report {
             coverage_detail: coverage,
             placement_stats: probes.stats.clone(),
             placement_params: probes.params.clone(),
+            refine: None,
             timings_ms,
             warnings,
         }

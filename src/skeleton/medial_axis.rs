@@ -235,6 +235,7 @@ pub fn medial_axis(params: &MedialAxisParams, input: &PlacementInput) -> Result<
         probes,
         stats,
         params: r.report(),
+        min_clearance: 0.5 * r.min_radius,
     })
 }
 

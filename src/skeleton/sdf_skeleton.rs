@@ -147,6 +147,7 @@ pub fn sdf_skeleton(params: &SdfSkeletonParams, input: &PlacementInput) -> Resul
             ("min_distance", min_distance as f64),
             ("cluster_radius", params.cluster_radius.0 as f64),
         ]),
+        min_clearance: min_distance,
     })
 }
 

@@ -1,0 +1,344 @@
+//! Refinement: move probes to where they see the scene best, then keep the
+//! fewest that see all of it (Wang et al. 2019 §3.2–3.3).
+//!
+//! | step | file | paper |
+//! |---|---|---|
+//! | visibility atlas: surface cut into near-uniform texels | [`atlas`] | §3.2, Fig. 4 |
+//! | a probe's view: `V^k_ij`, Ω̄_k, d̄_k from its octahedral directions | [`view`] | §3.2 |
+//! | fitness `R(P)` (eqs. 1–2, and a saturating variant) with per-texel accumulators | [`fitness`] | §3.3 |
+//! | Gibbs sampling with stochastic direction steps | [`gibbs`] | §3.3, eq. 3, Fig. 6 |
+//! | fill holes and prune superfluous probes, by the coverage measure | [`prune`] | §1 "fewest probes" |
+//!
+//! The stage is [`refine`]: a placement's [`ProbeSet`] in, a refined one out,
+//! with a [`RefineReport`] and the before/after atlas picture (Fig. 5).
+//!
+//! **Which fitness.** Eq. 2 as written sums each probe's score over the
+//! texels it sees; probes do not compete, so every probe climbs towards the
+//! same most-visible spots and the fitness says nothing about what the
+//! *union* sees. The saturating variant credits each texel once, to its best
+//! view, so a probe gains only by seeing what others miss or see worse. The
+//! README records both on the same scenes; saturating is the default.
+
+pub mod atlas;
+pub mod fitness;
+pub mod gibbs;
+pub mod prune;
+pub mod view;
+
+use crate::config::{FitnessKind, RefineParams};
+use crate::coverage::CoverageReference;
+use crate::error::Result;
+use crate::placement::{Probe, ProbeSet};
+use crate::progress::Progress;
+use crate::sampling::hash2;
+use crate::scene::raycast::SceneBvh;
+use crate::scene::{Bounds, Scene};
+use crate::sdf::{Sdf, VoxelClass};
+use atlas::Atlas;
+use fitness::AtlasState;
+use glam::Vec3;
+use image::RgbImage;
+use prune::CoverMatrix;
+use serde::Serialize;
+use std::collections::BTreeMap;
+use view::{ProbeView, Viewer};
+
+/// Most pixels of each panel of `atlas.png`.
+pub const ATLAS_PANEL_PIXELS: u32 = 1 << 20;
+
+/// Colour of atlas texels some probe sees.
+const SEEN: [u8; 3] = [70, 180, 95];
+/// Colour of atlas texels no probe sees.
+const UNSEEN: [u8; 3] = [225, 45, 40];
+
+/// Everything refinement reads besides the probes.
+pub struct RefineInput<'a> {
+    /// The scene.
+    pub scene: &'a Scene,
+    /// Its BVH.
+    pub bvh: &'a SceneBvh,
+    /// SDF of the domain.
+    pub sdf: &'a Sdf,
+    /// Where probes may go.
+    pub domain: &'a Bounds,
+    /// The coverage measure's samples, which filling and pruning answer to.
+    pub reference: &'a CoverageReference,
+    /// Seed of the random choices.
+    pub seed: u64,
+    /// Progress bars.
+    pub progress: &'a Progress,
+}
+
+/// What refinement did, for `report.json` (docs/formats.md).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct RefineReport {
+    /// The fitness maximized.
+    pub fitness: FitnessKind,
+    /// Sweeps over all probes.
+    pub iterations: u32,
+    /// Proposals made.
+    pub proposals: u64,
+    /// Proposals accepted.
+    pub accepted: u64,
+    /// Proposals where a probe may not stand.
+    pub rejected_illegal: u64,
+    /// `R` of the input probes.
+    pub r_initial: f64,
+    /// `R` after the sweeps (the best set seen).
+    pub r_refined: f64,
+    /// `R` of the final probes.
+    pub r_final: f64,
+    /// Coverage (the coverage stage's measure) of the input probes.
+    pub coverage_initial: f64,
+    /// Coverage after the sweeps, before filling and pruning.
+    pub coverage_refined: f64,
+    /// Coverage of the final probes.
+    pub coverage_final: f64,
+    /// Share of the atlas area the input probes see.
+    pub atlas_coverage_initial: f64,
+    /// Share of the atlas area the final probes see.
+    pub atlas_coverage_final: f64,
+    /// Mean incidence angle (degrees) of each covered sample's best view, input probes.
+    pub best_view_incidence_deg_initial: Option<f64>,
+    /// The same for the final probes.
+    pub best_view_incidence_deg_final: Option<f64>,
+    /// Probes in.
+    pub probes_initial: usize,
+    /// Probes out.
+    pub probes_final: usize,
+    /// Probes removed by pruning (input or added).
+    pub removed: usize,
+    /// Probes added by filling (and kept).
+    pub added: usize,
+    /// Parameters as used, defaults resolved (lengths in world units).
+    pub params: BTreeMap<&'static str, f64>,
+}
+
+/// The refined probes and what came with them.
+pub struct Refined {
+    /// The final probe set.
+    pub probes: ProbeSet,
+    /// What refinement did.
+    pub report: RefineReport,
+    /// The visibility atlas before (left) and after (right), as in the
+    /// paper's Fig. 5: texels some probe sees in green, the rest in red.
+    pub atlas_image: RgbImage,
+}
+
+/// Refinement parameters with every default resolved.
+struct Resolved {
+    texel_size: f32,
+    directions: u32,
+    initial_step: f32,
+    min_step: f32,
+    beta: f64,
+    min_clearance: f32,
+    diagonal: f32,
+}
+
+impl Resolved {
+    fn new(params: &RefineParams, probes: &ProbeSet, input: &RefineInput) -> Resolved {
+        let voxel = input.sdf.voxel_size;
+        let clearance = input.sdf.largest_clearance().max(voxel);
+        let n = params.directions.0;
+        // Solid angle per direction ≈ 4π/n²: its footprint's edge at the
+        // distance of the largest clearance.
+        let spacing = (4.0 * std::f32::consts::PI).sqrt() / n as f32;
+        Resolved {
+            texel_size: params.texel_size.map_or(clearance * spacing, |t| t.0),
+            directions: n,
+            initial_step: params
+                .initial_step
+                .map_or((0.5 * clearance).max(voxel), |s| s.0),
+            min_step: params.min_step.map_or(voxel, |s| s.0),
+            beta: params
+                .acceptance_exponent
+                .map_or(probes.probes.len().max(1) as f64, |b| b.0 as f64),
+            min_clearance: params.min_clearance.map_or(probes.min_clearance, |c| c.0),
+            diagonal: input.domain.size().length(),
+        }
+    }
+
+    fn report(&self, params: &RefineParams, texels: usize) -> BTreeMap<&'static str, f64> {
+        BTreeMap::from([
+            ("texel_size", self.texel_size as f64),
+            ("atlas_texels", texels as f64),
+            ("directions", self.directions as f64),
+            ("initial_step", self.initial_step as f64),
+            ("min_step", self.min_step as f64),
+            ("acceptance_exponent", self.beta),
+            ("min_clearance", self.min_clearance as f64),
+            ("coverage_target", params.coverage_target.0 as f64),
+            ("w_orientation", params.w_orientation.0 as f64),
+            ("w_distance", params.w_distance.0 as f64),
+        ])
+    }
+}
+
+/// Whether a probe may stand at `p`: inside the domain, in a free voxel,
+/// and at least `min_clearance` from every surface (bounded from below by
+/// the voxel centre's distance minus the offset from it).
+pub fn may_stand(sdf: &Sdf, domain: &Bounds, min_clearance: f32, p: Vec3) -> bool {
+    if !domain.contains(p) {
+        return false;
+    }
+    let Some(v) = sdf.voxel_at(p) else {
+        return false;
+    };
+    sdf.class[v] == VoxelClass::Free
+        && sdf.distance[v] - (p - sdf.center(v)).length() >= min_clearance
+}
+
+/// Refines `probes` (module docs): sweeps of Gibbs sampling over the atlas
+/// fitness, then filling and pruning against the coverage measure.
+///
+/// Contract: deterministic for the same inputs and `input.seed`; no probe
+/// moves to or is added at a position where [`may_stand`] fails, and no
+/// probe moves through a surface; if the input probes, or filling, reach
+/// `coverage_target`, the output does too. Errors: an atlas over
+/// [`atlas::MAX_TEXELS`] texels (a user error naming `refine.texel_size`).
+pub fn refine(params: &RefineParams, probes: ProbeSet, input: &RefineInput) -> Result<Refined> {
+    let r = Resolved::new(params, &probes, input);
+    let atlas = Atlas::new(input.scene, r.texel_size)?;
+    let min_cos = input.reference.min_cos();
+    let viewer = Viewer::new(
+        input.scene,
+        input.bvh,
+        &atlas,
+        r.directions,
+        min_cos,
+        params.w_orientation.0,
+        params.w_distance.0,
+        r.diagonal,
+    );
+    let views_of = |ps: &[Vec3]| -> Vec<ProbeView> { ps.iter().map(|&p| viewer.view(p)).collect() };
+
+    let initial = probes.positions();
+    let mut state = AtlasState::new(params.fitness, &atlas, views_of(&initial));
+    let r_initial = state.r();
+    let atlas_initial: Vec<bool> = (0..atlas.len())
+        .map(|t| state.best_quality(t).is_some())
+        .collect();
+    let atlas_coverage_initial = state.seen_share();
+
+    let eps = 1e-3 * input.sdf.voxel_size;
+    let legal_move = |a: Vec3, b: Vec3| -> bool {
+        may_stand(input.sdf, input.domain, r.min_clearance, b) && !input.bvh.occluded(a, b, eps)
+    };
+    let sweeps = gibbs::Sweeps {
+        viewer: &viewer,
+        legal_move: &legal_move,
+        iterations: params.iterations.0,
+        initial_step: r.initial_step,
+        min_step: r.min_step,
+        beta: r.beta,
+        seed: hash2(input.seed, 0x5EF1),
+    };
+    let mut positions = initial.clone();
+    let (refined, stats) = gibbs::optimize(&sweeps, &mut state, &mut positions, input.progress);
+    let r_refined = AtlasState::new(params.fitness, &atlas, views_of(&refined)).r();
+
+    let matrix = CoverMatrix::new(input.reference, input.bvh);
+    let candidates = fill_candidates(params, &r, input);
+    let fp = matrix.fill_and_prune(
+        &refined,
+        &candidates,
+        params.coverage_target.0 as f64,
+        params.fill,
+        params.prune,
+        input.progress,
+    );
+    let mut all: Vec<Probe> = probes
+        .probes
+        .iter()
+        .zip(&refined)
+        .map(|(p, &position)| Probe {
+            position,
+            cluster_size: p.cluster_size,
+        })
+        .collect();
+    all.extend(fp.added.iter().map(|&position| Probe {
+        position,
+        cluster_size: 0,
+    }));
+    let final_probes: Vec<Probe> = fp.kept.iter().map(|&k| all[k]).collect();
+    let final_positions: Vec<Vec3> = final_probes.iter().map(|p| p.position).collect();
+    let final_state = AtlasState::new(params.fitness, &atlas, views_of(&final_positions));
+
+    let m = fp.coverable.max(1) as f64;
+    let added_kept = fp.kept.iter().filter(|&&k| k >= initial.len()).count();
+    let report = RefineReport {
+        fitness: params.fitness,
+        iterations: stats.iterations,
+        proposals: stats.proposals,
+        accepted: stats.accepted,
+        rejected_illegal: stats.illegal,
+        r_initial,
+        r_refined,
+        r_final: final_state.r(),
+        coverage_initial: matrix.covered(&initial) as f64 / m,
+        coverage_refined: fp.covered_initial as f64 / m,
+        coverage_final: fp.covered_final as f64 / m,
+        atlas_coverage_initial,
+        atlas_coverage_final: final_state.seen_share(),
+        best_view_incidence_deg_initial: matrix.best_view_incidence_deg(&initial),
+        best_view_incidence_deg_final: matrix.best_view_incidence_deg(&final_positions),
+        probes_initial: initial.len(),
+        probes_final: final_probes.len(),
+        removed: all.len() - final_probes.len(),
+        added: added_kept,
+        params: r.report(params, atlas.len()),
+    };
+    let color = |seen: bool| if seen { SEEN } else { UNSEEN };
+    let before = atlas.render(ATLAS_PANEL_PIXELS, |t| color(atlas_initial[t as usize]));
+    let after = atlas.render(ATLAS_PANEL_PIXELS, |t| {
+        color(final_state.best_quality(t as usize).is_some())
+    });
+    Ok(Refined {
+        probes: ProbeSet {
+            method: format!("{}+refine", probes.method),
+            probes: final_probes,
+            stats: probes.stats,
+            params: probes.params,
+            min_clearance: r.min_clearance,
+        },
+        report,
+        atlas_image: side_by_side(&before, &after),
+    })
+}
+
+/// Positions filling may add a probe at: the coverage reference points
+/// where a probe may stand (every coverable sample is seen by one of them),
+/// then up to `fill_candidates` other free voxel centres where a probe may
+/// stand, chosen by a seeded hash.
+fn fill_candidates(params: &RefineParams, r: &Resolved, input: &RefineInput) -> Vec<Vec3> {
+    let stand = |p: Vec3| may_stand(input.sdf, input.domain, r.min_clearance, p);
+    let mut out: Vec<Vec3> = input
+        .reference
+        .references
+        .iter()
+        .copied()
+        .filter(|&p| stand(p))
+        .collect();
+    let mut voxels: Vec<(u64, usize)> = (0..input.sdf.len())
+        .filter(|&v| stand(input.sdf.center(v)))
+        .map(|v| (hash2(hash2(input.seed, 0xF111), v as u64), v))
+        .collect();
+    voxels.sort_unstable();
+    voxels.truncate(params.fill_candidates.0 as usize);
+    out.extend(voxels.iter().map(|&(_, v)| input.sdf.center(v)));
+    out
+}
+
+/// Two panels side by side with a dark gap, top-aligned.
+fn side_by_side(a: &RgbImage, b: &RgbImage) -> RgbImage {
+    let gap = 8;
+    let mut img = RgbImage::from_pixel(
+        a.width() + gap + b.width(),
+        a.height().max(b.height()),
+        image::Rgb([0, 0, 0]),
+    );
+    image::imageops::replace(&mut img, a, 0, 0);
+    image::imageops::replace(&mut img, b, (a.width() + gap) as i64, 0);
+    img
+}
