@@ -7,11 +7,13 @@
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use probeplace::config::{
-    Config, CoverageParams, MedialAxisParams, Placement, SdfParams, SdfSkeletonParams,
+    Config, CoverageParams, FitnessKind, MedialAxisParams, Placement, RefineParams, SdfParams,
+    SdfSkeletonParams,
 };
 use probeplace::coverage::CoverageReference;
 use probeplace::placement::{place, PlacementInput};
 use probeplace::progress::Progress;
+use probeplace::refine::{self, atlas::Atlas, fitness::AtlasState, view::Viewer, RefineInput};
 use probeplace::scene::{load_obj, raycast::SceneBvh};
 use probeplace::sdf;
 use std::path::Path;
@@ -67,6 +69,47 @@ fn stages(c: &mut Criterion, name: &str, config: &str) {
                 .evaluate(&bvh, &probes, &progress)
         })
     });
+    // Refinement: the whole stage on the sdf-skeleton probes, and its hot
+    // loop: one probe view (32² rays), the incremental score of a moved
+    // probe against the full recomputation it replaces.
+    let reference = CoverageReference::new(&scene, &bvh, &field, &cov, 1, &progress);
+    let set = place(&method, &input).unwrap();
+    let refine_input = RefineInput {
+        scene: &scene,
+        bvh: &bvh,
+        sdf: &field,
+        domain: &scene.bounds,
+        reference: &reference,
+        seed: 1,
+        progress: &progress,
+    };
+    let rp = RefineParams::default();
+    g.bench_function("refine", |b| {
+        b.iter(|| refine::refine(&rp, set.clone(), &refine_input).unwrap())
+    });
+    let texel = field.largest_clearance() * (4.0 * std::f32::consts::PI).sqrt() / 32.0;
+    let atlas = Atlas::new(&scene, texel).unwrap();
+    let viewer = Viewer::new(
+        &scene,
+        &bvh,
+        &atlas,
+        32,
+        0.087,
+        1.0,
+        1.0,
+        scene.bounds.size().length(),
+    );
+    g.bench_function("refine_view_1024_rays", |b| {
+        b.iter(|| viewer.view(probes[0]))
+    });
+    let state = AtlasState::new(
+        FitnessKind::Saturating,
+        &atlas,
+        probes.iter().map(|&p| viewer.view(p)).collect(),
+    );
+    let moved = viewer.view(probes[0] + glam::Vec3::splat(field.voxel_size));
+    g.bench_function("refine_delta", |b| b.iter(|| state.delta(0, &moved)));
+    g.bench_function("refine_recompute", |b| b.iter(|| state.recompute()));
     // Ray throughput: 64k rays from the domain centre, closest hit.
     let centre = (scene.bounds.min + scene.bounds.max) * 0.5;
     let dirs = probeplace::sampling::fibonacci_sphere(65_536);

@@ -162,6 +162,15 @@ pub fn place_with(
     let mut report = report;
     let atlas_png = match refined {
         Some((refine_report, image)) => {
+            let target = config.refine.coverage_target.0 as f64;
+            if config.refine.fill && refine_report.coverage_final < target {
+                report.warnings.push(format!(
+                    "refine: coverage {:.2}% is short of the target {:.2}%: no position at least {:.3} from every surface sees the rest; lower refine.min_clearance (or the placement's threshold) to reach it",
+                    100.0 * refine_report.coverage_final,
+                    100.0 * target,
+                    refine_report.params["min_clearance"]
+                ));
+            }
             report.refine = Some(refine_report);
             Some(encode_png(&image, "atlas.png")?)
         }

@@ -50,7 +50,7 @@ fn fails(config: &Path, extra: &[&str]) -> String {
         "one line expected: {stderr}"
     );
     assert!(stderr.starts_with("error: "), "{stderr}");
-    for f in ["report.json", "probes.json", "placement.png"] {
+    for f in ["report.json", "probes.json", "placement.png", "atlas.png"] {
         assert!(!out.join(f).exists(), "{f} written despite the error");
     }
     stderr
@@ -244,6 +244,34 @@ fn medial_axis_mistakes_name_their_field() {
         );
         let e = fails(&p, &[]);
         assert!(e.contains(field) && e.contains(why), "{placement}: {e}");
+    }
+}
+
+#[test]
+fn refine_mistakes_name_their_field() {
+    let d = tempfile::tempdir().unwrap();
+    obj(d.path(), "room.obj", CUBE_ROOM);
+    for (refine, field, why) in [
+        // 1e-5 texels over the 24 m² room: 2.4e11 of them.
+        (
+            "(texel_size: 0.00001)",
+            "rf.ron: refine.texel_size",
+            "limit",
+        ),
+        ("(coverage_target: 1.5)", "rf.ron:1:", "coverage_target"),
+        ("(fitness: Greedy)", "rf.ron:1:", "fitness"),
+        ("(directions: 1000)", "rf.ron:1:", "directions"),
+        ("(w_distance: -1)", "rf.ron:1:", "w_distance"),
+        ("(iterations: 0)", "rf.ron:1:", "iterations"),
+        ("(steps: 3)", "rf.ron:1:", "steps"),
+    ] {
+        let p = raw_config(
+            d.path(),
+            "rf.ron",
+            &format!("(scene: \"room.obj\", voxel_size: 0.1, placement: SdfSkeleton(()), refine: {refine})"),
+        );
+        let e = fails(&p, &[]);
+        assert!(e.contains(field) && e.contains(why), "{refine}: {e}");
     }
 }
 

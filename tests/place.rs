@@ -31,6 +31,11 @@ fn cornell_default_run_meets_the_acceptance_bar() {
     }
     assert_eq!(refine["coverage_final"].as_f64().unwrap(), cov);
     assert_eq!(refine["probes_final"].as_u64().unwrap(), n);
+    assert_eq!(
+        refine["probes_initial"].as_u64().unwrap() - refine["removed"].as_u64().unwrap()
+            + refine["added"].as_u64().unwrap(),
+        n
+    );
     assert!(refine["accepted"].as_u64().unwrap() <= refine["proposals"].as_u64().unwrap());
     assert!(refine["r_refined"].as_f64().unwrap() >= refine["r_initial"].as_f64().unwrap());
     assert!(r["coverage_ci95"].as_f64().unwrap() <= 0.005);

@@ -106,9 +106,10 @@ pub struct RefineReport {
     pub probes_initial: usize,
     /// Probes out.
     pub probes_final: usize,
-    /// Probes removed by pruning (input or added).
+    /// Input probes removed by pruning.
     pub removed: usize,
-    /// Probes added by filling (and kept).
+    /// Probes added by filling and kept (`probes_final = probes_initial −
+    /// removed + added`).
     pub added: usize,
     /// Parameters as used, defaults resolved (lengths in world units).
     pub params: BTreeMap<&'static str, f64>,
@@ -285,7 +286,7 @@ pub fn refine(params: &RefineParams, probes: ProbeSet, input: &RefineInput) -> R
         best_view_incidence_deg_final: matrix.best_view_incidence_deg(&final_positions),
         probes_initial: initial.len(),
         probes_final: final_probes.len(),
-        removed: all.len() - final_probes.len(),
+        removed: initial.len() - (final_probes.len() - added_kept),
         added: added_kept,
         params: r.report(params, atlas.len()),
     };

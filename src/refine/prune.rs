@@ -11,7 +11,9 @@
 //! * **Fill** is greedy set cover over candidate positions: while coverage
 //!   is under the target, add the candidate that sees the most coverable
 //!   samples no probe sees (ties: the earlier candidate). Candidates are the
-//!   caller's (free positions where a probe may stand).
+//!   caller's (free positions where a probe may stand). With more than
+//!   [`MAX_SCORED_HOLES`] holes, candidates are scored on an even subsample
+//!   of them; coverage is then recounted exactly.
 //! * **Prune** is reverse greedy: while some probe can go, drop the one that
 //!   alone sees the fewest samples (ties: the one that sees fewest overall,
 //!   then the later one). A probe can go when coverage without it stays at
@@ -26,6 +28,11 @@ use rayon::prelude::*;
 
 /// A set of sample indices as 64-bit words.
 type Bits = Vec<u64>;
+
+/// Most holes candidates are scored on when filling: beyond it the scoring
+/// (candidates × holes visibility tests) would dominate the run on scenes
+/// far from the target, and an even subsample ranks candidates as well.
+pub const MAX_SCORED_HOLES: usize = 2048;
 
 fn popcount(bits: &[u64]) -> u32 {
     bits.iter().map(|w| w.count_ones()).sum()
@@ -188,7 +195,13 @@ impl<'r> CoverMatrix<'r> {
 
         let mut added = Vec::new();
         if fill && covered < target_count && !candidates.is_empty() {
-            let holes: Vec<usize> = (0..m).filter(|&i| count[i] == 0).collect();
+            let all_holes: Vec<usize> = (0..m).filter(|&i| count[i] == 0).collect();
+            // Candidates are scored on at most MAX_SCORED_HOLES holes, an
+            // even stride through them; each scored hole stands for
+            // `weight` real ones.
+            let stride = all_holes.len().div_ceil(MAX_SCORED_HOLES).max(1);
+            let holes: Vec<usize> = all_holes.iter().copied().step_by(stride).collect();
+            let weight = all_holes.len() as f64 / holes.len().max(1) as f64;
             let bar = progress.bar("refine: fill", candidates.len() as u64);
             let cand_cols: Vec<Bits> = candidates
                 .par_iter()
@@ -203,6 +216,7 @@ impl<'r> CoverMatrix<'r> {
             for (i, _) in holes.iter().enumerate() {
                 remaining[i / 64] |= 1 << (i % 64);
             }
+            let mut estimate = covered as f64;
             while covered < target_count {
                 let (best, gain) = cand_cols
                     .iter()
@@ -215,7 +229,8 @@ impl<'r> CoverMatrix<'r> {
                 for (r, c) in remaining.iter_mut().zip(&cand_cols[best]) {
                     *r &= !c;
                 }
-                covered += gain as usize;
+                estimate += gain as f64 * weight;
+                covered = estimate as usize;
                 added.push(candidates[best]);
             }
             for &p in &added {
@@ -226,6 +241,7 @@ impl<'r> CoverMatrix<'r> {
                 }
                 cols.push(c);
             }
+            covered = count.iter().filter(|&&c| c > 0).count();
         }
 
         let mut alive = vec![true; cols.len()];

@@ -22,6 +22,9 @@ use rayon::prelude::*;
 /// Rays per parallel work item.
 const RAY_CHUNK: usize = 64;
 
+/// What one chunk of rays saw: texels with qualities, Σ Ω, Σ d.
+type ChunkView = (Vec<(u32, f32)>, f64, f64);
+
 /// One probe position's view of the atlas.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct ProbeView {
@@ -89,7 +92,7 @@ impl<'a> Viewer<'a> {
     /// duplicates, each texel keeping the best quality among the rays that
     /// hit it.
     pub fn view(&self, p: Vec3) -> ProbeView {
-        let parts: Vec<(Vec<(u32, f32)>, f64, f64)> = self
+        let parts: Vec<ChunkView> = self
             .directions
             .par_chunks(RAY_CHUNK)
             .map(|dirs| {
