@@ -13,7 +13,7 @@ use probeplace::config::{
 use probeplace::coverage::CoverageReference;
 use probeplace::placement::{place, PlacementInput};
 use probeplace::progress::Progress;
-use probeplace::refine::{self, atlas::Atlas, fitness::AtlasState, view::Viewer, RefineInput};
+use probeplace::refine::{self, atlas::Atlas, fitness::AtlasState, view::Viewer};
 use probeplace::scene::{load_obj, raycast::SceneBvh};
 use probeplace::sdf;
 use std::path::Path;
@@ -74,18 +74,9 @@ fn stages(c: &mut Criterion, name: &str, config: &str) {
     // probe against the full recomputation it replaces.
     let reference = CoverageReference::new(&scene, &bvh, &field, &cov, 1, &progress);
     let set = place(&method, &input).unwrap();
-    let refine_input = RefineInput {
-        scene: &scene,
-        bvh: &bvh,
-        sdf: &field,
-        domain: &scene.bounds,
-        reference: &reference,
-        seed: 1,
-        progress: &progress,
-    };
     let rp = RefineParams::default();
     g.bench_function("refine", |b| {
-        b.iter(|| refine::refine(&rp, set.clone(), &refine_input).unwrap())
+        b.iter(|| refine::refine(&rp, set.clone(), &input, &reference).unwrap())
     });
     let texel = field.largest_clearance() * (4.0 * std::f32::consts::PI).sqrt() / 32.0;
     let atlas = Atlas::new(&scene, texel).unwrap();

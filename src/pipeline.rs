@@ -8,7 +8,7 @@ use crate::coverage::{self, CoverageReference};
 use crate::error::{Error, Result};
 use crate::placement::{self, PlacementInput, ProbeSet};
 use crate::progress::Progress;
-use crate::refine::{self, RefineInput};
+use crate::refine;
 use crate::report::{self, preview, ProbesFile, Report};
 use crate::scene::raycast::SceneBvh;
 use crate::scene::{self, Bounds, Scene};
@@ -87,12 +87,9 @@ pub fn place_with(
         sdf,
     } = &prepared;
 
+    let input = prepared.placement_input(config.seed, &progress);
     let t = Instant::now();
-    let probes = placement::place(
-        &config.placement,
-        &prepared.placement_input(config.seed, &progress),
-    )
-    .map_err(|e| e.in_file(config_path))?;
+    let probes = placement::place(&config.placement, &input).map_err(|e| e.in_file(config_path))?;
     lap(&mut timings, "placement", t);
 
     let t = Instant::now();
@@ -102,17 +99,8 @@ pub fn place_with(
 
     let (probes, refined) = if config.refine.enabled {
         let t = Instant::now();
-        let input = RefineInput {
-            scene,
-            bvh,
-            sdf,
-            domain,
-            reference: &reference,
-            seed: config.seed,
-            progress: &progress,
-        };
-        let out =
-            refine::refine(&config.refine, probes, &input).map_err(|e| e.in_file(config_path))?;
+        let out = refine::refine(&config.refine, probes, &input, &reference)
+            .map_err(|e| e.in_file(config_path))?;
         lap(&mut timings, "refine", t);
         (out.probes, Some((out.report, out.atlas_image)))
     } else {

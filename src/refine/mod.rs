@@ -28,11 +28,9 @@ pub mod view;
 use crate::config::{FitnessKind, RefineParams};
 use crate::coverage::CoverageReference;
 use crate::error::Result;
-use crate::placement::{Probe, ProbeSet};
-use crate::progress::Progress;
+use crate::placement::{PlacementInput, Probe, ProbeSet};
 use crate::sampling::hash2;
-use crate::scene::raycast::SceneBvh;
-use crate::scene::{Bounds, Scene};
+use crate::scene::Bounds;
 use crate::sdf::{Sdf, VoxelClass};
 use atlas::Atlas;
 use fitness::AtlasState;
@@ -50,24 +48,6 @@ pub const ATLAS_PANEL_PIXELS: u32 = 1 << 20;
 const SEEN: [u8; 3] = [70, 180, 95];
 /// Colour of atlas texels no probe sees.
 const UNSEEN: [u8; 3] = [225, 45, 40];
-
-/// Everything refinement reads besides the probes.
-pub struct RefineInput<'a> {
-    /// The scene.
-    pub scene: &'a Scene,
-    /// Its BVH.
-    pub bvh: &'a SceneBvh,
-    /// SDF of the domain.
-    pub sdf: &'a Sdf,
-    /// Where probes may go.
-    pub domain: &'a Bounds,
-    /// The coverage measure's samples, which filling and pruning answer to.
-    pub reference: &'a CoverageReference,
-    /// Seed of the random choices.
-    pub seed: u64,
-    /// Progress bars.
-    pub progress: &'a Progress,
-}
 
 /// What refinement did, for `report.json` (docs/formats.md).
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -138,7 +118,7 @@ struct Resolved {
 }
 
 impl Resolved {
-    fn new(params: &RefineParams, probes: &ProbeSet, input: &RefineInput) -> Resolved {
+    fn new(params: &RefineParams, probes: &ProbeSet, input: &PlacementInput) -> Resolved {
         let voxel = input.sdf.voxel_size;
         let clearance = input.sdf.largest_clearance().max(voxel);
         let n = params.directions.0;
@@ -190,7 +170,8 @@ pub fn may_stand(sdf: &Sdf, domain: &Bounds, min_clearance: f32, p: Vec3) -> boo
         && sdf.distance[v] - (p - sdf.center(v)).length() >= min_clearance
 }
 
-/// Refines `probes` (module docs): sweeps of Gibbs sampling over the atlas
+/// Refines `probes` (module docs), placed from `input`, against the
+/// coverage measure's `reference`: sweeps of Gibbs sampling over the atlas
 /// fitness, then filling and pruning against the coverage measure.
 ///
 /// Contract: deterministic for the same inputs and `input.seed`; no probe
@@ -198,10 +179,15 @@ pub fn may_stand(sdf: &Sdf, domain: &Bounds, min_clearance: f32, p: Vec3) -> boo
 /// probe moves through a surface; if the input probes, or filling, reach
 /// `coverage_target`, the output does too. Errors: an atlas over
 /// [`atlas::MAX_TEXELS`] texels (a user error naming `refine.texel_size`).
-pub fn refine(params: &RefineParams, probes: ProbeSet, input: &RefineInput) -> Result<Refined> {
+pub fn refine(
+    params: &RefineParams,
+    probes: ProbeSet,
+    input: &PlacementInput,
+    reference: &CoverageReference,
+) -> Result<Refined> {
     let r = Resolved::new(params, &probes, input);
     let atlas = Atlas::new(input.scene, r.texel_size)?;
-    let min_cos = input.reference.min_cos();
+    let min_cos = reference.min_cos();
     let viewer = Viewer::new(
         input.scene,
         input.bvh,
@@ -239,8 +225,8 @@ pub fn refine(params: &RefineParams, probes: ProbeSet, input: &RefineInput) -> R
     let (refined, stats) = gibbs::optimize(&sweeps, &mut state, &mut positions, input.progress);
     let r_refined = AtlasState::new(params.fitness, &atlas, views_of(&refined)).r();
 
-    let matrix = CoverMatrix::new(input.reference, input.bvh);
-    let candidates = fill_candidates(params, &r, input);
+    let matrix = CoverMatrix::new(reference, input.bvh);
+    let candidates = fill_candidates(params, &r, input, reference);
     let fp = matrix.fill_and_prune(
         &refined,
         &candidates,
@@ -267,6 +253,7 @@ pub fn refine(params: &RefineParams, probes: ProbeSet, input: &RefineInput) -> R
     let final_state = AtlasState::new(params.fitness, &atlas, views_of(&final_positions));
 
     let m = fp.coverable.max(1) as f64;
+    let (covered_initial, incidence_initial) = matrix.summary(&initial);
     let added_kept = fp.kept.iter().filter(|&&k| k >= initial.len()).count();
     let report = RefineReport {
         fitness: params.fitness,
@@ -277,13 +264,13 @@ pub fn refine(params: &RefineParams, probes: ProbeSet, input: &RefineInput) -> R
         r_initial,
         r_refined,
         r_final: final_state.r(),
-        coverage_initial: matrix.covered(&initial) as f64 / m,
+        coverage_initial: covered_initial as f64 / m,
         coverage_refined: fp.covered_initial as f64 / m,
         coverage_final: fp.covered_final as f64 / m,
         atlas_coverage_initial,
         atlas_coverage_final: final_state.seen_share(),
-        best_view_incidence_deg_initial: matrix.best_view_incidence_deg(&initial),
-        best_view_incidence_deg_final: matrix.best_view_incidence_deg(&final_positions),
+        best_view_incidence_deg_initial: incidence_initial,
+        best_view_incidence_deg_final: matrix.summary(&final_positions).1,
         probes_initial: initial.len(),
         probes_final: final_probes.len(),
         removed: initial.len() - (final_probes.len() - added_kept),
@@ -312,10 +299,14 @@ pub fn refine(params: &RefineParams, probes: ProbeSet, input: &RefineInput) -> R
 /// where a probe may stand (every coverable sample is seen by one of them),
 /// then up to `fill_candidates` other free voxel centres where a probe may
 /// stand, chosen by a seeded hash.
-fn fill_candidates(params: &RefineParams, r: &Resolved, input: &RefineInput) -> Vec<Vec3> {
+fn fill_candidates(
+    params: &RefineParams,
+    r: &Resolved,
+    input: &PlacementInput,
+    reference: &CoverageReference,
+) -> Vec<Vec3> {
     let stand = |p: Vec3| may_stand(input.sdf, input.domain, r.min_clearance, p);
-    let mut out: Vec<Vec3> = input
-        .reference
+    let mut out: Vec<Vec3> = reference
         .references
         .iter()
         .copied()

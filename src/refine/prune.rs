@@ -96,46 +96,18 @@ impl<'r> CoverMatrix<'r> {
         self.coverable.is_empty()
     }
 
-    /// The coverable samples among `subset` (indices into `self.coverable`)
-    /// that `viewer` sees, as bits over `subset`.
-    fn column(&self, viewer: Vec3, subset: &[usize]) -> Bits {
-        subset
-            .par_chunks(64)
-            .map(|chunk| {
-                let mut word = 0u64;
-                for (b, &i) in chunk.iter().enumerate() {
-                    let s = &self.reference.samples[self.coverable[i]];
-                    if self.reference.sees(self.bvh, viewer, s) {
-                        word |= 1 << b;
-                    }
-                }
-                word
-            })
-            .collect()
-    }
-
-    /// Columns of all coverable samples for every viewer.
+    /// Columns of all coverable samples for every viewer, one viewer per
+    /// thread.
     fn columns(&self, viewers: &[Vec3]) -> Vec<Bits> {
         let all: Vec<usize> = (0..self.len()).collect();
-        viewers.iter().map(|&v| self.column(v, &all)).collect()
+        viewers.par_iter().map(|&v| self.column(v, &all)).collect()
     }
 
-    /// Coverable samples some of `viewers` sees.
-    pub fn covered(&self, viewers: &[Vec3]) -> usize {
-        let cols = self.columns(viewers);
-        let mut any = vec![0u64; self.len().div_ceil(64)];
-        for c in &cols {
-            for (a, w) in any.iter_mut().zip(c) {
-                *a |= w;
-            }
-        }
-        popcount(&any) as usize
-    }
-
-    /// Mean incidence angle (degrees) of each covered sample's best view
-    /// among `viewers`: lower is better, 0 is head-on (§3.2 "Probe View
-    /// Distortion"). `None` when nothing is covered.
-    pub fn best_view_incidence_deg(&self, viewers: &[Vec3]) -> Option<f64> {
+    /// For the probes at `viewers`: the coverable samples some of them sees,
+    /// and the mean incidence angle (degrees) of each covered sample's best
+    /// view, lower being better and 0 head-on (§3.2 "Probe View
+    /// Distortion"; `None` when nothing is covered).
+    pub fn summary(&self, viewers: &[Vec3]) -> (usize, Option<f64>) {
         let cols = self.columns(viewers);
         let (mut sum, mut count) = (0.0f64, 0usize);
         for (i, &si) in self.coverable.iter().enumerate() {
@@ -151,7 +123,7 @@ impl<'r> CoverMatrix<'r> {
                 count += 1;
             }
         }
-        (count > 0).then(|| sum / count as f64)
+        (count, (count > 0).then(|| sum / count as f64))
     }
 
     /// Fills and prunes (module docs) the probes at `positions` towards
@@ -173,17 +145,7 @@ impl<'r> CoverMatrix<'r> {
         let m = self.len();
         let words = m.div_ceil(64);
         let target_count = ((target * m as f64).ceil() as usize).min(m);
-        let bar = progress.bar("refine: coverage", positions.len() as u64);
-        let mut cols: Vec<Bits> = positions
-            .iter()
-            .map(|&p| {
-                let all: Vec<usize> = (0..m).collect();
-                let c = self.column(p, &all);
-                bar.inc(1);
-                c
-            })
-            .collect();
-        bar.finish_and_clear();
+        let mut cols = self.columns(positions);
         let mut count = vec![0u32; m];
         for c in &cols {
             for i in ones(c) {
@@ -206,7 +168,7 @@ impl<'r> CoverMatrix<'r> {
             let cand_cols: Vec<Bits> = candidates
                 .par_iter()
                 .map(|&c| {
-                    let col = self.column_serial(c, &holes);
+                    let col = self.column(c, &holes);
                     bar.inc(1);
                     col
                 })
@@ -233,9 +195,7 @@ impl<'r> CoverMatrix<'r> {
                 covered = estimate as usize;
                 added.push(candidates[best]);
             }
-            for &p in &added {
-                let all: Vec<usize> = (0..m).collect();
-                let c = self.column(p, &all);
+            for c in self.columns(&added) {
                 for i in ones(&c) {
                     count[i] += 1;
                 }
@@ -282,9 +242,9 @@ impl<'r> CoverMatrix<'r> {
         }
     }
 
-    /// [`CoverMatrix::column`] without inner parallelism, for callers that
-    /// already run one column per thread.
-    fn column_serial(&self, viewer: Vec3, subset: &[usize]) -> Bits {
+    /// The coverable samples among `subset` (indices into `self.coverable`)
+    /// that `viewer` sees, as bits over `subset`.
+    fn column(&self, viewer: Vec3, subset: &[usize]) -> Bits {
         let mut bits = vec![0u64; subset.len().div_ceil(64)];
         for (b, &i) in subset.iter().enumerate() {
             let s = &self.reference.samples[self.coverable[i]];
@@ -332,7 +292,7 @@ mod tests {
         let kept: Vec<Vec3> = r.kept.iter().map(|&k| final_positions[k]).collect();
         let cov = reference.evaluate(&bvh, &kept, &p);
         assert_eq!(cov.covered_samples, r.covered_final);
-        assert_eq!(matrix.covered(&kept), r.covered_final);
+        assert_eq!(matrix.summary(&kept).0, r.covered_final);
         // Without filling or pruning nothing changes.
         let same =
             matrix.fill_and_prune(&positions, &reference.references, 0.999, false, false, &p);
