@@ -8,7 +8,7 @@
 use criterion::{criterion_group, criterion_main, Criterion};
 use probeplace::config::{
     Config, CoverageParams, FitnessKind, MedialAxisParams, Placement, RefineParams, SdfParams,
-    SdfSkeletonParams,
+    SdfSkeletonParams, SvoParams,
 };
 use probeplace::coverage::CoverageReference;
 use probeplace::placement::{place, PlacementInput};
@@ -16,6 +16,7 @@ use probeplace::progress::Progress;
 use probeplace::refine::{self, atlas::Atlas, fitness::AtlasState, view::Viewer};
 use probeplace::scene::{load_obj, raycast::SceneBvh};
 use probeplace::sdf;
+use probeplace::svo;
 use std::path::Path;
 
 fn stages(c: &mut Criterion, name: &str, config: &str) {
@@ -101,6 +102,33 @@ fn stages(c: &mut Criterion, name: &str, config: &str) {
     let moved = viewer.view(probes[0] + glam::Vec3::splat(field.voxel_size));
     g.bench_function("refine_delta", |b| b.iter(|| state.delta(0, &moved)));
     g.bench_function("refine_recompute", |b| b.iter(|| state.recompute()));
+    // The SVO of the refined probes (Wang §4.1), and its point queries:
+    // 64k uniform points of the domain, free or not, as a renderer asks.
+    let refined = refine::refine(&rp, set.clone(), &input, &reference)
+        .unwrap()
+        .probes;
+    let sp = SvoParams::default();
+    g.bench_function("svo", |b| {
+        b.iter(|| svo::bake(&sp, &refined, &input).unwrap())
+    });
+    let tree = svo::bake(&sp, &refined, &input).unwrap().svo;
+    let size = scene.bounds.size();
+    let points: Vec<glam::Vec3> = (0..65_536u64)
+        .map(|i| {
+            let h = probeplace::sampling::hash2(9, i);
+            let u = |k| probeplace::sampling::unit_f32(probeplace::sampling::hash2(h, k));
+            scene.bounds.min + size * glam::Vec3::new(u(1), u(2), u(3))
+        })
+        .collect();
+    g.throughput(criterion::Throughput::Elements(points.len() as u64));
+    g.bench_function("svo_queries_64k", |b| {
+        b.iter(|| {
+            points
+                .iter()
+                .map(|&p| tree.probes_at(p).len())
+                .sum::<usize>()
+        })
+    });
     // Ray throughput: 64k rays from the domain centre, closest hit.
     let centre = (scene.bounds.min + scene.bounds.max) * 0.5;
     let dirs = probeplace::sampling::fibonacci_sphere(65_536);

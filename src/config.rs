@@ -459,6 +459,36 @@ impl Default for RefineParams {
     }
 }
 
+/// How the sparse voxel octree of probe indices is baked (Wang et al. 2019
+/// §4.1; `svo` module docs). Lengths left out scale with the scene.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SvoParams {
+    /// Edge of an octree leaf (world units). `None`: the SDF voxel size.
+    pub leaf_size: Option<Positive>,
+    /// Most probe indices a leaf lists (at most 8).
+    pub max_probes: Count<8>,
+    /// Side of the octahedral direction map whose radial distances give
+    /// each probe's influence region: `directions`² rays per probe (at most 256).
+    pub directions: Count<256>,
+    /// Neighbouring leaves collapse into one when a single ranked list serves
+    /// them all: every listed probe sees every leaf, and the first one scores
+    /// at least this share of the best probe's score at each leaf. 1 keeps
+    /// the best probe first everywhere; lower values give smaller octrees.
+    pub collapse_quality: Fraction,
+}
+
+impl Default for SvoParams {
+    fn default() -> Self {
+        SvoParams {
+            leaf_size: None,
+            max_probes: Count(4),
+            directions: Count(32),
+            collapse_quality: Fraction(0.5),
+        }
+    }
+}
+
 /// A light, for the lighting stages to come (probe bake, validation render).
 #[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
 pub enum Light {
@@ -515,6 +545,9 @@ pub struct Config {
     /// Refinement, pruning and filling.
     #[serde(default)]
     pub refine: RefineParams,
+    /// The sparse voxel octree of probe indices.
+    #[serde(default)]
+    pub svo: SvoParams,
 }
 
 fn unit_scale() -> Positive {

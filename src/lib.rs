@@ -14,6 +14,7 @@
 //! | coverage | [`coverage`] | Wang §2, §3.2 |
 //! | refinement, filling, pruning | [`refine`] | Wang §3.2–3.3, eqs. 1–3, Figs. 4–6 |
 //! | octahedral probe maps | [`lightfield`] | McGuire §3 |
+//! | sparse voxel octree of probe indices | [`svo`] | Wang §4.1, Fig. 7 |
 //! | outputs | [`report`] | — |
 //!
 //! [`pipeline::place`] runs them in order; the `probeplace` binary is a thin
@@ -33,5 +34,6 @@ pub mod sampling;
 pub mod scene;
 pub mod sdf;
 pub mod skeleton;
+pub mod svo;
 
 pub use error::{Error, Result};

@@ -18,7 +18,7 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Place probes as the config says; write probes.json, report.json and placement.png.
+    /// Place probes as the config says; write probes.json, svo.bin, report.json and placement.png.
     Place {
         /// The run's RON config file.
         config: PathBuf,
@@ -37,6 +37,11 @@ enum Command {
         /// Skip refinement, filling and pruning (the config's `refine.enabled: false`).
         #[arg(long)]
         no_refine: bool,
+    },
+    /// Summarize an svo.bin (or the one in an output directory) after checking it.
+    Inspect {
+        /// An output directory of `place`, or an svo.bin file.
+        path: PathBuf,
     },
 }
 
@@ -81,13 +86,23 @@ fn main() -> ExitCode {
                     }
                     ExitCode::SUCCESS
                 }
-                Err(e) => {
-                    eprintln!("error: {e}");
-                    ExitCode::from(e.exit_code() as u8)
-                }
+                Err(e) => fail(e),
             }
         }
+        Command::Inspect { path } => match probeplace::pipeline::inspect(&path) {
+            Ok(inspection) => {
+                println!("{inspection}");
+                ExitCode::SUCCESS
+            }
+            Err(e) => fail(e),
+        },
     }
+}
+
+/// Prints `e` in one line and returns its exit status.
+fn fail(e: probeplace::Error) -> ExitCode {
+    eprintln!("error: {e}");
+    ExitCode::from(e.exit_code() as u8)
 }
 
 /// Help and version go out as clap renders them; a usage mistake becomes one

@@ -1,5 +1,5 @@
 //! The `place` job: config → scene → BVH → SDF → placement → coverage
-//! reference → refinement → coverage → outputs. Each stage is a function from the previous stage's typed output
+//! reference → refinement → coverage → SVO → outputs. Each stage is a function from the previous stage's typed output
 //! to its own; this module only sequences them, times them, and writes the
 //! results once everything has succeeded.
 
@@ -13,6 +13,7 @@ use crate::report::{self, preview, ProbesFile, Report};
 use crate::scene::raycast::SceneBvh;
 use crate::scene::{self, Bounds, Scene};
 use crate::sdf::{self, Sdf};
+use crate::svo::{self, Svo};
 use glam::Vec3;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -47,7 +48,7 @@ pub struct PlaceOutcome {
 
 /// Runs the whole `place` job for the config at `config_path`.
 ///
-/// Contract: on success, `probes.json`, `placement.png` and `report.json` are
+/// Contract: on success, `probes.json`, `svo.bin`, `placement.png` and `report.json` are
 /// in the output directory (report last); on any error nothing new is written
 /// there. User mistakes come back as [`Error::User`].
 pub fn place(config_path: &Path, options: &PlaceOptions) -> Result<PlaceOutcome> {
@@ -114,6 +115,11 @@ pub fn place_with(
     lap(&mut timings, "coverage", t);
 
     let t = Instant::now();
+    let baked = svo::bake(&config.svo, &probes, &input).map_err(|e| e.in_file(config_path))?;
+    let svo_bin = baked.svo.to_bytes();
+    lap(&mut timings, "svo", t);
+
+    let t = Instant::now();
     let png = render_png(scene, domain, &probes, &holes)?;
     lap(&mut timings, "preview", t);
 
@@ -148,6 +154,7 @@ pub fn place_with(
         warnings,
     );
     let mut report = report;
+    report.svo = Some(baked.report);
     let atlas_png = match refined {
         Some((refine_report, image)) => {
             let target = config.refine.coverage_target.0 as f64;
@@ -168,6 +175,7 @@ pub fn place_with(
 
     report::prepare_output_dir(&out_dir)?;
     report::write_atomic(&out_dir.join("probes.json"), &probes_json)?;
+    report::write_atomic(&out_dir.join("svo.bin"), &svo_bin)?;
     report::write_atomic(&out_dir.join("placement.png"), &png)?;
     let atlas_path = out_dir.join("atlas.png");
     match &atlas_png {
@@ -316,4 +324,91 @@ fn encode_png(image: &image::RgbImage, name: &str) -> Result<Vec<u8>> {
         )
         .map_err(|e| Error::Internal(format!("encoding {name}: {e}")))?;
     Ok(bytes)
+}
+
+/// What `probeplace inspect` found.
+#[derive(Debug)]
+pub struct Inspection {
+    /// The `svo.bin` read.
+    pub path: PathBuf,
+    /// Its contents.
+    pub svo: Svo,
+}
+
+impl std::fmt::Display for Inspection {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let s = &self.svo;
+        writeln!(
+            f,
+            "{}: {} probes, {} nodes ({} leaves), depth {}, {} bytes (a dense RGBA8 texture: {} bytes, {:.1}x more)",
+            self.path.display(),
+            s.probe_count,
+            s.nodes(),
+            s.leaves(),
+            s.depth,
+            s.bytes(),
+            s.dense_bytes(),
+            s.dense_bytes() as f64 / s.bytes() as f64
+        )?;
+        write!(
+            f,
+            "  leaf size {} over {} x {} x {} leaves from {:?}; at most {} probes per leaf; {} distinct lists; {} leaves without a visible probe",
+            s.leaf_size,
+            s.dims.x,
+            s.dims.y,
+            s.dims.z,
+            s.origin.to_array(),
+            s.max_probes,
+            s.distinct_lists(),
+            s.leaves_without_visible_probe
+        )
+    }
+}
+
+/// Reads the `svo.bin` at `path`, or in the output directory `path`, and
+/// checks it against the `probes.json` beside it when there is one.
+///
+/// Contract: a missing, truncated, corrupted or wrong-version file, or an
+/// SVO whose probe count disagrees with `probes.json`, is an
+/// [`Error::User`] naming the file.
+pub fn inspect(path: &Path) -> Result<Inspection> {
+    let file = if path.is_dir() {
+        let f = path.join("svo.bin");
+        if !f.exists() {
+            return Err(Error::user_file(
+                path,
+                "holds no svo.bin (write one with probeplace place)",
+            ));
+        }
+        f
+    } else {
+        path.to_path_buf()
+    };
+    let svo = Svo::read(&file)?;
+    let probes_json = file.with_file_name("probes.json");
+    if let Ok(text) = std::fs::read_to_string(&probes_json) {
+        let count = serde_json::from_str::<serde_json::Value>(&text)
+            .ok()
+            .and_then(|v| v.get("probes").and_then(|p| p.as_array()).map(Vec::len));
+        match count {
+            Some(n) if n == svo.probe_count as usize => {}
+            Some(n) => {
+                return Err(Error::user_file(
+                    &file,
+                    format!(
+                        "indexes {} probes but {} has {n}: the two come from different runs",
+                        svo.probe_count,
+                        probes_json.display()
+                    ),
+                ))
+            }
+            None => {
+                return Err(Error::user_file(
+                    &probes_json,
+                    "is not a probeplace probes file",
+                ))
+            }
+        }
+    }
+    Ok(Inspection { path: file, svo })
 }

@@ -50,7 +50,13 @@ fn fails(config: &Path, extra: &[&str]) -> String {
         "one line expected: {stderr}"
     );
     assert!(stderr.starts_with("error: "), "{stderr}");
-    for f in ["report.json", "probes.json", "placement.png", "atlas.png"] {
+    for f in [
+        "report.json",
+        "probes.json",
+        "placement.png",
+        "atlas.png",
+        "svo.bin",
+    ] {
         assert!(!out.join(f).exists(), "{f} written despite the error");
     }
     stderr
@@ -273,6 +279,83 @@ fn refine_mistakes_name_their_field() {
         let e = fails(&p, &[]);
         assert!(e.contains(field) && e.contains(why), "{refine}: {e}");
     }
+}
+
+#[test]
+fn svo_mistakes_name_their_field() {
+    let d = tempfile::tempdir().unwrap();
+    obj(d.path(), "room.obj", CUBE_ROOM);
+    for (svo, field, why) in [
+        // 1e-4 leaves over the 2 m room: 8e12 of them.
+        (
+            "(leaf_size: 0.0001)",
+            "sv.ron: svo.leaf_size",
+            "larger leaf_size",
+        ),
+        ("(max_probes: 9)", "sv.ron:1:", "max_probes"),
+        ("(max_probes: 0)", "sv.ron:1:", "max_probes"),
+        ("(collapse_quality: 2)", "sv.ron:1:", "collapse_quality"),
+        ("(directions: 0)", "sv.ron:1:", "directions"),
+        ("(leaf: 1)", "sv.ron:1:", "leaf"),
+    ] {
+        let p = raw_config(
+            d.path(),
+            "sv.ron",
+            &format!("(scene: \"room.obj\", voxel_size: 0.1, placement: SdfSkeleton(()), refine: (enabled: false), svo: {svo})"),
+        );
+        let e = fails(&p, &[]);
+        assert!(e.contains(field) && e.contains(why), "{svo}: {e}");
+    }
+}
+
+#[test]
+fn inspect_refuses_what_is_not_an_intact_svo() {
+    let d = tempfile::tempdir().unwrap();
+    let out = d.path().join("out");
+    place(&root().join("configs/cornell.ron"), &out, &["--no-refine"]);
+    let good = std::fs::read(out.join("svo.bin")).unwrap();
+    let check = |name: &str, bytes: &[u8], why: &str| {
+        let p = d.path().join(name);
+        std::fs::write(&p, bytes).unwrap();
+        let o = probeplace(&["inspect", p.to_str().unwrap()]);
+        let stderr = String::from_utf8_lossy(&o.stderr).into_owned();
+        assert_eq!(o.status.code(), Some(2), "{name}: {stderr}");
+        assert_eq!(stderr.trim_end().lines().count(), 1, "{name}: {stderr}");
+        assert!(
+            stderr.starts_with("error: ") && stderr.contains(name) && stderr.contains(why),
+            "{name}: {stderr}"
+        );
+        assert!(!stderr.contains("panicked"), "{name}: {stderr}");
+    };
+    check("truncated.bin", &good[..good.len() / 2], "truncated");
+    check("header.bin", &good[..30], "truncated");
+    let mut corrupted = good.clone();
+    let mid = corrupted.len() / 2;
+    corrupted[mid] ^= 0x5A;
+    check("corrupted.bin", &corrupted, "corrupted");
+    let mut newer = good.clone();
+    newer[8..12].copy_from_slice(&7u32.to_le_bytes());
+    check("newer.bin", &newer, "unsupported version 7");
+    check(
+        "probes.json",
+        &std::fs::read(out.join("probes.json")).unwrap(),
+        "not a probeplace SVO",
+    );
+    // A directory without one, and an svo.bin beside another run's probes.
+    let o = probeplace(&["inspect", d.path().to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("holds no svo.bin"));
+    let other = d.path().join("other");
+    place(
+        &root().join("configs/cornell.ron"),
+        &other,
+        &["--method", "grid:2x2x2", "--no-refine"],
+    );
+    std::fs::copy(out.join("svo.bin"), other.join("svo.bin")).unwrap();
+    let o = probeplace(&["inspect", other.to_str().unwrap()]);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("different runs"), "{stderr}");
 }
 
 #[test]

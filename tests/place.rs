@@ -7,6 +7,8 @@ use common::*;
 fn cornell_default_run_meets_the_acceptance_bar() {
     let out = tempfile::tempdir().unwrap();
     let r = place(&root().join("configs/cornell.ron"), out.path(), &[]);
+    assert!(out.path().join("svo.bin").is_file());
+    assert_svo_sound(&r, "cornell");
     // Issue 4's bar: refinement on by default, full coverage with no more
     // probes than a 2×2×2 grid (the paper places 7).
     assert_eq!(r["method"], "sdf-skeleton+refine");
@@ -79,7 +81,13 @@ fn cornell_default_run_meets_the_acceptance_bar() {
     names.sort();
     assert_eq!(
         names,
-        ["atlas.png", "placement.png", "probes.json", "report.json"]
+        [
+            "atlas.png",
+            "placement.png",
+            "probes.json",
+            "report.json",
+            "svo.bin"
+        ]
     );
     let atlas = image::open(out.path().join("atlas.png")).unwrap().to_rgb8();
     // Both colours of the paper's Fig. 5: seen texels and unseen ones.
@@ -129,7 +137,7 @@ fn same_config_and_seed_give_byte_identical_probes() {
         let cfg = root().join("configs/cornell.ron");
         place(&cfg, a.path(), &["--method", method]);
         place(&cfg, b.path(), &["--method", method]);
-        for f in ["probes.json", "placement.png", "atlas.png"] {
+        for f in ["probes.json", "svo.bin", "placement.png", "atlas.png"] {
             assert_eq!(
                 std::fs::read(a.path().join(f)).unwrap(),
                 std::fs::read(b.path().join(f)).unwrap(),
@@ -159,6 +167,7 @@ fn procedural_fixtures_place_without_solid_probes() {
     for cfg in ["pillared-hall", "two-rooms"] {
         let out = tempfile::tempdir().unwrap();
         let r = place(&root().join(format!("configs/{cfg}.ron")), out.path(), &[]);
+        assert_svo_sound(&r, cfg);
         assert_eq!(r["probes_in_solid"], 0, "{cfg}");
         assert!(
             r["coverage"].as_f64().unwrap() >= 0.9,

@@ -7,11 +7,13 @@ use common::*;
 fn run(config: &str) -> serde_json::Value {
     shared_scenes();
     let out = tempfile::tempdir().unwrap();
-    place(
+    let r = place(
         &root().join(format!("configs/{config}.ron")),
         out.path(),
         &[],
-    )
+    );
+    assert_svo_sound(&r, config);
+    r
 }
 
 #[test]

@@ -15,6 +15,7 @@ use crate::placement::ProbeSet;
 use crate::refine::RefineReport;
 use crate::scene::{to_file, Bounds, Scene};
 use crate::sdf::{Sdf, VoxelClass};
+use crate::svo::SvoReport;
 use serde::Serialize;
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -205,6 +206,8 @@ pub struct Report {
     pub placement_params: BTreeMap<&'static str, f64>,
     /// What refinement did; `null` when it was off.
     pub refine: Option<RefineReport>,
+    /// The octree of probe indices written as `svo.bin`.
+    pub svo: Option<SvoReport>,
     /// Wall time per stage, in milliseconds, plus `total`.
     pub timings_ms: BTreeMap<String, f64>,
     /// Warnings raised during the run.
@@ -252,6 +255,7 @@ impl Report {
             placement_stats: probes.stats.clone(),
             placement_params: probes.params.clone(),
             refine: None,
+            svo: None,
             timings_ms,
             warnings,
         }

@@ -54,3 +54,22 @@ pub fn place(config: &Path, out: &Path, extra: &[&str]) -> serde_json::Value {
 pub fn read_json(p: &Path) -> serde_json::Value {
     serde_json::from_slice(&std::fs::read(p).unwrap()).unwrap()
 }
+
+/// The `svo` section of a report meets the bar on any scene: a
+/// tree, far smaller than the paper's dense texture, that lists a probe for
+/// every free cell.
+pub fn assert_svo_sound(r: &serde_json::Value, scene: &str) {
+    let s = &r["svo"];
+    let bytes = s["bytes"].as_u64().unwrap();
+    let dense = s["dense_bytes"].as_u64().unwrap();
+    assert!(
+        bytes * 20 <= dense,
+        "{scene}: svo {bytes} bytes against {dense} dense"
+    );
+    assert!(s["nodes"].as_u64().unwrap() >= 1, "{scene}");
+    assert!(s["free_cells"].as_u64().unwrap() > 0, "{scene}");
+    assert!(
+        s["leaves_without_visible_probe"].as_u64().unwrap() <= s["free_cells"].as_u64().unwrap(),
+        "{scene}"
+    );
+}

@@ -1,0 +1,438 @@
+//! Leaf payloads (Wang et al. 2019 §4.1): the probes a leaf lists, best first.
+//!
+//! For a leaf, the candidates are the probes whose influence region overlaps
+//! it. Each candidate is scored by the paper's projected solid-angle-weighted
+//! visibility (Ω̄_k / d̄_k)·V, evaluated for the leaf as the query:
+//!
+//! - **V** is the share of the leaf's sample points from which a shadow ray
+//!   to the probe is unblocked (the paper's culling of "probes that are not
+//!   visible from current voxel" made fractional). A leaf that no surface
+//!   crosses (its SDF clearance exceeds its half diagonal) is sampled at its
+//!   centre; a leaf a surface crosses is sampled at those of its centre and
+//!   eight octant centres that lie in free space ([`is_free`]), or, when
+//!   none does, at points near its eight corners, because its centre may be
+//!   inside a wall while shading points on that
+//!   wall still query it.
+//! - **d̄** is the distance from the probe to the leaf centre (at least half
+//!   a leaf): the leaf is the query point the paper's per-texel d stands for.
+//! - **Ω̄_k** is the probe's mean projected solid angle term from its
+//!   influence rays ([`super::influence`]): a free-space leaf has no surface
+//!   normal of its own, so the probe's view quality stands in.
+//!
+//! Candidates are visited in decreasing order of the bound Ω̄_k/d̄ (V ≤ 1),
+//! so the search stops as soon as no remaining candidate can enter the
+//! list. A leaf with no visible candidate falls back to the nearest probe,
+//! over all probes, that sees any of its sample points, followed by those
+//! of the next 16 nearest probes that see it, by score (so that it still shares probes with
+//! its neighbours and collapses with them); a leaf no probe sees lists the
+//! nearest probe and is counted.
+
+use super::influence::Influence;
+use crate::scene::raycast::SceneBvh;
+use crate::sdf::{Sdf, VoxelClass};
+use glam::{UVec3, Vec3};
+
+/// Entries a leaf keeps while the octree is built: twice the default payload,
+/// so that collapsing neighbours (which keeps the probes they share) still
+/// has enough to fill a payload.
+pub const KEEP: usize = 8;
+
+/// Up to [`KEEP`] probes with their relative scores, best first.
+///
+/// `q` is a probe's score over the best score at the leaf (1 for the
+/// first); after collapsing, the smallest such ratio over the leaves merged.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Ranked {
+    len: u8,
+    probes: [u32; KEEP],
+    q: [f32; KEEP],
+}
+
+impl Ranked {
+    /// A list of one probe.
+    pub fn single(probe: u32) -> Ranked {
+        let mut r = Ranked::empty();
+        r.push(probe, 1.0);
+        r
+    }
+
+    /// The empty list.
+    pub fn empty() -> Ranked {
+        Ranked {
+            len: 0,
+            probes: [0; KEEP],
+            q: [0.0; KEEP],
+        }
+    }
+
+    /// Probe indices, best first.
+    pub fn probes(&self) -> &[u32] {
+        &self.probes[..self.len as usize]
+    }
+
+    /// Relative scores, in the order of [`Ranked::probes`].
+    pub fn quality(&self) -> &[f32] {
+        &self.q[..self.len as usize]
+    }
+
+    /// Number of entries.
+    pub fn len(&self) -> usize {
+        self.len as usize
+    }
+
+    /// Whether the list is empty.
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// A list of `(probe, q)` items as given (tests build lists by hand).
+    #[cfg(test)]
+    pub(crate) fn from_items(items: &[(u32, f32)]) -> Ranked {
+        let mut r = Ranked::single(items[0].0);
+        r.q[0] = items[0].1;
+        for &(p, q) in &items[1..] {
+            r.push(p, q);
+        }
+        r
+    }
+
+    fn push(&mut self, probe: u32, q: f32) {
+        let i = self.len as usize;
+        self.probes[i] = probe;
+        self.q[i] = q;
+        self.len += 1;
+    }
+
+    /// The probes both lists hold, each with the smaller of its two relative
+    /// scores, best first (ties by index, so the order is reproducible).
+    pub fn intersect(&self, other: &Ranked) -> Ranked {
+        let mut out = Ranked::empty();
+        for (&p, &q) in self.probes().iter().zip(self.quality()) {
+            if let Some(j) = other.probes().iter().position(|&o| o == p) {
+                out.push(p, q.min(other.q[j]));
+            }
+        }
+        out.sort();
+        out
+    }
+
+    fn sort(&mut self) {
+        let n = self.len as usize;
+        let mut items: [(u32, f32); KEEP] = [(0, 0.0); KEEP];
+        for (i, item) in items.iter_mut().enumerate().take(n) {
+            *item = (self.probes[i], self.q[i]);
+        }
+        items[..n].sort_by(|a, b| b.1.total_cmp(&a.1).then(a.0.cmp(&b.0)));
+        for (i, item) in items.iter().enumerate().take(n) {
+            self.probes[i] = item.0;
+            self.q[i] = item.1;
+        }
+    }
+}
+
+/// Whether `p` lies in the scene's free space, to within a hair of the
+/// surfaces: its
+/// voxel is free and the SDF proves `p` on the same side (Lipschitz
+/// bound), or an unblocked segment joins `p` to the centre of one of
+/// the three nearest free voxels around it. An SDF
+/// interpolation cannot decide this near edges and thin walls; the
+/// segment test is exact.
+pub fn is_free(sdf: &Sdf, bvh: &SceneBvh, p: Vec3) -> bool {
+    let v = ((p - sdf.origin) / sdf.voxel_size)
+        .floor()
+        .clamp(Vec3::ZERO, (sdf.dims - 1).as_vec3())
+        .as_ivec3();
+    let i = sdf.index(v.as_uvec3());
+    match sdf.class[i] {
+        VoxelClass::Outside => return false,
+        VoxelClass::Free if sdf.distance[i] > p.distance(sdf.center(i)) => return true,
+        _ => {}
+    }
+    // A centre lying on a surface would join `p` to the wrong side.
+    let margin = FREE_NEIGHBOUR_CLEARANCE * sdf.voxel_size;
+    let mut near: [(f32, usize); 27] = [(f32::INFINITY, 0); 27];
+    let mut n = 0;
+    for dz in -1..=1 {
+        for dy in -1..=1 {
+            for dx in -1..=1 {
+                let w = v + glam::IVec3::new(dx, dy, dz);
+                if w.cmplt(glam::IVec3::ZERO).any() || w.cmpge(sdf.dims.as_ivec3()).any() {
+                    continue;
+                }
+                let j = sdf.index(w.as_uvec3());
+                if sdf.class[j] == VoxelClass::Free && sdf.distance[j] > margin {
+                    near[n] = (p.distance_squared(sdf.center(j)), j);
+                    n += 1;
+                }
+            }
+        }
+    }
+    let near = &mut near[..n];
+    near.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+    // Short of the shadow rays' tolerance: a point a hair behind a wall
+    // must not pass for free.
+    let eps = 1e-5 * sdf.voxel_size;
+    // Off the centre by a small odd offset: a segment between points of a
+    // regular grid can run exactly along the diagonal seam of an
+    // axis-aligned quad, where a non-watertight triangle test misses both halves.
+    let jitter = Vec3::new(0.0123, -0.0071, 0.0093) * sdf.voxel_size;
+    near.iter()
+        .take(FREE_NEIGHBOURS_TRIED)
+        .any(|&(_, j)| !bvh.occluded(p, sdf.center(j) + jitter, eps))
+}
+
+/// How a leaf got its list.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Source {
+    /// From the probes whose influence region holds it.
+    Influence,
+    /// No such probe sees it: the nearest probe that does.
+    Fallback,
+    /// No probe sees it: the nearest probe.
+    Blind,
+}
+
+/// Free voxels around a point near a surface that [`is_free`]
+/// tries to reach.
+const FREE_NEIGHBOURS_TRIED: usize = 3;
+
+/// Least clearance, in voxels, of a free voxel centre that
+/// [`is_free`] joins a point to.
+const FREE_NEIGHBOUR_CLEARANCE: f32 = 0.1;
+
+/// Probes, beyond the nearest one that sees it, that a fallback leaf ranks
+/// for the rest of its list.
+const FALLBACK_RUNNERS_UP: usize = 2 * KEEP;
+
+/// Reusable buffers of one worker.
+#[derive(Debug, Default)]
+pub struct Scratch {
+    samples: Vec<Vec3>,
+    candidates: Vec<(f32, u32)>,
+    best: Vec<(f32, u32)>,
+}
+
+/// Ranks the probes of any leaf of the grid.
+pub struct LeafRanker<'a> {
+    /// The scene's BVH, for shadow rays.
+    pub bvh: &'a SceneBvh,
+    /// The SDF, for which leaves hold free space and where.
+    pub sdf: &'a Sdf,
+    /// Every probe's influence.
+    pub influence: &'a [Influence],
+    /// Lower corner of leaf (0, 0, 0).
+    pub origin: Vec3,
+    /// Leaf edge.
+    pub leaf_size: f32,
+}
+
+impl LeafRanker<'_> {
+    /// The sample points of the leaf at `cell` into `out`; empty when the
+    /// leaf holds no free space worth storing (solid or outside the scene).
+    pub fn samples(&self, cell: UVec3, out: &mut Vec<Vec3>) {
+        out.clear();
+        let c = self.origin + (cell.as_vec3() + 0.5) * self.leaf_size;
+        let sdf = self.sdf;
+        if let Some(class) = sdf.clear_cube_class(c, self.leaf_size) {
+            if class == VoxelClass::Free {
+                out.push(c);
+            }
+            return;
+        }
+        if is_free(sdf, self.bvh, c) {
+            out.push(c);
+        }
+        // The octant centres, then, if none of them is free either, points
+        // near the corners: a thin free slice along a wall is still stored.
+        for reach in [0.5, 0.9] {
+            for corner in 0..8u32 {
+                let o = Vec3::new(
+                    (corner & 1) as f32 - 0.5,
+                    ((corner >> 1) & 1) as f32 - 0.5,
+                    (corner >> 2) as f32 - 0.5,
+                );
+                let p = c + reach * o * self.leaf_size;
+                if is_free(sdf, self.bvh, p) {
+                    out.push(p);
+                }
+            }
+            if !out.is_empty() {
+                return;
+            }
+        }
+    }
+
+    /// How many of `samples` see `probe`, or 0 as soon as more than
+    /// `may_miss` of them do not.
+    fn visible_within(&self, samples: &[Vec3], probe: Vec3, may_miss: usize) -> usize {
+        let eps = 1e-3 * self.sdf.voxel_size;
+        let mut missed = 0;
+        for &s in samples {
+            if self.bvh.occluded(s, probe, eps) {
+                missed += 1;
+                if missed > may_miss {
+                    return 0;
+                }
+            }
+        }
+        samples.len() - missed
+    }
+
+    /// The ranked list of the leaf at `cell` among `candidates` (probe
+    /// indices; those whose influence misses the leaf are skipped), or
+    /// `None` when the leaf holds no free space.
+    ///
+    /// Contract: the list is non-empty, best first, at most [`KEEP`] long;
+    /// with [`Source::Influence`] every listed probe sees at least one
+    /// sample point of the leaf and is a candidate whose influence overlaps it.
+    pub fn rank(
+        &self,
+        cell: UVec3,
+        candidates: &[u32],
+        scratch: &mut Scratch,
+    ) -> Option<(Ranked, Source)> {
+        let Scratch {
+            samples,
+            candidates: bounded,
+            best,
+        } = scratch;
+        self.samples(cell, samples);
+        if samples.is_empty() {
+            return None;
+        }
+        let lo = self.origin + cell.as_vec3() * self.leaf_size;
+        let hi = lo + self.leaf_size;
+        let centre = lo + 0.5 * self.leaf_size;
+        bounded.clear();
+        bounded.extend(
+            candidates
+                .iter()
+                .filter(|&&k| self.influence[k as usize].overlaps(lo, hi))
+                .map(|&k| (self.bound(k, centre), k)),
+        );
+        self.best_visible(samples, bounded, best);
+        if !best.is_empty() {
+            return Some((ranked(best, None), Source::Influence));
+        }
+        // Fallback over all probes: the nearest that sees the leaf first,
+        // then the others that see it, by score, so that the leaf still
+        // shares probes with its neighbours.
+        bounded.clear();
+        bounded.extend(
+            self.influence
+                .iter()
+                .enumerate()
+                .map(|(k, inf)| (inf.position.distance_squared(centre), k as u32)),
+        );
+        bounded.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        let nearest = bounded.first()?.1;
+        let n = samples.len() as f32;
+        let Some(at) = bounded.iter().position(|&(_, k)| {
+            let probe = self.influence[k as usize].position;
+            self.visible_within(samples, probe, samples.len() - 1) > 0
+        }) else {
+            return Some((Ranked::single(nearest), Source::Blind));
+        };
+        let first = bounded[at].1;
+        let seen =
+            self.visible_within(samples, self.influence[first as usize].position, usize::MAX);
+        let first_score = self.bound(first, centre) * seen as f32 / n;
+        // The runners-up come from the probes nearest after it.
+        let rest = (at + 1)..(at + 1 + FALLBACK_RUNNERS_UP).min(bounded.len());
+        for i in rest.clone() {
+            bounded[i].0 = self.bound(bounded[i].1, centre);
+        }
+        self.best_visible(samples, &mut bounded[rest], best);
+        Some((ranked(best, Some((first_score, first))), Source::Fallback))
+    }
+
+    /// Ω̄_k / d̄ for probe `k` and the leaf centred at `centre`: the score
+    /// of a probe that sees the whole leaf, and a bound on any other's.
+    fn bound(&self, k: u32, centre: Vec3) -> f32 {
+        let inf = &self.influence[k as usize];
+        inf.omega_bar / inf.position.distance(centre).max(0.5 * self.leaf_size)
+    }
+
+    /// The best [`KEEP`] of the `(bound, probe)` pairs in `bounded` by score
+    /// (bound × share of `samples` that see the probe) into `best`, best
+    /// first; probes no sample sees are left out. Visits the pairs by
+    /// decreasing bound and stops when none left can enter the list.
+    fn best_visible(
+        &self,
+        samples: &[Vec3],
+        bounded: &mut [(f32, u32)],
+        best: &mut Vec<(f32, u32)>,
+    ) {
+        bounded.sort_unstable_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
+        best.clear();
+        let n = samples.len() as f32;
+        for &(bound, k) in bounded.iter() {
+            if best.len() == KEEP && bound <= best[KEEP - 1].0 {
+                break;
+            }
+            // Samples this probe may miss and still enter the list.
+            let may_miss = if best.len() == KEEP {
+                ((1.0 - best[KEEP - 1].0 / bound) * n).ceil() as usize - 1
+            } else {
+                samples.len() - 1
+            };
+            let seen = self.visible_within(samples, self.influence[k as usize].position, may_miss);
+            if seen == 0 {
+                continue;
+            }
+            let score = bound * seen as f32 / n;
+            let at = best
+                .iter()
+                .position(|&(s, j)| score > s || (score == s && k < j))
+                .unwrap_or(best.len());
+            if at < KEEP {
+                best.insert(at, (score, k));
+                best.truncate(KEEP);
+            }
+        }
+    }
+}
+
+/// The list of `best` (scores and probes, best first), after `first` when
+/// given; each probe's relative score is its score over the best score.
+fn ranked(best: &[(f32, u32)], first: Option<(f32, u32)>) -> Ranked {
+    let top = best
+        .iter()
+        .chain(first.iter())
+        .map(|e| e.0)
+        .fold(f32::MIN_POSITIVE, f32::max);
+    let mut r = Ranked::empty();
+    for &(score, k) in first.iter().chain(best.iter()).take(KEEP) {
+        r.push(k, score / top);
+    }
+    r
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn ranked(items: &[(u32, f32)]) -> Ranked {
+        Ranked::from_items(items)
+    }
+
+    #[test]
+    fn intersection_keeps_shared_probes_with_the_worse_score() {
+        let a = ranked(&[(3, 1.0), (1, 0.8), (7, 0.5), (2, 0.4)]);
+        let b = ranked(&[(1, 1.0), (3, 0.6), (2, 0.5)]);
+        let r = a.intersect(&b);
+        assert_eq!(r.probes(), &[1, 3, 2]);
+        assert_eq!(r.quality(), &[0.8, 0.6, 0.4]);
+        // Commutative up to order of ties.
+        assert_eq!(b.intersect(&a), r);
+        let none = a.intersect(&Ranked::single(9));
+        assert!(none.is_empty());
+    }
+
+    #[test]
+    fn ties_order_by_index() {
+        let a = ranked(&[(5, 1.0), (2, 1.0)]);
+        let r = a.intersect(&a);
+        assert_eq!(r.probes(), &[2, 5]);
+    }
+}
