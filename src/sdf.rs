@@ -120,17 +120,22 @@ impl Sdf {
         Some(self.index(c.as_uvec3()))
     }
 
+    /// Coordinates of the voxel containing `p`, or of the border voxel
+    /// nearest to it when `p` lies beyond the grid.
+    pub fn nearest_voxel(&self, p: Vec3) -> UVec3 {
+        ((p - self.origin) / self.voxel_size)
+            .floor()
+            .clamp(Vec3::ZERO, (self.dims - 1).as_vec3())
+            .as_uvec3()
+    }
+
     /// The class of every point of the cube of edge `edge` centred at
     /// `centre`, when the SDF proves no surface crosses it: the distance at
     /// the nearest voxel centre, less the way from there (distance is
     /// 1-Lipschitz), exceeds the cube's half diagonal. `None` when a surface
     /// may cross it. Centres beyond the grid read the border voxels.
     pub fn clear_cube_class(&self, centre: Vec3, edge: f32) -> Option<VoxelClass> {
-        let v = ((centre - self.origin) / self.voxel_size)
-            .floor()
-            .clamp(Vec3::ZERO, (self.dims - 1).as_vec3())
-            .as_uvec3();
-        let i = self.index(v);
+        let i = self.index(self.nearest_voxel(centre));
         let clearance = self.distance[i].abs() - centre.distance(self.center(i));
         (clearance > 0.5 * 3f32.sqrt() * edge).then_some(self.class[i])
     }

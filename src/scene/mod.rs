@@ -335,6 +335,17 @@ pub mod testing {
     /// A closed room (single-sided walls facing inward) with a solid box inside
     /// (faces outward), all axis-aligned.
     pub fn room_with_box() -> Scene {
+        Scene::from_triangles(
+            "room".into(),
+            room_with_box_triangles().into_iter().map(|t| (t, 0)),
+            vec![Material::fallback()],
+        )
+        .unwrap()
+    }
+
+    /// The triangles of [`room_with_box`]: the 4 m room's walls, then the
+    /// 1 m box's faces.
+    pub fn room_with_box_triangles() -> Vec<[Vec3; 3]> {
         let mut tris = Vec::new();
         add_box(&mut tris, Vec3::ZERO, Vec3::splat(4.0), true);
         add_box(
@@ -343,12 +354,7 @@ pub mod testing {
             Vec3::new(2.0, 1.0, 2.0),
             false,
         );
-        Scene::from_triangles(
-            "room".into(),
-            tris.into_iter().map(|t| (t, 0)),
-            vec![Material::fallback()],
-        )
-        .unwrap()
+        tris
     }
 
     /// Adds the 12 triangles of box `[lo, hi]`, normals inward when `inward`.

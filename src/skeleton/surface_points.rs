@@ -235,16 +235,8 @@ mod tests {
     fn a_flipped_face_is_oriented_by_free_space_not_winding() {
         // The room of `room_with_box`, with the box's top face wound the
         // wrong way (normal into the box).
-        use crate::scene::testing::add_box;
         use crate::scene::{Material, Scene};
-        let mut tris = Vec::new();
-        add_box(&mut tris, Vec3::ZERO, Vec3::splat(4.0), true);
-        add_box(
-            &mut tris,
-            Vec3::new(1.0, 0.0, 1.0),
-            Vec3::new(2.0, 1.0, 2.0),
-            false,
-        );
+        let mut tris = crate::scene::testing::room_with_box_triangles();
         let mut flipped = 0;
         for t in tris.iter_mut() {
             if t.iter().all(|v| v.y == 1.0) {

@@ -80,15 +80,21 @@ pub struct Builder<'a> {
 
 impl Builder<'_> {
     /// The subtree whose cube is `cell` at `level` (2^level leaves along an
-    /// edge), considering only `candidates`.
-    pub fn build(&self, level: u32, cell: UVec3, candidates: &[u32]) -> (Built, Tally) {
+    /// edge), considering only `candidates`; `scratch` serves the serial
+    /// part of the descent.
+    pub fn build(
+        &self,
+        level: u32,
+        cell: UVec3,
+        candidates: &[u32],
+        scratch: &mut Scratch,
+    ) -> (Built, Tally) {
         let first = cell << level;
         if first.cmpge(self.dims).any() {
             return (Built::Empty, Tally::default());
         }
         if level == 0 {
-            let mut scratch = Scratch::default();
-            return self.leaf(first, candidates, &mut scratch);
+            return self.leaf(first, candidates, scratch);
         }
         let ranker = self.ranker;
         let size = ranker.leaf_size * (1u32 << level) as f32;
@@ -108,26 +114,14 @@ impl Builder<'_> {
             let o = UVec3::new(c & 1, (c >> 1) & 1, c >> 2);
             (cell << 1) + o
         };
-        let parts: Vec<(Built, Tally)> = if level == 1 {
-            let mut scratch = Scratch::default();
-            (0..8)
-                .map(|c| {
-                    let leaf = child(c);
-                    if leaf.cmpge(self.dims).any() {
-                        (Built::Empty, Tally::default())
-                    } else {
-                        self.leaf(leaf, &kept, &mut scratch)
-                    }
-                })
-                .collect()
-        } else if level >= PARALLEL_LEVEL {
+        let parts: Vec<(Built, Tally)> = if level >= PARALLEL_LEVEL {
             (0..8u32)
                 .into_par_iter()
-                .map(|c| self.build(level - 1, child(c), &kept))
+                .map(|c| self.build(level - 1, child(c), &kept, &mut Scratch::default()))
                 .collect()
         } else {
             (0..8)
-                .map(|c| self.build(level - 1, child(c), &kept))
+                .map(|c| self.build(level - 1, child(c), &kept, scratch))
                 .collect()
         };
         let tally = parts
@@ -142,7 +136,7 @@ impl Builder<'_> {
         (collapse(children, self.collapse_quality), tally)
     }
 
-    /// The leaf at `cell`.
+    /// The leaf at `cell` (inside the grid).
     fn leaf(&self, cell: UVec3, candidates: &[u32], scratch: &mut Scratch) -> (Built, Tally) {
         match self.ranker.rank(cell, candidates, scratch) {
             None => (Built::Empty, Tally::default()),

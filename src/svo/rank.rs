@@ -138,10 +138,7 @@ impl Ranked {
 /// interpolation cannot decide this near edges and thin walls; the
 /// segment test is exact.
 pub fn is_free(sdf: &Sdf, bvh: &SceneBvh, p: Vec3) -> bool {
-    let v = ((p - sdf.origin) / sdf.voxel_size)
-        .floor()
-        .clamp(Vec3::ZERO, (sdf.dims - 1).as_vec3())
-        .as_ivec3();
+    let v = sdf.nearest_voxel(p).as_ivec3();
     let i = sdf.index(v.as_uvec3());
     match sdf.class[i] {
         VoxelClass::Outside => return false,
@@ -327,15 +324,16 @@ impl LeafRanker<'_> {
         bounded.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
         let nearest = bounded.first()?.1;
         let n = samples.len() as f32;
-        let Some(at) = bounded.iter().position(|&(_, k)| {
+        // Short-circuits only when every sample misses, so a probe that is
+        // seen gets its exact count in the same pass.
+        let Some((at, seen)) = bounded.iter().enumerate().find_map(|(i, &(_, k))| {
             let probe = self.influence[k as usize].position;
-            self.visible_within(samples, probe, samples.len() - 1) > 0
+            let seen = self.visible_within(samples, probe, samples.len() - 1);
+            (seen > 0).then_some((i, seen))
         }) else {
             return Some((Ranked::single(nearest), Source::Blind));
         };
         let first = bounded[at].1;
-        let seen =
-            self.visible_within(samples, self.influence[first as usize].position, usize::MAX);
         let first_score = self.bound(first, centre) * seen as f32 / n;
         // The runners-up come from the probes nearest after it.
         let rest = (at + 1)..(at + 1 + FALLBACK_RUNNERS_UP).min(bounded.len());
