@@ -489,23 +489,267 @@ impl Default for SvoParams {
     }
 }
 
-/// A light, for the lighting stages to come (probe bake, validation render).
+/// A finite point in world units (after `scale` and `up`).
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(try_from = "[f64; 3]")]
+pub struct Point3(pub [f32; 3]);
+
+impl TryFrom<[f64; 3]> for Point3 {
+    type Error = String;
+    fn try_from(v: [f64; 3]) -> Result<Self, String> {
+        if v.iter()
+            .all(|c| c.is_finite() && c.abs() <= f32::MAX as f64)
+        {
+            Ok(Point3(v.map(|c| c as f32)))
+        } else {
+            Err(format!("must be three finite numbers, got {v:?}"))
+        }
+    }
+}
+
+/// A direction: three finite numbers, not all zero, normalized on reading.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(try_from = "[f64; 3]")]
+pub struct Direction(pub [f32; 3]);
+
+impl TryFrom<[f64; 3]> for Direction {
+    type Error = String;
+    fn try_from(v: [f64; 3]) -> Result<Self, String> {
+        let len = v.iter().map(|c| c * c).sum::<f64>().sqrt();
+        if v.iter().all(|c| c.is_finite()) && len > 1e-12 && len.is_finite() {
+            Ok(Direction(v.map(|c| (c / len) as f32)))
+        } else {
+            Err(format!(
+                "must be three finite numbers, not all zero, got {v:?}"
+            ))
+        }
+    }
+}
+
+/// A radiometric colour: three finite numbers of at least 0 (linear RGB).
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(try_from = "[f64; 3]")]
+pub struct Rgb(pub [f32; 3]);
+
+impl TryFrom<[f64; 3]> for Rgb {
+    type Error = String;
+    fn try_from(v: [f64; 3]) -> Result<Self, String> {
+        if v.iter()
+            .all(|c| c.is_finite() && *c >= 0.0 && *c <= f32::MAX as f64)
+        {
+            Ok(Rgb(v.map(|c| c as f32)))
+        } else {
+            Err(format!(
+                "must be three finite numbers of at least 0, got {v:?}"
+            ))
+        }
+    }
+}
+
+/// A whole number in `0..=MAX` (bounce counts, where 0 is meaningful).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(try_from = "u64")]
+pub struct Whole<const MAX: u32>(pub u32);
+
+impl<const MAX: u32> TryFrom<u64> for Whole<MAX> {
+    type Error = String;
+    fn try_from(v: u64) -> Result<Self, String> {
+        if v <= MAX as u64 {
+            Ok(Whole(v as u32))
+        } else {
+            Err(format!("must be a whole number from 0 to {MAX}, got {v}"))
+        }
+    }
+}
+
+/// A power of two in `MIN..=MAX` (octahedral map sides, so that every
+/// pyramid level halves exactly).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(try_from = "u64")]
+pub struct PowerOfTwo<const MIN: u32, const MAX: u32>(pub u32);
+
+impl<const MIN: u32, const MAX: u32> TryFrom<u64> for PowerOfTwo<MIN, MAX> {
+    type Error = String;
+    fn try_from(v: u64) -> Result<Self, String> {
+        if v.is_power_of_two() && (MIN as u64..=MAX as u64).contains(&v) {
+            Ok(PowerOfTwo(v as u32))
+        } else {
+            Err(format!(
+                "must be a power of two from {MIN} to {MAX}, got {v}"
+            ))
+        }
+    }
+}
+
+/// A light for the lighting stages (probe bake, reference render). Emissive
+/// materials (`Ke`) of the scene are area lights in addition to these.
 #[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
 pub enum Light {
-    /// A point light at `position` (world units) with RGB `intensity`.
+    /// A point light at `position` with RGB radiant `intensity` (W/sr).
     Point {
         /// Position in world units.
-        position: [f32; 3],
+        position: Point3,
         /// Radiant intensity per channel.
-        intensity: [f32; 3],
+        intensity: Rgb,
     },
-    /// A directional light travelling along `direction` with RGB `radiance`.
+    /// A spot light: a point light restricted to a cone about `direction`.
+    Spot {
+        /// Position in world units.
+        position: Point3,
+        /// Axis of the cone, pointing where the light shines.
+        direction: Direction,
+        /// Radiant intensity per channel on the axis.
+        intensity: Rgb,
+        /// Half-angle of the cone in degrees; nothing is emitted outside it.
+        cone_degrees: Degrees,
+        /// Width in degrees of the smooth fall-off inside the cone's edge.
+        #[serde(default = "spot_edge")]
+        edge_degrees: NonNegative,
+    },
+    /// A distant light (the sun) travelling along `direction`, giving
+    /// `irradiance` (W/m²) on a surface facing it.
     Directional {
         /// Direction the light travels.
-        direction: [f32; 3],
-        /// Radiance per channel.
-        radiance: [f32; 3],
+        direction: Direction,
+        /// Irradiance per channel on a surface perpendicular to the light.
+        irradiance: Rgb,
     },
+    /// Constant radiance arriving from every direction that escapes the
+    /// scene (a uniform sky; scenes open to the outside, such as Sponza).
+    Sky {
+        /// Radiance per channel.
+        radiance: Rgb,
+    },
+}
+
+fn spot_edge() -> NonNegative {
+    NonNegative(5.0)
+}
+
+/// A pinhole camera for the reference render.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(try_from = "RawCamera")]
+pub struct CameraParams {
+    /// Eye position (world units).
+    pub position: Point3,
+    /// A point the camera looks at.
+    pub look_at: Point3,
+    /// Up direction of the image; must not be parallel to the view.
+    pub up: Direction,
+    /// Vertical field of view in degrees, in (0, 180).
+    pub fov_degrees: f32,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawCamera {
+    position: Point3,
+    look_at: Point3,
+    #[serde(default = "y_up")]
+    up: Direction,
+    #[serde(default = "default_fov")]
+    fov_degrees: f64,
+}
+
+fn y_up() -> Direction {
+    Direction([0.0, 1.0, 0.0])
+}
+
+fn default_fov() -> f64 {
+    40.0
+}
+
+impl TryFrom<RawCamera> for CameraParams {
+    type Error = String;
+    fn try_from(r: RawCamera) -> Result<Self, String> {
+        let view: Vec<f32> = (0..3).map(|i| r.look_at.0[i] - r.position.0[i]).collect();
+        let len = view.iter().map(|c| c * c).sum::<f32>().sqrt();
+        if !(len > 0.0) {
+            return Err("look_at must differ from position".into());
+        }
+        let u = r.up.0;
+        let cross = [
+            view[1] * u[2] - view[2] * u[1],
+            view[2] * u[0] - view[0] * u[2],
+            view[0] * u[1] - view[1] * u[0],
+        ];
+        if cross.iter().map(|c| c * c).sum::<f32>().sqrt() < 1e-4 * len {
+            return Err("up must not be parallel to the view direction".into());
+        }
+        if !(r.fov_degrees > 0.0 && r.fov_degrees < 180.0) {
+            return Err(format!(
+                "fov_degrees must lie strictly between 0 and 180, got {}",
+                r.fov_degrees
+            ));
+        }
+        Ok(CameraParams {
+            position: r.position,
+            look_at: r.look_at,
+            up: r.up,
+            fov_degrees: r.fov_degrees as f32,
+        })
+    }
+}
+
+/// The light-field probe bake (McGuire et al. 2017 §3 and §5.2; `lightfield`
+/// module docs).
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct BakeParams {
+    /// Side of each probe's octahedral radiance, normal and distance maps.
+    /// The papers use 512–1024; 128 is plenty for validation.
+    pub resolution: PowerOfTwo<8, 2048>,
+    /// Side of each probe's irradiance and distance-moment maps (McGuire
+    /// §3: 32² to 128² suffice).
+    pub irradiance_resolution: PowerOfTwo<8, 256>,
+    /// Path samples averaged into each radiance texel.
+    pub samples: Count<65536>,
+    /// Indirect bounces after the surface a probe sees (0: direct light only).
+    pub bounces: Whole<64>,
+    /// Exponent of the cosine-power lobe that filters the distance moments
+    /// (McGuire §5.2).
+    pub moment_exponent: Positive,
+}
+
+impl Default for BakeParams {
+    fn default() -> Self {
+        BakeParams {
+            resolution: PowerOfTwo(128),
+            irradiance_resolution: PowerOfTwo(32),
+            samples: Count(4),
+            bounces: Whole(2),
+            moment_exponent: Positive(50.0),
+        }
+    }
+}
+
+/// The path-traced reference image (Wang et al. 2019 §5.1 measures error on
+/// glossy indirect light against such an image).
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ReferenceParams {
+    /// The camera; without one, `bake` skips the reference and says so.
+    pub camera: Option<CameraParams>,
+    /// Image width in pixels.
+    pub width: Count<8192>,
+    /// Image height in pixels.
+    pub height: Count<8192>,
+    /// Paths per pixel.
+    pub samples_per_pixel: Count<1_000_000>,
+    /// Indirect bounces after the first surface (0: direct light only).
+    pub bounces: Whole<64>,
+}
+
+impl Default for ReferenceParams {
+    fn default() -> Self {
+        ReferenceParams {
+            camera: None,
+            width: Count(320),
+            height: Count(240),
+            samples_per_pixel: Count(64),
+            bounces: Whole(3),
+        }
+    }
 }
 
 /// One run's configuration, as read from a RON file.
@@ -539,7 +783,7 @@ pub struct Config {
     /// Coverage estimation parameters.
     #[serde(default)]
     pub coverage: CoverageParams,
-    /// Lights for the later lighting stages.
+    /// Lights besides the scene's emissive materials.
     #[serde(default)]
     pub lights: Vec<Light>,
     /// Refinement, pruning and filling.
@@ -548,6 +792,12 @@ pub struct Config {
     /// The sparse voxel octree of probe indices.
     #[serde(default)]
     pub svo: SvoParams,
+    /// The light-field probe bake.
+    #[serde(default)]
+    pub bake: BakeParams,
+    /// The path-traced reference image.
+    #[serde(default)]
+    pub reference: ReferenceParams,
 }
 
 fn unit_scale() -> Positive {
