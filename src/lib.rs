@@ -35,5 +35,6 @@ pub mod scene;
 pub mod sdf;
 pub mod skeleton;
 pub mod svo;
+pub mod trace;
 
 pub use error::{Error, Result};

@@ -1,0 +1,296 @@
+//! The light-field ray trace of McGuire et al. 2017 §4 (Listing 1,
+//! `lightFieldTrace`) on the CPU: choose a probe, march the ray through its
+//! maps ([`single`]), and while the answer is *unknown* advance the ray to
+//! where that probe lost sight of it and choose the next probe.
+//!
+//! Two ways of choosing ([`Selection`]):
+//! - **Grid** (McGuire §4.1, Fig. 3): the eight probes of the grid cell
+//!   holding the ray's current origin, starting with the one closest to the
+//!   ray's line and then i′ = (i + 3) mod 8, the order that always moves to
+//!   a far probe; a new cell restarts the choice.
+//! - **SVO** (Wang et al. 2019 §4.1): the ranked candidates the octree
+//!   lists for the leaf holding the ray's current origin.
+//!
+//! This is the CPU twin of the GPU tracer: same march, same selection.
+
+pub mod check;
+pub mod single;
+
+use crate::lightfield::LightField;
+use crate::svo::Svo;
+use glam::{IVec3, Vec3};
+use std::collections::HashMap;
+
+/// What the light field says about a ray.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Outcome {
+    /// The ray hits a surface at `t`, as seen by probe `probe`.
+    Hit {
+        /// Distance along the ray.
+        t: f32,
+        /// The probe whose maps resolved it.
+        probe: u32,
+    },
+    /// The ray leaves the scene.
+    Miss,
+    /// No candidate probe could follow the ray past `t`; McGuire §4.1 then
+    /// takes the last observed point as the hit.
+    Unknown {
+        /// Where the last probe lost sight of the ray.
+        t: f32,
+    },
+}
+
+/// How the next probe is chosen.
+pub enum Selection<'a> {
+    /// A regular grid of probes (McGuire's placement).
+    Grid(&'a Lattice),
+    /// The SVO's ranked lists.
+    Svo(&'a Svo),
+}
+
+/// A regular lattice of probes recognized from their positions.
+#[derive(Debug, Clone)]
+pub struct Lattice {
+    /// Position of lattice point (0, 0, 0).
+    pub origin: Vec3,
+    /// Spacing per axis (1 where the axis has one layer).
+    pub spacing: Vec3,
+    /// Points per axis.
+    pub dims: IVec3,
+    index: HashMap<(i32, i32, i32), u32>,
+}
+
+impl Lattice {
+    /// Recognizes `positions` as a full regular grid (any order).
+    ///
+    /// Contract: `None` unless the positions are exactly the points of an
+    /// nx×ny×nz lattice with constant spacing per axis (to 1e-4 relative).
+    pub fn from_positions(positions: &[Vec3]) -> Option<Lattice> {
+        let mut axes = [Vec::new(), Vec::new(), Vec::new()];
+        let scale = positions.iter().fold(0.0f32, |m, p| m.max(p.abs().max_element())).max(1e-6);
+        let tol = 1e-4 * scale;
+        for p in positions {
+            for (i, axis) in axes.iter_mut().enumerate() {
+                if !axis.iter().any(|&v: &f32| (v - p[i]).abs() <= tol) {
+                    axis.push(p[i]);
+                }
+            }
+        }
+        let mut origin = Vec3::ZERO;
+        let mut spacing = Vec3::ONE;
+        let mut dims = IVec3::ONE;
+        for (i, axis) in axes.iter_mut().enumerate() {
+            axis.sort_by(f32::total_cmp);
+            origin[i] = axis[0];
+            dims[i] = axis.len() as i32;
+            if axis.len() > 1 {
+                spacing[i] = (axis[axis.len() - 1] - axis[0]) / (axis.len() - 1) as f32;
+                if axis.windows(2).any(|w| ((w[1] - w[0]) - spacing[i]).abs() > tol) {
+                    return None;
+                }
+            }
+        }
+        if (dims.x * dims.y * dims.z) as usize != positions.len() {
+            return None;
+        }
+        let mut index = HashMap::new();
+        for (k, p) in positions.iter().enumerate() {
+            let c = ((*p - origin) / spacing).round().as_ivec3();
+            index.insert((c.x, c.y, c.z), k as u32);
+        }
+        (index.len() == positions.len()).then_some(Lattice {
+            origin,
+            spacing,
+            dims,
+            index,
+        })
+    }
+
+    /// The cell (lower lattice corner) whose cube of eight probes holds `p`,
+    /// clamped to the lattice.
+    pub fn cell(&self, p: Vec3) -> IVec3 {
+        let c = ((p - self.origin) / self.spacing).floor().as_ivec3();
+        c.clamp(IVec3::ZERO, (self.dims - 2).max(IVec3::ZERO))
+    }
+
+    /// Probe at corner `i` (0..8, bit 0 = +x, bit 1 = +y, bit 2 = +z) of
+    /// `cell`; corners beyond a one-layer axis fold onto the layer.
+    pub fn corner(&self, cell: IVec3, i: u32) -> u32 {
+        let o = IVec3::new((i & 1) as i32, ((i >> 1) & 1) as i32, ((i >> 2) & 1) as i32);
+        let c = (cell + o).min(self.dims - 1);
+        self.index[&(c.x, c.y, c.z)]
+    }
+}
+
+/// Most probes one trace consults before it gives up.
+pub const MAX_PROBES_PER_RAY: usize = 16;
+
+/// Traces `origin + t·dir`, t in [0, `t_max`], through the light field.
+///
+/// Contract: `dir` is unit length, `t_max` finite (the ray's exit from the
+/// scene's bounds). `hierarchical` selects the Hi-Z march. The result does
+/// not depend on anything but the arguments.
+pub fn trace(
+    field: &LightField,
+    selection: &Selection,
+    origin: Vec3,
+    dir: Vec3,
+    t_max: f32,
+    hierarchical: bool,
+    steps: &mut single::Steps,
+) -> Outcome {
+    let mut t = 0.0f32;
+    let mut tried: [u32; MAX_PROBES_PER_RAY] = [u32::MAX; MAX_PROBES_PER_RAY];
+    let mut count = 0;
+    // Grid state: the current cell and the last corner used in it.
+    let mut grid_cell = IVec3::splat(i32::MIN);
+    let mut corner = 0u32;
+    let mut corners_used = 0u32;
+    while count < MAX_PROBES_PER_RAY {
+        let here = origin + dir * t;
+        let next = match selection {
+            Selection::Svo(svo) => svo
+                .probes_at(here)
+                .iter()
+                .copied()
+                .find(|p| !tried[..count].contains(p)),
+            Selection::Grid(lattice) => {
+                let cell = lattice.cell(here);
+                if cell != grid_cell {
+                    grid_cell = cell;
+                    corners_used = 0;
+                    corner = closest_corner(field, lattice, cell, here, dir, &tried[..count]);
+                } else {
+                    corner = (corner + 3) % 8;
+                }
+                let mut found = None;
+                while corners_used < 8 {
+                    corners_used += 1;
+                    let p = lattice.corner(cell, corner);
+                    if !tried[..count].contains(&p) {
+                        found = Some(p);
+                        break;
+                    }
+                    corner = (corner + 3) % 8;
+                }
+                found
+            }
+        };
+        let Some(probe) = next else {
+            return Outcome::Unknown { t };
+        };
+        tried[count] = probe;
+        count += 1;
+        match single::trace(field, probe as usize, origin, dir, t, t_max, hierarchical, steps) {
+            single::Probe::Hit(th) => return Outcome::Hit { t: th, probe },
+            single::Probe::Miss => return Outcome::Miss,
+            single::Probe::Unknown(tu) => t = tu.max(t),
+        }
+    }
+    Outcome::Unknown { t }
+}
+
+/// The corner of `cell` whose probe lies closest to the ray's line
+/// (McGuire §4.1: it nearly always gives the shortest polyline), among the
+/// untried ones.
+fn closest_corner(field: &LightField, lattice: &Lattice, cell: IVec3, p: Vec3, dir: Vec3, tried: &[u32]) -> u32 {
+    let mut best = (f32::INFINITY, 0u32);
+    for i in 0..8 {
+        let probe = lattice.corner(cell, i);
+        if tried.contains(&probe) {
+            continue;
+        }
+        let v = field.positions[probe as usize] - p;
+        let d2 = (v - dir * v.dot(dir)).length_squared();
+        if d2 < best.0 {
+            best = (d2, i);
+        }
+    }
+    best.1
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::{BakeParams, PowerOfTwo};
+    use crate::lightfield;
+    use crate::progress::Progress;
+    use crate::sampling::{hash2, unit_f32};
+    use crate::scene::raycast::SceneBvh;
+    use crate::scene::testing::room_with_box;
+
+    fn grid_field(n: u32) -> (crate::scene::Scene, SceneBvh, LightField) {
+        let scene = room_with_box();
+        let bvh = SceneBvh::new(&scene);
+        let mut probes = Vec::new();
+        for z in 0..3 {
+            for y in 0..2 {
+                for x in 0..3 {
+                    probes.push(Vec3::new(0.6 + 1.4 * x as f32, 1.3 + 1.8 * y as f32, 0.6 + 1.4 * z as f32));
+                }
+            }
+        }
+        let params = BakeParams { resolution: PowerOfTwo(n), ..BakeParams::default() };
+        let field = lightfield::bake(&params, &probes, &scene, &bvh, 8.0, 1, &|_, _, _| Vec3::ZERO, &Progress::hidden()).field;
+        (scene, bvh, field)
+    }
+
+    fn free_points(count: usize) -> Vec<Vec3> {
+        (0..count as u64)
+            .map(|i| Vec3::new(unit_f32(hash2(9, 3 * i)), unit_f32(hash2(9, 3 * i + 1)), unit_f32(hash2(9, 3 * i + 2))) * 3.9 + 0.05)
+            .filter(|p| !(p.x > 0.95 && p.x < 2.05 && p.z > 0.95 && p.z < 2.05 && p.y < 1.05))
+            .collect()
+    }
+
+    #[test]
+    fn lattice_is_recognized_in_any_order() {
+        let (_, _, field) = grid_field(8);
+        let mut shuffled = field.positions.clone();
+        shuffled.reverse();
+        let l = Lattice::from_positions(&shuffled).unwrap();
+        assert_eq!(l.dims, IVec3::new(3, 2, 3));
+        assert_eq!(l.cell(Vec3::new(2.1, 5.0, 0.0)), IVec3::new(1, 0, 0));
+        let p = l.corner(IVec3::new(1, 0, 1), 7);
+        assert!((shuffled[p as usize] - Vec3::new(3.4, 3.1, 3.4)).length() < 1e-5);
+        let mut broken = shuffled.clone();
+        broken[3].x += 0.3;
+        assert!(Lattice::from_positions(&broken).is_none());
+        assert!(Lattice::from_positions(&shuffled[1..]).is_none());
+    }
+
+    #[test]
+    fn grid_trace_agrees_with_ray_casts() {
+        let (scene, bvh, field) = grid_field(128);
+        let lattice = Lattice::from_positions(&field.positions).unwrap();
+        let origins = free_points(4000);
+        let a = check::compare(&field, &Selection::Grid(&lattice), &scene, &bvh, &origins, 4, true);
+        assert!(a.seen > 3000, "{a:?}");
+        assert!(a.rate() >= 0.99, "{a:?}");
+        assert_eq!(a.escaping, 0, "the room is closed");
+    }
+
+    #[test]
+    fn hierarchical_march_equals_the_texel_march() {
+        let (scene, _, field) = grid_field(64);
+        let origins = free_points(3000);
+        let mut fewer = 0;
+        for (i, &o) in origins.iter().enumerate() {
+            let d = crate::sampling::fibonacci_sphere(3000)[i];
+            let t_max = check::exit_distance(&scene.bounds, o, d);
+            for probe in [0, 7, 17] {
+                let (mut s1, mut s2) = (single::Steps::default(), single::Steps::default());
+                let flat = single::trace(&field, probe, o, d, 0.0, t_max, false, &mut s1);
+                let hiz = single::trace(&field, probe, o, d, 0.0, t_max, true, &mut s2);
+                match (flat, hiz) {
+                    (single::Probe::Hit(a), single::Probe::Hit(b)) | (single::Probe::Unknown(a), single::Probe::Unknown(b)) => {
+                        assert!((a - b).abs() <= 1e-4 * (1.0 + a), "ray {i} probe {probe}: {flat:?} vs {hiz:?}")
+                    }
+                    (x, y) => assert_eq!(x, y, "ray {i} probe {probe}"),
+                }
+                fewer += (s2.fine < s1.fine) as u32;
+            }
+        }
+        assert!(fewer > 3000, "the pyramid should spare fine steps: {fewer}");
+    }
+}

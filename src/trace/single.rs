@@ -1,0 +1,267 @@
+//! The single-probe trace of McGuire et al. 2017 §4.1 (Listing 1,
+//! `singleProbeTrace`), made hierarchical as in Wang et al. 2019 §4.2.
+//!
+//! A 3D ray segment maps, under the octahedral projection about a probe, to
+//! a polyline of at most four straight pieces: the segment is cut where it
+//! crosses the three axis planes through the probe, and within one octant
+//! the projection is central projection onto a flat octahedron face, which
+//! keeps lines straight. Within a piece each map coordinate is a ratio of
+//! two functions linear in the ray parameter t, e = N(t) / |q(t)|₁, so the
+//! t at which the ray crosses a texel edge solves a linear equation: the
+//! march steps from texel edge to texel edge exactly, in t.
+//!
+//! Each texel is a surfel (McGuire §4.1): the plane through the stored
+//! point with the stored normal, which faces the probe. Over the part of
+//! the ray inside the texel's cone, [t_a, t_b]:
+//! - if the ray's largest radial distance there, max(r(t_a), r(t_b)) (|q|
+//!   is convex), is below the level's min distance, the ray passes in front:
+//!   go on (at coarse levels this skips 4ᵏ fine texels at once);
+//! - else, with f(t) the signed distance to the surfel's plane (positive on
+//!   the probe's side): a ray that enters in front (f(t_a) ≥ −τ) and ends
+//!   behind (f(t_b) ≤ 0) **hits** where f = 0; one that stays in front goes
+//!   on; one that enters more than τ behind has passed **behind** a surface
+//!   the probe cannot see past: the probe cannot tell (**unknown**).
+//!
+//! τ = 2s/n, about one texel's width at the surfel's distance s, absorbs the
+//! step between neighbouring surfels of a curved surface. Because the plane
+//! faces the probe, crossing it from front to back means meeting its front
+//! face; McGuire's back-face discrimination comes for free. The coarse test
+//! is exactly the fine test's first branch on bounds of the fine values, so
+//! the hierarchical march returns what a texel-by-texel march returns.
+
+use crate::lightfield::maps::decode_normal;
+use crate::lightfield::{octahedral, LightField};
+use glam::Vec3;
+
+/// What one probe can say about a ray.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Probe {
+    /// The ray meets a surface at `t`.
+    Hit(f32),
+    /// The ray reaches its end without meeting a surface.
+    Miss,
+    /// At `t` the ray passes behind a surface this probe sees; another probe
+    /// must go on from there.
+    Unknown(f32),
+}
+
+/// Counters of one trace, for benchmarks and debugging.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Steps {
+    /// Texels visited at level 0.
+    pub fine: u32,
+    /// Texels visited above level 0.
+    pub coarse: u32,
+}
+
+/// One polyline piece: the ray within one octant of the probe.
+struct Piece {
+    /// e.x = (nx0 + nx1 t) / (d0 + d1 t), e.y likewise.
+    nx: [f32; 2],
+    ny: [f32; 2],
+    den: [f32; 2],
+    /// Motion of e.x, e.y along increasing t: +1, −1 or 0.
+    sx: i32,
+    sy: i32,
+}
+
+impl Piece {
+    fn new(a: Vec3, d: Vec3, mid: Vec3) -> Piece {
+        let s = Vec3::new(sgn(mid.x), sgn(mid.y), sgn(mid.z));
+        let den = [s.dot(a), s.dot(d)];
+        let (nx, ny) = if mid.z >= 0.0 {
+            ([a.x, d.x], [a.y, d.y])
+        } else {
+            (
+                [s.x * (den[0] - s.y * a.y), s.x * (den[1] - s.y * d.y)],
+                [s.y * (den[0] - s.x * a.x), s.y * (den[1] - s.x * d.x)],
+            )
+        };
+        let motion = |n: [f32; 2]| {
+            let m = n[1] * den[0] - n[0] * den[1];
+            if m > 0.0 {
+                1
+            } else if m < 0.0 {
+                -1
+            } else {
+                0
+            }
+        };
+        Piece {
+            sx: motion(nx),
+            sy: motion(ny),
+            nx,
+            ny,
+            den,
+        }
+    }
+
+    fn at(&self, t: f32) -> (f32, f32) {
+        let dn = self.den[0] + self.den[1] * t;
+        ((self.nx[0] + self.nx[1] * t) / dn, (self.ny[0] + self.ny[1] * t) / dn)
+    }
+
+    /// The t at which the coordinate `n` equals `c`.
+    fn crossing(&self, n: [f32; 2], c: f32) -> f32 {
+        let k = n[1] - c * self.den[1];
+        if k == 0.0 {
+            f32::INFINITY
+        } else {
+            (c * self.den[0] - n[0]) / k
+        }
+    }
+}
+
+fn sgn(v: f32) -> f32 {
+    if v >= 0.0 {
+        1.0
+    } else {
+        -1.0
+    }
+}
+
+/// Texel index of map coordinate `e` at side `side`, nudged in the direction
+/// of motion so a point on an edge belongs to the texel being entered.
+fn cell(e: f32, side: u32, motion: i32) -> i64 {
+    let x = (e + 1.0) * 0.5 * side as f32 + motion as f32 * 1e-4;
+    (x.floor() as i64).clamp(0, side as i64 - 1)
+}
+
+/// The highest pyramid level the march starts from: side 8 or more, as
+/// Wang §4.2 avoids the coarsest levels.
+pub fn top_level(n: u32) -> usize {
+    n.trailing_zeros().saturating_sub(3) as usize
+}
+
+/// Traces the ray `origin + t·dir`, `t` in [`t0`, `t1`], through probe
+/// `probe`'s maps; `hierarchical` uses the min pyramid.
+///
+/// Contract: `dir` is unit length and `t1` finite. `Hit(t)` and
+/// `Unknown(t)` have t in [`t0`, `t1`]. The hierarchical and the
+/// texel-by-texel march agree (see module docs).
+pub fn trace(
+    field: &LightField,
+    probe: usize,
+    origin: Vec3,
+    dir: Vec3,
+    t0: f32,
+    t1: f32,
+    hierarchical: bool,
+    steps: &mut Steps,
+) -> Probe {
+    let a = origin - field.positions[probe];
+    // Cut at the axis planes through the probe: at most four pieces.
+    let mut cuts = [t0, t1, t1, t1, t1];
+    let mut k = 1;
+    for i in 0..3 {
+        if dir[i] != 0.0 {
+            let t = -a[i] / dir[i];
+            if t > t0 && t < t1 {
+                cuts[k] = t;
+                k += 1;
+            }
+        }
+    }
+    cuts[k] = t1;
+    cuts[1..k].sort_by(f32::total_cmp);
+    for w in cuts[..=k].windows(2) {
+        let (ta, tb) = (w[0], w[1]);
+        if tb <= ta {
+            continue;
+        }
+        let mid = a + dir * (0.5 * (ta + tb));
+        if mid.length_squared() == 0.0 {
+            continue;
+        }
+        let piece = Piece::new(a, dir, mid);
+        if let Some(r) = march(field, probe, a, dir, &piece, ta, tb, hierarchical, steps) {
+            return r;
+        }
+    }
+    Probe::Miss
+}
+
+/// Marches one piece over [`ta`, `tb`]; `None` when it reaches `tb`.
+#[allow(clippy::too_many_arguments)]
+fn march(
+    field: &LightField,
+    probe: usize,
+    a: Vec3,
+    d: Vec3,
+    piece: &Piece,
+    ta: f32,
+    tb: f32,
+    hierarchical: bool,
+    steps: &mut Steps,
+) -> Option<Probe> {
+    let n = field.resolution;
+    let top = if hierarchical { top_level(n) } else { 0 };
+    let mut level = top;
+    let mut t = ta;
+    let radius = |t: f32| (a + d * t).length();
+    // A guard against non-progress from rounding: a piece crosses at most
+    // 2n texels per level, each visited at most twice on the way up and down.
+    let mut budget = 16 * n as usize * (top + 1) + 64;
+    while t < tb && budget > 0 {
+        budget -= 1;
+        let side = n >> level;
+        let (ex, ey) = piece.at(t);
+        let ix = cell(ex, side, piece.sx);
+        let iy = cell(ey, side, piece.sy);
+        // Exit of this texel: the first of its edges the ray reaches.
+        let edge = |i: i64, motion: i32| -> f32 {
+            let next = if motion > 0 { i + 1 } else { i };
+            2.0 * next as f32 / side as f32 - 1.0
+        };
+        let mut exit = tb;
+        if piece.sx != 0 {
+            let c = piece.crossing(piece.nx, edge(ix, piece.sx));
+            if c > t {
+                exit = exit.min(c);
+            }
+        }
+        if piece.sy != 0 {
+            let c = piece.crossing(piece.ny, edge(iy, piece.sy));
+            if c > t {
+                exit = exit.min(c);
+            }
+        }
+        let side_texels = (side * side) as usize;
+        let index = probe * side_texels + (iy as u32 * side + ix as u32) as usize;
+        let lo = field.pyramid[level][index][0];
+        let in_front = radius(t).max(radius(exit)) < lo;
+        if level > 0 {
+            steps.coarse += 1;
+            if in_front {
+                t = exit;
+                level = (level + 1).min(top);
+            } else {
+                level -= 1;
+            }
+            continue;
+        }
+        steps.fine += 1;
+        if !in_front {
+            let s = field.distance[index];
+            let nrm = decode_normal(field.normal[index]);
+            let centre = octahedral::texel_direction(ix as u32, iy as u32, n) * s;
+            let fa = nrm.dot(a + d * t - centre);
+            let fb = nrm.dot(a + d * exit - centre);
+            let tau = 2.0 * s / n as f32;
+            if fa < -tau {
+                return Some(Probe::Unknown(t));
+            }
+            if fb <= 0.0 {
+                let hit = if fa <= 0.0 { t } else { t + (exit - t) * fa / (fa - fb) };
+                return Some(Probe::Hit(hit.clamp(t, exit)));
+            }
+        }
+        t = exit;
+        if hierarchical {
+            level = (level + 1).min(top);
+        }
+    }
+    // Out of steps before the end: rounding stalled the march; say so
+    // rather than claim a miss.
+    (t < tb).then_some(Probe::Unknown(t))
+}
