@@ -664,7 +664,7 @@ impl TryFrom<RawCamera> for CameraParams {
     fn try_from(r: RawCamera) -> Result<Self, String> {
         let view: Vec<f32> = (0..3).map(|i| r.look_at.0[i] - r.position.0[i]).collect();
         let len = view.iter().map(|c| c * c).sum::<f32>().sqrt();
-        if !(len > 0.0) {
+        if len.is_nan() || len <= 0.0 {
             return Err("look_at must differ from position".into());
         }
         let u = r.up.0;
@@ -676,7 +676,7 @@ impl TryFrom<RawCamera> for CameraParams {
         if cross.iter().map(|c| c * c).sum::<f32>().sqrt() < 1e-4 * len {
             return Err("up must not be parallel to the view direction".into());
         }
-        if !(r.fov_degrees > 0.0 && r.fov_degrees < 180.0) {
+        if r.fov_degrees.is_nan() || r.fov_degrees <= 0.0 || r.fov_degrees >= 180.0 {
             return Err(format!(
                 "fov_degrees must lie strictly between 0 and 180, got {}",
                 r.fov_degrees

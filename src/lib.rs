@@ -15,6 +15,9 @@
 //! | refinement, filling, pruning | [`refine`] | Wang §3.2–3.3, eqs. 1–3, Figs. 4–6 |
 //! | octahedral probe maps | [`lightfield`] | McGuire §3 |
 //! | sparse voxel octree of probe indices | [`svo`] | Wang §4.1, Fig. 7 |
+//! | path tracing: probe radiance, reference images | [`render`] | McGuire §3, §5.1; Wang §5.1 |
+//! | light-field probe bake: maps, pyramid, irradiance | [`lightfield`] | McGuire §3, §5.2; Wang §4.2 |
+//! | light-field ray tracing on the CPU | [`trace`] | McGuire §4, Listing 1 |
 //! | outputs | [`report`] | — |
 //!
 //! [`pipeline::place`] runs them in order; the `probeplace` binary is a thin
@@ -29,6 +32,7 @@ pub mod pipeline;
 pub mod placement;
 pub mod progress;
 pub mod refine;
+pub mod render;
 pub mod report;
 pub mod sampling;
 pub mod scene;

@@ -38,6 +38,26 @@ enum Command {
         #[arg(long)]
         no_refine: bool,
     },
+    /// Place probes as `place` does, then bake their light-field maps and the path-traced reference image.
+    Bake {
+        /// The run's RON config file.
+        config: PathBuf,
+        /// Output directory (default: the config's `output`).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Placement method: `sdf-skeleton`, `medial-axis` or `grid:NxMxK` (default: the config's).
+        #[arg(long)]
+        method: Option<String>,
+        /// Random seed (default: the config's).
+        #[arg(long)]
+        seed: Option<u64>,
+        /// No progress bars and no summary.
+        #[arg(long)]
+        quiet: bool,
+        /// Skip refinement, filling and pruning (the config's `refine.enabled: false`).
+        #[arg(long)]
+        no_refine: bool,
+    },
     /// Summarize an svo.bin (or the one in an output directory) after checking it.
     Inspect {
         /// An output directory of `place`, or an svo.bin file.
@@ -83,6 +103,46 @@ fn main() -> ExitCode {
                             outcome.out_dir.display(),
                             r.timings_ms.get("total").copied().unwrap_or(0.0) / 1e3
                         );
+                    }
+                    ExitCode::SUCCESS
+                }
+                Err(e) => fail(e),
+            }
+        }
+        Command::Bake {
+            config,
+            out,
+            method,
+            seed,
+            quiet,
+            no_refine,
+        } => {
+            let options = probeplace::pipeline::PlaceOptions {
+                out,
+                method,
+                seed,
+                progress: !quiet && std::io::stderr().is_terminal(),
+                no_refine,
+            };
+            match probeplace::pipeline::bake(&config, &options) {
+                Ok(outcome) => {
+                    for w in &outcome.report.warnings {
+                        eprintln!("warning: {w}");
+                    }
+                    if !quiet {
+                        let r = &outcome.report;
+                        if let Some(b) = &r.bake {
+                            println!(
+                                "{}: {} probes baked at {}² ({:.1} MB), tracer agrees with ray casts on {:.2}% of seen hits; wrote {} in {:.1} s",
+                                r.method,
+                                b.probes,
+                                b.resolution,
+                                b.bytes as f64 / 1e6,
+                                100.0 * b.tracer.rate(),
+                                outcome.out_dir.display(),
+                                r.timings_ms.get("total").copied().unwrap_or(0.0) / 1e3
+                            );
+                        }
                     }
                     ExitCode::SUCCESS
                 }

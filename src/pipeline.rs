@@ -59,10 +59,74 @@ pub fn place(config_path: &Path, options: &PlaceOptions) -> Result<PlaceOutcome>
 /// changed by the caller, e.g. a test or a parameter sweep); `config_path`
 /// only names the file in messages and the report.
 pub fn place_with(
-    mut config: Config,
+    config: Config,
     config_path: &Path,
     options: &PlaceOptions,
 ) -> Result<PlaceOutcome> {
+    let mut run = compute_place(config, config_path, options)?;
+    run.finish_timings();
+    run.write()
+}
+
+/// A placement computed but not yet written: everything `place` writes,
+/// plus what later stages (the bake) build on.
+pub struct PlaceRun {
+    /// The config as run (command-line overrides applied).
+    pub config: Config,
+    /// Where the outputs go.
+    pub out_dir: PathBuf,
+    /// Scene, domain, BVH and SDF.
+    pub prepared: Prepared,
+    /// The probes placed.
+    pub probes: ProbeSet,
+    /// The octree of probe indices.
+    pub svo: Svo,
+    /// The report so far (`report.json` is written last).
+    pub report: Report,
+    /// Files to write besides `report.json`, by name, in order.
+    pub files: Vec<(String, Vec<u8>)>,
+    /// Files of earlier runs that would no longer match, removed on writing.
+    pub stale: Vec<String>,
+    /// The progress bars' switch.
+    pub progress: Progress,
+    started: Instant,
+}
+
+impl PlaceRun {
+    /// Records the total wall time so far in the report.
+    pub fn finish_timings(&mut self) {
+        self.report
+            .timings_ms
+            .insert("total".into(), self.started.elapsed().as_secs_f64() * 1e3);
+    }
+
+    /// Writes every file atomically, `report.json` last, and removes stale ones.
+    pub fn write(self) -> Result<PlaceOutcome> {
+        let report_json = report::to_json(&self.report)?;
+        report::prepare_output_dir(&self.out_dir)?;
+        for (name, bytes) in &self.files {
+            report::write_atomic(&self.out_dir.join(name), bytes)?;
+        }
+        for name in &self.stale {
+            let path = self.out_dir.join(name);
+            if path.exists() {
+                std::fs::remove_file(&path).map_err(|e| Error::io(&path, e))?;
+            }
+        }
+        report::write_atomic(&self.out_dir.join("report.json"), &report_json)?;
+        Ok(PlaceOutcome {
+            out_dir: self.out_dir,
+            report: self.report,
+        })
+    }
+}
+
+/// Runs every stage of `place` without writing anything.
+pub fn compute_place(
+    mut config: Config,
+    config_path: &Path,
+    options: &PlaceOptions,
+) -> Result<PlaceRun> {
     let t_start = Instant::now();
     let mut timings = BTreeMap::new();
     let progress = Progress::new(options.progress);
@@ -139,7 +203,6 @@ pub fn place_with(
             health.probes_in_solid
         ));
     }
-    timings.insert("total".into(), t_start.elapsed().as_secs_f64() * 1e3);
     let report = Report::new(
         &config_path.display().to_string(),
         &scene_name,
@@ -155,7 +218,13 @@ pub fn place_with(
     );
     let mut report = report;
     report.svo = Some(baked.report);
-    let atlas_png = match refined {
+    let mut files = vec![
+        ("probes.json".to_string(), probes_json),
+        ("svo.bin".to_string(), svo_bin),
+        ("placement.png".to_string(), png),
+    ];
+    let mut stale = Vec::new();
+    match refined {
         Some((refine_report, image)) => {
             let target = config.refine.coverage_target.0 as f64;
             if config.refine.fill && refine_report.coverage_final < target {
@@ -167,27 +236,23 @@ pub fn place_with(
                 ));
             }
             report.refine = Some(refine_report);
-            Some(encode_png(&image, "atlas.png")?)
+            files.push(("atlas.png".to_string(), encode_png(&image, "atlas.png")?));
         }
-        None => None,
-    };
-    let report_json = report::to_json(&report)?;
-
-    report::prepare_output_dir(&out_dir)?;
-    report::write_atomic(&out_dir.join("probes.json"), &probes_json)?;
-    report::write_atomic(&out_dir.join("svo.bin"), &svo_bin)?;
-    report::write_atomic(&out_dir.join("placement.png"), &png)?;
-    let atlas_path = out_dir.join("atlas.png");
-    match &atlas_png {
-        Some(bytes) => report::write_atomic(&atlas_path, bytes)?,
         // An atlas from an earlier refined run would no longer match.
-        None if atlas_path.exists() => {
-            std::fs::remove_file(&atlas_path).map_err(|e| Error::io(&atlas_path, e))?
-        }
-        None => {}
+        None => stale.push("atlas.png".to_string()),
     }
-    report::write_atomic(&out_dir.join("report.json"), &report_json)?;
-    Ok(PlaceOutcome { out_dir, report })
+    Ok(PlaceRun {
+        config,
+        out_dir,
+        prepared,
+        probes,
+        svo: baked.svo,
+        report,
+        files,
+        stale,
+        progress,
+        started: t_start,
+    })
 }
 
 /// The scene and what every placement method reads, built by [`prepare`].
@@ -411,4 +476,212 @@ pub fn inspect(path: &Path) -> Result<Inspection> {
         }
     }
     Ok(Inspection { path: file, svo })
+}
+
+/// Seed offset of the probe radiance's random streams, so they differ from
+/// the reference image's even under the same config seed.
+const BAKE_STREAMS: u64 = 0x1F_BA4E;
+
+/// Free points whose random rays check the tracer in every bake.
+pub const TRACER_CHECK_RAYS: usize = 4096;
+
+/// Runs the `bake` job: everything `place` does, then the light-field
+/// probe bake (McGuire et al. 2017 §3, §5.2), a check of the CPU tracer
+/// against ray casts, and the path-traced reference image when the config
+/// has a camera.
+///
+/// Contract: on success the output directory holds `place`'s files plus
+/// `lightfield.bin`, the probe-map previews (`radiance.exr`/`.png`,
+/// `irradiance.exr`/`.png`, `distance.png`, `normal.png`) and, with a
+/// camera, `reference.exr`/`.png` and `reference-glossy.exr`/`.png`;
+/// `report.json` (written last) has a `bake` section. On error nothing new
+/// is written.
+pub fn bake(config_path: &Path, options: &PlaceOptions) -> Result<PlaceOutcome> {
+    let mut run = compute_place(Config::load(config_path)?, config_path, options)?;
+    bake_stage(&mut run)?;
+    run.finish_timings();
+    run.write()
+}
+
+/// The bake on top of a computed placement: adds its files and report.
+pub fn bake_stage(run: &mut PlaceRun) -> Result<()> {
+    use crate::render::{reference::render_reference, Renderer};
+    use crate::report::bake::{
+        atlas, distance_preview, normal_preview, BakeReport, ReferenceReport,
+    };
+    use crate::report::exr;
+    use crate::sampling::Sampler;
+    use crate::trace::{check, Selection};
+
+    let config = &run.config;
+    let Prepared {
+        scene, domain, bvh, ..
+    } = &run.prepared;
+    let seed = config.seed;
+    let mut timings: BTreeMap<String, f64> = BTreeMap::new();
+    let renderer = Renderer::new(scene, bvh, &config.lights, config.bake.bounces.0);
+    if renderer.lights().is_empty() {
+        run.report.warnings.push(
+            "bake: the scene has no emissive material and the config no lights; every radiance is black (add `lights` to the config)".into(),
+        );
+    }
+    let positions = run.probes.positions();
+    let radiance = |o: Vec3, d: Vec3, stream: u64| {
+        renderer.radiance(o, d, &mut Sampler::new(seed ^ BAKE_STREAMS, stream))
+    };
+    let max_distance = domain.size().length();
+    let baked = crate::lightfield::bake(
+        &config.bake,
+        &positions,
+        scene,
+        bvh,
+        max_distance,
+        seed,
+        &radiance,
+        &run.progress,
+    );
+    for (k, v) in &baked.timings_ms {
+        timings.insert(k.to_string(), *v);
+    }
+    let field = baked.field;
+
+    let t = Instant::now();
+    let input = run.prepared.placement_input(seed, &run.progress);
+    let origins = svo::random_free_points(&input, TRACER_CHECK_RAYS, seed ^ 0x7EACE);
+    let tracer = check::compare(
+        &field,
+        &Selection::Svo(&run.svo),
+        scene,
+        bvh,
+        &origins,
+        seed ^ 0xD1EC,
+        true,
+    );
+    lap(&mut timings, "tracer_check", t);
+
+    let mut files: Vec<(String, Vec<u8>)> = vec![("lightfield.bin".into(), field.to_bytes())];
+    let probes = positions.len();
+    let (w, h, rad) = atlas(field.resolution, probes, |i| field.radiance[i]);
+    files.push(("radiance.exr".into(), exr::encode_rgb(w, h, &rad)));
+    files.push((
+        "radiance.png".into(),
+        encode_png(
+            &exr::tonemap(&rad, w, h, auto_exposure(&rad)),
+            "radiance.png",
+        )?,
+    ));
+    let (w, h, irr) = atlas(field.irradiance_resolution, probes, |i| field.irradiance[i]);
+    files.push(("irradiance.exr".into(), exr::encode_rgb(w, h, &irr)));
+    files.push((
+        "irradiance.png".into(),
+        encode_png(
+            &exr::tonemap(&irr, w, h, auto_exposure(&irr)),
+            "irradiance.png",
+        )?,
+    ));
+    files.push((
+        "distance.png".into(),
+        encode_png(&distance_preview(&field), "distance.png")?,
+    ));
+    files.push((
+        "normal.png".into(),
+        encode_png(&normal_preview(&field), "normal.png")?,
+    ));
+
+    let reference = match &config.reference.camera {
+        Some(camera) => {
+            let t = Instant::now();
+            let r = &config.reference;
+            let ref_renderer = Renderer::new(scene, bvh, &config.lights, r.bounces.0);
+            let image = render_reference(
+                &ref_renderer,
+                camera,
+                r.width.0,
+                r.height.0,
+                r.samples_per_pixel.0,
+                seed,
+            );
+            lap(&mut timings, "reference", t);
+            let exposure = auto_exposure(&image.full);
+            files.push((
+                "reference.exr".into(),
+                exr::encode_rgb(image.width, image.height, &image.full),
+            ));
+            files.push((
+                "reference.png".into(),
+                encode_png(
+                    &exr::tonemap(&image.full, image.width, image.height, exposure),
+                    "reference.png",
+                )?,
+            ));
+            files.push((
+                "reference-glossy.exr".into(),
+                exr::encode_rgb(image.width, image.height, &image.glossy_indirect),
+            ));
+            files.push((
+                "reference-glossy.png".into(),
+                encode_png(
+                    &exr::tonemap(&image.glossy_indirect, image.width, image.height, exposure),
+                    "reference-glossy.png",
+                )?,
+            ));
+            Some(ReferenceReport {
+                width: image.width,
+                height: image.height,
+                samples_per_pixel: r.samples_per_pixel.0,
+                bounces: r.bounces.0,
+                mean: image.mean(),
+                glossy_indirect_mean: image.glossy_mean(),
+            })
+        }
+        None => {
+            run.report.warnings.push(
+                "bake: no reference.camera in the config; the reference image is skipped".into(),
+            );
+            run.stale.extend(
+                [
+                    "reference.exr",
+                    "reference.png",
+                    "reference-glossy.exr",
+                    "reference-glossy.png",
+                ]
+                .map(String::from),
+            );
+            None
+        }
+    };
+    let total: f64 = timings.values().sum();
+    timings.insert("total".into(), total);
+    run.report.timings_ms.insert("bake".into(), total);
+    run.report.bake = Some(BakeReport {
+        resolution: field.resolution,
+        irradiance_resolution: field.irradiance_resolution,
+        probes: positions.len(),
+        samples: config.bake.samples.0,
+        bounces: config.bake.bounces.0,
+        bytes: field.bytes(),
+        area_lights: renderer.lights().area_light_count(),
+        config_lights: config.lights.len(),
+        tracer,
+        reference,
+        timings_ms: timings,
+    });
+    run.files.extend(files);
+    Ok(())
+}
+
+/// Exposure that maps the mean luminance of `pixels` to 0.4 (display
+/// previews only; the EXR files hold the linear values).
+fn auto_exposure(pixels: &[[f32; 3]]) -> f32 {
+    let mean = pixels
+        .iter()
+        .map(|p| (0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2]) as f64)
+        .filter(|v| v.is_finite())
+        .sum::<f64>()
+        / pixels.len().max(1) as f64;
+    if mean > 1e-12 {
+        (0.4 / mean) as f32
+    } else {
+        1.0
+    }
 }

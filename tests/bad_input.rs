@@ -418,3 +418,40 @@ fn command_line_mistakes_are_one_line_and_exit_2() {
     assert_eq!(help.status.code(), Some(0));
     assert!(String::from_utf8_lossy(&help.stdout).contains("--method"));
 }
+
+#[test]
+fn bake_and_light_mistakes_name_their_field() {
+    let d = tempfile::tempdir().unwrap();
+    obj(d.path(), "room.obj", CUBE_ROOM);
+    for (extra, why) in [
+        ("bake: (resolution: 100)", "power of two"),
+        ("bake: (resolution: 4096)", "power of two"),
+        ("bake: (irradiance_resolution: 0)", "power of two"),
+        ("bake: (samples: 0)", "samples"),
+        ("bake: (bounces: 65)", "0 to 64"),
+        ("bake: (moment_exponent: -1)", "greater than 0"),
+        ("reference: (camera: (position: (0, 1, 0), look_at: (0, 1, 0)))", "look_at must differ"),
+        ("reference: (camera: (position: (0, 1, 0), look_at: (0, 2, 0)))", "parallel"),
+        ("reference: (camera: (position: (0, 1, 0), look_at: (1, 1, 0), fov_degrees: 180))", "fov_degrees"),
+        ("reference: (width: 0)", "width"),
+        ("lights: [Point(position: (0, 1, 0), intensity: (1, -1, 1))]", "at least 0"),
+        ("lights: [Directional(direction: (0, 0, 0), irradiance: (1, 1, 1))]", "not all zero"),
+        ("lights: [Spot(position: (0, 1, 0), direction: (0, -1, 0), intensity: (1, 1, 1), cone_degrees: 95)]", "90"),
+        ("lights: [Lamp(position: (0, 1, 0))]", "Lamp"),
+    ] {
+        let p = raw_config(
+            d.path(),
+            "bk.ron",
+            &format!("(scene: \"room.obj\", voxel_size: 0.1, placement: SdfSkeleton(()),\n {extra})"),
+        );
+        for command in ["place", "bake"] {
+            let out = d.path().join("out");
+            let o = probeplace(&[command, p.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+            let e = String::from_utf8_lossy(&o.stderr).into_owned();
+            assert_eq!(o.status.code(), Some(2), "{command} {extra}: {e}");
+            assert_eq!(e.trim().lines().count(), 1, "{extra}: {e}");
+            assert!(e.contains("bk.ron:2:") && e.contains(why), "{command} {extra}: {e}");
+            assert!(!out.exists(), "{extra}: nothing may be written");
+        }
+    }
+}

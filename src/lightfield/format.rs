@@ -43,7 +43,9 @@ fn put_halves(out: &mut Vec<u8>, values: impl IntoIterator<Item = f32>) {
 
 /// Size in bytes of the file for `probes` probes of side `n`, irradiance side `m`.
 pub fn file_bytes(probes: usize, n: u32, m: u32) -> usize {
-    let levels: usize = (0..=n.trailing_zeros()).map(|k| ((n >> k) * (n >> k)) as usize).sum();
+    let levels: usize = (0..=n.trailing_zeros())
+        .map(|k| ((n >> k) * (n >> k)) as usize)
+        .sum();
     HEADER_BYTES + probes * (12 + 12 * (n * n) as usize + 4 * levels + 10 * (m * m) as usize) + 4
 }
 
@@ -52,7 +54,13 @@ pub fn to_bytes(field: &LightField) -> Vec<u8> {
     let p = field.positions.len();
     let mut out = Vec::with_capacity(file_bytes(p, field.resolution, field.irradiance_resolution));
     out.extend_from_slice(MAGIC);
-    for w in [VERSION, p as u32, field.resolution, field.pyramid.len() as u32, field.irradiance_resolution] {
+    for w in [
+        VERSION,
+        p as u32,
+        field.resolution,
+        field.pyramid.len() as u32,
+        field.irradiance_resolution,
+    ] {
         out.extend_from_slice(&w.to_le_bytes());
     }
     out.extend_from_slice(&field.max_distance.to_le_bytes());
@@ -79,7 +87,10 @@ pub fn to_bytes(field: &LightField) -> Vec<u8> {
 /// that the header's sizes are consistent, and never panicking.
 pub fn from_bytes(bytes: &[u8]) -> Result<LightField, String> {
     if bytes.len() < HEADER_BYTES + 4 {
-        return Err(format!("truncated: {} bytes, shorter than a header", bytes.len()));
+        return Err(format!(
+            "truncated: {} bytes, shorter than a header",
+            bytes.len()
+        ));
     }
     if &bytes[..8] != MAGIC {
         return Err("not a probeplace light-field file (bad magic)".into());
@@ -87,7 +98,9 @@ pub fn from_bytes(bytes: &[u8]) -> Result<LightField, String> {
     let word = |at: usize| u32::from_le_bytes(bytes[at..at + 4].try_into().expect("4 bytes"));
     let version = word(8);
     if version != VERSION {
-        return Err(format!("version {version}; this build reads version {VERSION}"));
+        return Err(format!(
+            "version {version}; this build reads version {VERSION}"
+        ));
     }
     let (p, n, levels, m) = (word(12) as usize, word(16), word(20), word(24));
     let max_distance = f32::from_bits(word(28));
@@ -98,12 +111,17 @@ pub fn from_bytes(bytes: &[u8]) -> Result<LightField, String> {
         return Err(format!("{levels} pyramid levels for side {n}"));
     }
     let want = (p as u128)
-        * (12 + 12 * (n as u128 * n as u128) + 4 * (0..levels).map(|k| ((n >> k) as u128).pow(2)).sum::<u128>()
+        * (12
+            + 12 * (n as u128 * n as u128)
+            + 4 * (0..levels).map(|k| ((n >> k) as u128).pow(2)).sum::<u128>()
             + 10 * (m as u128 * m as u128))
         + HEADER_BYTES as u128
         + 4;
     if want != bytes.len() as u128 {
-        return Err(format!("{} bytes where the header implies {want}", bytes.len()));
+        return Err(format!(
+            "{} bytes where the header implies {want}",
+            bytes.len()
+        ));
     }
     let body = bytes.len() - 4;
     if crc32(&bytes[..body]) != word(body) {
@@ -129,17 +147,32 @@ pub fn from_bytes(bytes: &[u8]) -> Result<LightField, String> {
     };
     let texels = p * (n * n) as usize;
     let irr = p * (m * m) as usize;
-    let radiance = halves(3 * texels).chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
-    let normal = halves(2 * texels).chunks_exact(2).map(|c| [c[0], c[1]]).collect();
+    let radiance = halves(3 * texels)
+        .chunks_exact(3)
+        .map(|c| [c[0], c[1], c[2]])
+        .collect();
+    let normal = halves(2 * texels)
+        .chunks_exact(2)
+        .map(|c| [c[0], c[1]])
+        .collect();
     let distance = halves(texels);
     let pyramid = (0..levels)
         .map(|k| {
             let side = (n >> k) as usize;
-            halves(2 * p * side * side).chunks_exact(2).map(|c| [c[0], c[1]]).collect()
+            halves(2 * p * side * side)
+                .chunks_exact(2)
+                .map(|c| [c[0], c[1]])
+                .collect()
         })
         .collect();
-    let irradiance = halves(3 * irr).chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
-    let moments = halves(2 * irr).chunks_exact(2).map(|c| [c[0], c[1]]).collect();
+    let irradiance = halves(3 * irr)
+        .chunks_exact(3)
+        .map(|c| [c[0], c[1], c[2]])
+        .collect();
+    let moments = halves(2 * irr)
+        .chunks_exact(2)
+        .map(|c| [c[0], c[1]])
+        .collect();
     Ok(LightField {
         resolution: n,
         irradiance_resolution: m,
@@ -172,7 +205,17 @@ mod tests {
             ..BakeParams::default()
         };
         let probes = [Vec3::new(0.5, 2.0, 0.5), Vec3::new(3.0, 1.0, 3.0)];
-        super::super::bake(&params, &probes, &scene, &bvh, 7.0, 3, &|_, d, _| d.abs() * 2.0, &Progress::hidden()).field
+        super::super::bake(
+            &params,
+            &probes,
+            &scene,
+            &bvh,
+            7.0,
+            3,
+            &|_, d, _| d.abs() * 2.0,
+            &Progress::hidden(),
+        )
+        .field
     }
 
     #[test]
@@ -189,7 +232,9 @@ mod tests {
     #[test]
     fn damaged_files_are_refused() {
         let bytes = to_bytes(&small_field());
-        assert!(from_bytes(&bytes[..bytes.len() - 1]).unwrap_err().contains("bytes"));
+        assert!(from_bytes(&bytes[..bytes.len() - 1])
+            .unwrap_err()
+            .contains("bytes"));
         assert!(from_bytes(&bytes[..30]).unwrap_err().contains("truncated"));
         let mut flipped = bytes.clone();
         flipped[HEADER_BYTES + 100] ^= 4;

@@ -30,6 +30,9 @@ pub struct Irradiance {
     pub moments: Vec<[f32; 2]>,
 }
 
+/// One probe's irradiance and moment maps.
+type ProbeMaps = (Vec<[f32; 3]>, Vec<[f32; 2]>);
+
 /// A probe's maps averaged down to side `side`: solid angle, direction of
 /// the footprint's centre, radiance, mean r and mean r².
 struct Source {
@@ -40,7 +43,14 @@ struct Source {
     r2: Vec<f32>,
 }
 
-fn downsample(n: u32, side: u32, omega: &[f32], radiance: &[[f32; 3]], distance: &[f32], cap: f32) -> Source {
+fn downsample(
+    n: u32,
+    side: u32,
+    omega: &[f32],
+    radiance: &[[f32; 3]],
+    distance: &[f32],
+    cap: f32,
+) -> Source {
     let f = n / side;
     let len = (side * side) as usize;
     let mut s = Source {
@@ -90,7 +100,7 @@ pub fn convolve(
     let side = n.min(SOURCE_SIDE);
     let omega = octahedral::texel_solid_angles(n);
     let normals = octahedral::texel_directions(m);
-    let per_probe: Vec<(Vec<[f32; 3]>, Vec<[f32; 2]>)> = radiance
+    let per_probe: Vec<ProbeMaps> = radiance
         .par_chunks(texels)
         .zip(distance.par_chunks(texels))
         .map(|(rad, dist)| {
@@ -112,7 +122,11 @@ pub fn convolve(
                     m2 += src.r2[j] * lobe;
                 }
                 e.push([to_half(sum.x), to_half(sum.y), to_half(sum.z)]);
-                let (a, b) = if wsum > 0.0 { (m1 / wsum, m2 / wsum) } else { (cap, cap * cap) };
+                let (a, b) = if wsum > 0.0 {
+                    (m1 / wsum, m2 / wsum)
+                } else {
+                    (cap, cap * cap)
+                };
                 mo.push([to_half(a), to_half(b)]);
             }
             (e, mo)
@@ -147,7 +161,12 @@ mod tests {
     use super::*;
     use std::f32::consts::PI;
 
-    fn convolve_fn(n: u32, m: u32, l: impl Fn(Vec3) -> Vec3, r: impl Fn(Vec3) -> f32) -> Irradiance {
+    fn convolve_fn(
+        n: u32,
+        m: u32,
+        l: impl Fn(Vec3) -> Vec3,
+        r: impl Fn(Vec3) -> f32,
+    ) -> Irradiance {
         let dirs = octahedral::texel_directions(n);
         let rad: Vec<[f32; 3]> = dirs.iter().map(|&d| l(d).into()).collect();
         let dist: Vec<f32> = dirs.iter().map(|&d| r(d)).collect();
@@ -160,7 +179,10 @@ mod tests {
         for (e, mo) in out.irradiance.iter().zip(&out.moments) {
             assert!((e[0] - PI).abs() < 0.01 * PI, "{e:?}");
             assert!((e[1] - 2.0 * PI).abs() < 0.02 * PI, "{e:?}");
-            assert!((mo[0] - 3.0).abs() < 3e-3 && (mo[1] - 9.0).abs() < 1e-2, "{mo:?}");
+            assert!(
+                (mo[0] - 3.0).abs() < 3e-3 && (mo[1] - 9.0).abs() < 1e-2,
+                "{mo:?}"
+            );
         }
     }
 
@@ -172,7 +194,11 @@ mod tests {
         let out = convolve_fn(128, m, |d| Vec3::splat(1.0 + a.dot(d)), |_| 1.0);
         for (e, nrm) in out.irradiance.iter().zip(octahedral::texel_directions(m)) {
             let want = PI + 2.0 * PI / 3.0 * a.dot(nrm);
-            assert!((e[0] - want).abs() < 0.01 * want, "{nrm:?}: {} vs {want}", e[0]);
+            assert!(
+                (e[0] - want).abs() < 0.01 * want,
+                "{nrm:?}: {} vs {want}",
+                e[0]
+            );
         }
     }
 
@@ -180,14 +206,22 @@ mod tests {
     fn moments_follow_the_lobe_and_cap_escapes() {
         // Distance 1 in the upper hemisphere, escapes below: a texel facing
         // up sees mostly 1, facing down mostly the cap.
-        let out = convolve_fn(64, 8, |_| Vec3::ONE, |d| if d.z > 0.0 { 1.0 } else { f32::INFINITY });
+        let out = convolve_fn(
+            64,
+            8,
+            |_| Vec3::ONE,
+            |d| if d.z > 0.0 { 1.0 } else { f32::INFINITY },
+        );
         for (mo, nrm) in out.moments.iter().zip(octahedral::texel_directions(8)) {
             if nrm.z > 0.5 {
                 assert!(mo[0] < 1.5, "{nrm:?} {mo:?}");
             } else if nrm.z < -0.5 {
                 assert!(mo[0] > 95.0, "{nrm:?} {mo:?}");
             }
-            assert!(mo[1] + 1e-3 >= mo[0] * mo[0] * 0.999, "variance must be non-negative: {mo:?}");
+            assert!(
+                mo[1] + 1e-3 >= mo[0] * mo[0] * 0.999,
+                "variance must be non-negative: {mo:?}"
+            );
         }
     }
 

@@ -3,11 +3,11 @@
 //! mapping (Wang et al. 2019 §3.2 derives visibility from "each probe's
 //! octahedral directional map"); the bake fills the maps themselves.
 
+pub mod format;
 pub mod irradiance;
 pub mod maps;
 pub mod octahedral;
 pub mod pyramid;
-pub mod format;
 
 use crate::config::BakeParams;
 use crate::error::{Error, Result};
@@ -61,13 +61,18 @@ impl LightField {
 
     /// Size of the serialized file in bytes.
     pub fn bytes(&self) -> usize {
-        format::file_bytes(self.positions.len(), self.resolution, self.irradiance_resolution)
+        format::file_bytes(
+            self.positions.len(),
+            self.resolution,
+            self.irradiance_resolution,
+        )
     }
 
     /// Reads and checks a `lightfield.bin` file; problems are user errors
     /// naming the file.
     pub fn read(path: &Path) -> Result<LightField> {
-        let bytes = std::fs::read(path).map_err(|e| Error::user_file(path, format!("cannot read: {e}")))?;
+        let bytes =
+            std::fs::read(path).map_err(|e| Error::user_file(path, format!("cannot read: {e}")))?;
         format::from_bytes(&bytes).map_err(|m| Error::user_file(path, m))
     }
 
@@ -91,6 +96,7 @@ pub struct Baked {
 ///
 /// Contract: deterministic for the same inputs; `max_distance` > 0 is the
 /// moments' stand-in for escaping rays.
+#[allow(clippy::too_many_arguments)]
 pub fn bake(
     params: &BakeParams,
     positions: &[Vec3],
@@ -111,7 +117,9 @@ pub fn bake(
     let geometry = maps::bake_geometry(positions, scene, bvh, n);
     mark("geometry", &mut timings_ms);
     let bar = progress.bar("probe radiance", (positions.len() as u64) * n as u64);
-    let rad = maps::bake_radiance(positions, n, params.samples.0, seed, radiance, &|| bar.inc(1));
+    let rad = maps::bake_radiance(positions, n, params.samples.0, seed, radiance, &|| {
+        bar.inc(1)
+    });
     bar.finish_and_clear();
     mark("radiance", &mut timings_ms);
     let pyramid = pyramid::build(n, &geometry.distance, &geometry.normal);

@@ -197,7 +197,10 @@ mod tests {
             let a = unit_f32(hash2(4, k)) * std::f32::consts::TAU;
             let f = (e + Vec2::new(a.cos(), a.sin()) * step).clamp(Vec2::NEG_ONE, Vec2::ONE);
             let moved = (decode(f) - decode(e)).length();
-            assert!(moved <= 3.5 * (f - e).length() + 1e-6, "{e:?} -> {f:?}: {moved}");
+            assert!(
+                moved <= 3.5 * (f - e).length() + 1e-6,
+                "{e:?} -> {f:?}: {moved}"
+            );
         }
     }
 
@@ -235,7 +238,10 @@ mod tests {
                     continue;
                 }
                 // The wrapped texel touches the in-range texel it borders.
-                let (bx, by) = (x.clamp(0, n as i64 - 1) as u32, y.clamp(0, n as i64 - 1) as u32);
+                let (bx, by) = (
+                    x.clamp(0, n as i64 - 1) as u32,
+                    y.clamp(0, n as i64 - 1) as u32,
+                );
                 let gap = texel_direction(wx, wy, n)
                     .dot(texel_direction(bx, by, n))
                     .clamp(-1.0, 1.0)
@@ -250,8 +256,13 @@ mod tests {
         for n in [4, 16, 64] {
             let w = texel_solid_angles(n);
             let total: f64 = w.iter().map(|&a| a as f64).sum();
-            assert!((total - 4.0 * std::f64::consts::PI).abs() < 1e-4, "n={n}: {total}");
-            let (lo, hi) = w.iter().fold((f32::MAX, 0.0f32), |(a, b), &x| (a.min(x), b.max(x)));
+            assert!(
+                (total - 4.0 * std::f64::consts::PI).abs() < 1e-4,
+                "n={n}: {total}"
+            );
+            let (lo, hi) = w
+                .iter()
+                .fold((f32::MAX, 0.0f32), |(a, b), &x| (a.min(x), b.max(x)));
             assert!(hi / lo < 5.2, "n={n}: {lo}..{hi}");
         }
     }

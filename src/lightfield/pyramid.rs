@@ -176,7 +176,11 @@ mod tests {
     fn pyramid_is_conservative_in_a_room() {
         let scene = room_with_box();
         let bvh = SceneBvh::new(&scene);
-        let probes = [Vec3::new(0.5, 0.5, 0.5), Vec3::new(2.5, 1.5, 3.0), Vec3::new(1.5, 1.01, 1.5)];
+        let probes = [
+            Vec3::new(0.5, 0.5, 0.5),
+            Vec3::new(2.5, 1.5, 3.0),
+            Vec3::new(1.5, 1.01, 1.5),
+        ];
         let n = 32;
         let g = bake_geometry(&probes, &scene, &bvh, n);
         let levels = build(n, &g.distance, &g.normal);
@@ -195,7 +199,11 @@ mod tests {
             let x = (hash2(1, k) % n as u64) as u32;
             let y = (hash2(2, k) % n as u64) as u32;
             let c = octahedral::texel_direction(x, y, n);
-            let tilt = Vec3::new(unit_f32(hash2(3, k)), unit_f32(hash2(4, k)), unit_f32(hash2(5, k))) - 0.5;
+            let tilt = Vec3::new(
+                unit_f32(hash2(3, k)),
+                unit_f32(hash2(4, k)),
+                unit_f32(hash2(5, k)),
+            ) - 0.5;
             let nrm = (-c + tilt * 1.2).normalize();
             if nrm.dot(c) >= -0.05 {
                 continue;
@@ -205,11 +213,17 @@ mod tests {
             let h = -nrm.dot(c) * s;
             for j in 0..=8 {
                 for i in 0..=8 {
-                    let e = (glam::Vec2::new(x as f32 + i as f32 / 8.0, y as f32 + j as f32 / 8.0)) / n as f32 * 2.0 - 1.0;
+                    let e = (glam::Vec2::new(x as f32 + i as f32 / 8.0, y as f32 + j as f32 / 8.0))
+                        / n as f32
+                        * 2.0
+                        - 1.0;
                     let d = octahedral::decode(e);
                     let cos = -nrm.dot(d);
                     let r = if cos > 0.0 { h / cos } else { f32::INFINITY };
-                    assert!(lo <= r && r <= hi, "texel ({x},{y}) sample ({i},{j}): {r} not in {lo}..{hi}");
+                    assert!(
+                        lo <= r && r <= hi,
+                        "texel ({x},{y}) sample ({i},{j}): {r} not in {lo}..{hi}"
+                    );
                 }
             }
         }
@@ -221,6 +235,9 @@ mod tests {
         let distance = vec![f32::INFINITY; 16];
         let normal = vec![[0.0; 2]; 16];
         let levels = build(n, &distance, &normal);
-        assert!(levels.iter().flatten().all(|b| b[0].is_infinite() && b[1].is_infinite()));
+        assert!(levels
+            .iter()
+            .flatten()
+            .all(|b| b[0].is_infinite() && b[1].is_infinite()));
     }
 }

@@ -6,6 +6,8 @@
 //! then a rename), and only after every stage has succeeded, so a failed run
 //! never leaves a half-written or stale-looking output behind.
 
+pub mod bake;
+pub mod exr;
 pub mod preview;
 
 use crate::config::UpAxis;
@@ -208,6 +210,8 @@ pub struct Report {
     pub refine: Option<RefineReport>,
     /// The octree of probe indices written as `svo.bin`.
     pub svo: Option<SvoReport>,
+    /// The light-field bake; `null` after `place`.
+    pub bake: Option<bake::BakeReport>,
     /// Wall time per stage, in milliseconds, plus `total`.
     pub timings_ms: BTreeMap<String, f64>,
     /// Warnings raised during the run.
@@ -256,6 +260,7 @@ impl Report {
             placement_params: probes.params.clone(),
             refine: None,
             svo: None,
+            bake: None,
             timings_ms,
             warnings,
         }

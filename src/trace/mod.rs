@@ -9,7 +9,8 @@
 //!   ray's line and then i′ = (i + 3) mod 8, the order that always moves to
 //!   a far probe; a new cell restarts the choice.
 //! - **SVO** (Wang et al. 2019 §4.1): the ranked candidates the octree
-//!   lists for the leaf holding the ray's current origin.
+//!   lists for the leaf holding the ray's current origin; once they are
+//!   spent, the nearest probes not tried yet, up to [`MAX_PROBES_PER_RAY`].
 //!
 //! This is the CPU twin of the GPU tracer: same march, same selection.
 
@@ -68,7 +69,10 @@ impl Lattice {
     /// nx×ny×nz lattice with constant spacing per axis (to 1e-4 relative).
     pub fn from_positions(positions: &[Vec3]) -> Option<Lattice> {
         let mut axes = [Vec::new(), Vec::new(), Vec::new()];
-        let scale = positions.iter().fold(0.0f32, |m, p| m.max(p.abs().max_element())).max(1e-6);
+        let scale = positions
+            .iter()
+            .fold(0.0f32, |m, p| m.max(p.abs().max_element()))
+            .max(1e-6);
         let tol = 1e-4 * scale;
         for p in positions {
             for (i, axis) in axes.iter_mut().enumerate() {
@@ -86,7 +90,10 @@ impl Lattice {
             dims[i] = axis.len() as i32;
             if axis.len() > 1 {
                 spacing[i] = (axis[axis.len() - 1] - axis[0]) / (axis.len() - 1) as f32;
-                if axis.windows(2).any(|w| ((w[1] - w[0]) - spacing[i]).abs() > tol) {
+                if axis
+                    .windows(2)
+                    .any(|w| ((w[1] - w[0]) - spacing[i]).abs() > tol)
+                {
                     return None;
                 }
             }
@@ -154,7 +161,8 @@ pub fn trace(
                 .probes_at(here)
                 .iter()
                 .copied()
-                .find(|p| !tried[..count].contains(p)),
+                .find(|p| !tried[..count].contains(p))
+                .or_else(|| nearest_untried(field, here, &tried[..count])),
             Selection::Grid(lattice) => {
                 let cell = lattice.cell(here);
                 if cell != grid_cell {
@@ -182,7 +190,16 @@ pub fn trace(
         };
         tried[count] = probe;
         count += 1;
-        match single::trace(field, probe as usize, origin, dir, t, t_max, hierarchical, steps) {
+        match single::trace(
+            field,
+            probe as usize,
+            origin,
+            dir,
+            t,
+            t_max,
+            hierarchical,
+            steps,
+        ) {
             single::Probe::Hit(th) => return Outcome::Hit { t: th, probe },
             single::Probe::Miss => return Outcome::Miss,
             single::Probe::Unknown(tu) => t = tu.max(t),
@@ -191,10 +208,30 @@ pub fn trace(
     Outcome::Unknown { t }
 }
 
+/// The probe nearest to `p` not tried yet: the SVO's fallback once a
+/// leaf's ranked candidates are spent (an extension of Wang §4.1, whose
+/// lists stop at four).
+fn nearest_untried(field: &LightField, p: Vec3, tried: &[u32]) -> Option<u32> {
+    (0..field.positions.len() as u32)
+        .filter(|i| !tried.contains(i))
+        .min_by(|&i, &j| {
+            let di = field.positions[i as usize].distance_squared(p);
+            let dj = field.positions[j as usize].distance_squared(p);
+            di.total_cmp(&dj).then(i.cmp(&j))
+        })
+}
+
 /// The corner of `cell` whose probe lies closest to the ray's line
 /// (McGuire §4.1: it nearly always gives the shortest polyline), among the
 /// untried ones.
-fn closest_corner(field: &LightField, lattice: &Lattice, cell: IVec3, p: Vec3, dir: Vec3, tried: &[u32]) -> u32 {
+fn closest_corner(
+    field: &LightField,
+    lattice: &Lattice,
+    cell: IVec3,
+    p: Vec3,
+    dir: Vec3,
+    tried: &[u32],
+) -> u32 {
     let mut best = (f32::INFINITY, 0u32);
     for i in 0..8 {
         let probe = lattice.corner(cell, i);
@@ -227,18 +264,42 @@ mod tests {
         for z in 0..3 {
             for y in 0..2 {
                 for x in 0..3 {
-                    probes.push(Vec3::new(0.6 + 1.4 * x as f32, 1.3 + 1.8 * y as f32, 0.6 + 1.4 * z as f32));
+                    probes.push(Vec3::new(
+                        0.6 + 1.4 * x as f32,
+                        1.3 + 1.8 * y as f32,
+                        0.6 + 1.4 * z as f32,
+                    ));
                 }
             }
         }
-        let params = BakeParams { resolution: PowerOfTwo(n), ..BakeParams::default() };
-        let field = lightfield::bake(&params, &probes, &scene, &bvh, 8.0, 1, &|_, _, _| Vec3::ZERO, &Progress::hidden()).field;
+        let params = BakeParams {
+            resolution: PowerOfTwo(n),
+            ..BakeParams::default()
+        };
+        let field = lightfield::bake(
+            &params,
+            &probes,
+            &scene,
+            &bvh,
+            8.0,
+            1,
+            &|_, _, _| Vec3::ZERO,
+            &Progress::hidden(),
+        )
+        .field;
         (scene, bvh, field)
     }
 
     fn free_points(count: usize) -> Vec<Vec3> {
         (0..count as u64)
-            .map(|i| Vec3::new(unit_f32(hash2(9, 3 * i)), unit_f32(hash2(9, 3 * i + 1)), unit_f32(hash2(9, 3 * i + 2))) * 3.9 + 0.05)
+            .map(|i| {
+                Vec3::new(
+                    unit_f32(hash2(9, 3 * i)),
+                    unit_f32(hash2(9, 3 * i + 1)),
+                    unit_f32(hash2(9, 3 * i + 2)),
+                ) * 3.9
+                    + 0.05
+            })
             .filter(|p| !(p.x > 0.95 && p.x < 2.05 && p.z > 0.95 && p.z < 2.05 && p.y < 1.05))
             .collect()
     }
@@ -264,7 +325,15 @@ mod tests {
         let (scene, bvh, field) = grid_field(128);
         let lattice = Lattice::from_positions(&field.positions).unwrap();
         let origins = free_points(4000);
-        let a = check::compare(&field, &Selection::Grid(&lattice), &scene, &bvh, &origins, 4, true);
+        let a = check::compare(
+            &field,
+            &Selection::Grid(&lattice),
+            &scene,
+            &bvh,
+            &origins,
+            4,
+            true,
+        );
         assert!(a.seen > 3000, "{a:?}");
         assert!(a.rate() >= 0.99, "{a:?}");
         assert_eq!(a.escaping, 0, "the room is closed");
@@ -283,8 +352,12 @@ mod tests {
                 let flat = single::trace(&field, probe, o, d, 0.0, t_max, false, &mut s1);
                 let hiz = single::trace(&field, probe, o, d, 0.0, t_max, true, &mut s2);
                 match (flat, hiz) {
-                    (single::Probe::Hit(a), single::Probe::Hit(b)) | (single::Probe::Unknown(a), single::Probe::Unknown(b)) => {
-                        assert!((a - b).abs() <= 1e-4 * (1.0 + a), "ray {i} probe {probe}: {flat:?} vs {hiz:?}")
+                    (single::Probe::Hit(a), single::Probe::Hit(b))
+                    | (single::Probe::Unknown(a), single::Probe::Unknown(b)) => {
+                        assert!(
+                            (a - b).abs() <= 1e-4 * (1.0 + a),
+                            "ray {i} probe {probe}: {flat:?} vs {hiz:?}"
+                        )
                     }
                     (x, y) => assert_eq!(x, y, "ray {i} probe {probe}"),
                 }

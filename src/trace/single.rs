@@ -25,9 +25,11 @@
 //! τ = 2s/n, about one texel's width at the surfel's distance s, absorbs the
 //! step between neighbouring surfels of a curved surface. Because the plane
 //! faces the probe, crossing it from front to back means meeting its front
-//! face; McGuire's back-face discrimination comes for free. The coarse test
-//! is exactly the fine test's first branch on bounds of the fine values, so
-//! the hierarchical march returns what a texel-by-texel march returns.
+//! face; McGuire's back-face discrimination comes for free. Where the
+//! surface bends at a texel's edge the neighbouring surfels join the test
+//! (see `surfel_test`). The coarse test is exactly the fine test's first
+//! branch on bounds of the fine values, so the hierarchical march returns
+//! what a texel-by-texel march returns, up to rounding in the texel spans.
 
 use crate::lightfield::maps::decode_normal;
 use crate::lightfield::{octahedral, LightField};
@@ -98,7 +100,10 @@ impl Piece {
 
     fn at(&self, t: f32) -> (f32, f32) {
         let dn = self.den[0] + self.den[1] * t;
-        ((self.nx[0] + self.nx[1] * t) / dn, (self.ny[0] + self.ny[1] * t) / dn)
+        (
+            (self.nx[0] + self.nx[1] * t) / dn,
+            (self.ny[0] + self.ny[1] * t) / dn,
+        )
     }
 
     /// The t at which the coordinate `n` equals `c`.
@@ -127,6 +132,104 @@ fn cell(e: f32, side: u32, motion: i32) -> i64 {
     (x.floor() as i64).clamp(0, side as i64 - 1)
 }
 
+/// What the fine test decides for one texel.
+enum Texel {
+    /// The ray passes in front.
+    Pass,
+    /// The ray meets the surface at this t.
+    Hit(f32),
+    /// The ray enters the texel behind the surface.
+    Behind,
+}
+
+/// The first t in [t_a, t_b] where f, linear from `fa` to `fb`, is negative.
+fn onset(fa: f32, fb: f32, ta: f32, tb: f32) -> Option<f32> {
+    if fa < 0.0 {
+        Some(ta)
+    } else if fb < 0.0 {
+        Some(ta + (tb - ta) * fa / (fa - fb))
+    } else {
+        None
+    }
+}
+
+/// The fine test of texel (`x`, `y`) for the ray from `q.0` to `q.1`
+/// (relative to the probe) over `span` = (t_a, t_b); see the module docs.
+///
+/// Where a surface bends at the texel's edge, the texel's own surfel does
+/// not describe all of its cone: past a crease or a convex edge part of the
+/// cone sees the neighbour's surface. So the four edge neighbours' surfels
+/// join the test when they are continuous with this one: *concave* (each
+/// surfel's point lies in front of the other's plane: the surface is the
+/// nearer plane, and crossing the neighbour's plane is a hit) or *convex*
+/// (each lies behind the other's plane: the surface is the farther plane,
+/// the ray meets it once behind both, and a ray in front of the neighbour's
+/// plane is not yet behind the surface). Any other pair is a depth
+/// discontinuity, where the neighbour says nothing about this cone.
+fn surfel_test(
+    field: &LightField,
+    probe: usize,
+    x: u32,
+    y: u32,
+    q: (Vec3, Vec3),
+    span: (f32, f32),
+) -> Texel {
+    let n = field.resolution;
+    let index = field.index(probe, x, y);
+    let s = field.distance[index];
+    let nrm = decode_normal(field.normal[index]);
+    let centre = octahedral::texel_direction(x, y, n) * s;
+    let fa = nrm.dot(q.0 - centre);
+    let fb = nrm.dot(q.1 - centre);
+    let tau = 2.0 * s / n as f32;
+    let eps = 1e-3 * s;
+    let (ta, tb) = span;
+    let mut hit = if fa >= -tau && fb <= 0.0 {
+        Some(if fa <= 0.0 {
+            ta
+        } else {
+            ta + (tb - ta) * fa / (fa - fb)
+        })
+    } else {
+        None
+    };
+    let mut shielded = false;
+    for (dx, dy) in [(-1i64, 0i64), (1, 0), (0, -1), (0, 1)] {
+        let (nx, ny) = octahedral::wrap_texel(x as i64 + dx, y as i64 + dy, n);
+        let k = field.index(probe, nx, ny);
+        let sk = field.distance[k];
+        if !sk.is_finite() {
+            continue;
+        }
+        let nk = decode_normal(field.normal[k]);
+        let ck = octahedral::texel_direction(nx, ny, n) * sk;
+        let (own_of_k, k_of_own) = (nrm.dot(ck - centre), nk.dot(centre - ck));
+        let ga = nk.dot(q.0 - ck);
+        let gb = nk.dot(q.1 - ck);
+        if own_of_k >= -eps && k_of_own >= -eps {
+            if ga >= -tau && gb <= 0.0 {
+                let tk = if ga <= 0.0 {
+                    ta
+                } else {
+                    ta + (tb - ta) * ga / (ga - gb)
+                };
+                hit = Some(hit.map_or(tk, |h: f32| h.min(tk)));
+            }
+        } else if own_of_k < eps && k_of_own < eps && ga >= 0.0 {
+            shielded = true;
+            if let (Some(t0), Some(t1)) = (onset(fa, fb, ta, tb), onset(ga, gb, ta, tb)) {
+                let tk = t0.max(t1);
+                hit = Some(hit.map_or(tk, |h: f32| h.min(tk)));
+            }
+        }
+    }
+    match hit {
+        Some(t) => Texel::Hit(t.clamp(ta, tb)),
+        None if fa < -tau && !shielded => Texel::Behind,
+        None => Texel::Pass,
+    }
+}
+
 /// The highest pyramid level the march starts from: side 8 or more, as
 /// Wang §4.2 avoids the coarsest levels.
 pub fn top_level(n: u32) -> usize {
@@ -139,6 +242,7 @@ pub fn top_level(n: u32) -> usize {
 /// Contract: `dir` is unit length and `t1` finite. `Hit(t)` and
 /// `Unknown(t)` have t in [`t0`, `t1`]. The hierarchical and the
 /// texel-by-texel march agree (see module docs).
+#[allow(clippy::too_many_arguments)]
 pub fn trace(
     field: &LightField,
     probe: usize,
@@ -242,18 +346,11 @@ fn march(
         }
         steps.fine += 1;
         if !in_front {
-            let s = field.distance[index];
-            let nrm = decode_normal(field.normal[index]);
-            let centre = octahedral::texel_direction(ix as u32, iy as u32, n) * s;
-            let fa = nrm.dot(a + d * t - centre);
-            let fb = nrm.dot(a + d * exit - centre);
-            let tau = 2.0 * s / n as f32;
-            if fa < -tau {
-                return Some(Probe::Unknown(t));
-            }
-            if fb <= 0.0 {
-                let hit = if fa <= 0.0 { t } else { t + (exit - t) * fa / (fa - fb) };
-                return Some(Probe::Hit(hit.clamp(t, exit)));
+            let q = (a + d * t, a + d * exit);
+            match surfel_test(field, probe, ix as u32, iy as u32, q, (t, exit)) {
+                Texel::Pass => {}
+                Texel::Hit(th) => return Some(Probe::Hit(th)),
+                Texel::Behind => return Some(Probe::Unknown(t)),
             }
         }
         t = exit;

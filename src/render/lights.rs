@@ -1,0 +1,404 @@
+//! The light set and next-event estimation (direct lighting at a surface point).
+//!
+//! Lights are the scene's emissive triangles plus the config's lights
+//! ([`crate::config::Light`]):
+//!
+//! * **Area lights**: every triangle whose material has a non-zero `Ke`. They
+//!   emit `Ke` from **both** sides: real assets' winding is unreliable (the
+//!   same reason shading is two-sided, see [`super::material`]), and a light
+//!   that is dark from the side a modeller happened to wind it towards would
+//!   silently turn a scene black. One triangle is chosen per sample with
+//!   probability proportional to `area × luminance(Ke)` from a prefix-sum CDF,
+//!   then a point uniformly on it, so bright large emitters get the samples.
+//! * **Point lights**: radiant intensity `I`, irradiance `I cos θ / d²`.
+//! * **Spot lights**: a point light times a fall-off that is 1 inside
+//!   `cone − edge`, 0 outside `cone` and a smoothstep of the cosine in between.
+//! * **Directional lights**: irradiance `E` on a surface facing the light,
+//!   arriving from `−direction`; the shadow ray runs until it has left the
+//!   scene's bounds ("infinity").
+//! * **Sky**: constant radiance for every direction that escapes the scene.
+//!   Next-event estimation draws one cosine-weighted direction and casts a
+//!   shadow ray out of the scene's bounds.
+//!
+//! Direct light at a surface point is the sum over the delta lights (one
+//! shadow ray each), plus one area-light sample, plus one sky sample: each
+//! term is an unbiased estimate, and delta lights cost one ray each.
+//! Shadow rays start a small distance off the surface, proportional to the
+//! scene's size ([`LightSet::epsilon`]), so that millimetre and kilometre
+//! scenes behave alike.
+
+use super::material::{cosine_hemisphere, Bsdf};
+use crate::config::Light;
+use crate::sampling::{point_in_triangle, Sampler};
+use crate::scene::raycast::SceneBvh;
+use crate::scene::Scene;
+use glam::Vec3;
+
+/// Relative luminance of linear RGB (Rec. 709 weights), the measure by which
+/// area lights share the samples.
+pub fn luminance(c: Vec3) -> f32 {
+    0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
+}
+
+/// An emissive triangle.
+#[derive(Debug, Clone, Copy)]
+struct AreaLight {
+    vertices: [Vec3; 3],
+    normal: Vec3,
+    emission: Vec3,
+    /// Density of a point on this triangle in area measure: the triangle's
+    /// selection probability divided by its area.
+    pdf_area: f32,
+}
+
+#[derive(Debug, Clone, Copy)]
+struct PointLight {
+    position: Vec3,
+    intensity: Vec3,
+}
+
+#[derive(Debug, Clone, Copy)]
+struct SpotLight {
+    position: Vec3,
+    axis: Vec3,
+    intensity: Vec3,
+    /// Half-angle of the cone, radians.
+    outer: f32,
+    /// Half-angle of the fully lit core, `cone − edge` (at least 0), radians.
+    inner: f32,
+    cos_outer: f32,
+    cos_inner: f32,
+}
+
+impl SpotLight {
+    /// Share of the axial intensity emitted at cosine `c` from the axis: a
+    /// smoothstep in angle, so that `edge_degrees` is the width of the fall-off.
+    fn falloff(&self, c: f32) -> f32 {
+        if c >= self.cos_inner {
+            1.0
+        } else if c <= self.cos_outer {
+            0.0
+        } else {
+            let t = ((self.outer - c.clamp(-1.0, 1.0).acos()) / (self.outer - self.inner))
+                .clamp(0.0, 1.0);
+            t * t * (3.0 - 2.0 * t)
+        }
+    }
+}
+
+#[derive(Debug, Clone, Copy)]
+struct DirectionalLight {
+    /// Unit direction towards the light (the opposite of travel).
+    to_light: Vec3,
+    irradiance: Vec3,
+}
+
+/// Every light of a scene, ready for next-event estimation (module docs).
+#[derive(Debug, Clone)]
+pub struct LightSet {
+    area: Vec<AreaLight>,
+    /// Normalized prefix sums of the area lights' `area × luminance(Ke)`.
+    cdf: Vec<f32>,
+    points: Vec<PointLight>,
+    spots: Vec<SpotLight>,
+    directionals: Vec<DirectionalLight>,
+    sky: Vec3,
+    epsilon: f32,
+    center: Vec3,
+    diagonal: f32,
+}
+
+impl LightSet {
+    /// Collects `scene`'s emissive triangles and the config's `lights`.
+    /// Several sky lights add up. Negative or non-finite `Ke` components count
+    /// as 0; triangles of zero luminance are not lights.
+    pub fn new(scene: &Scene, lights: &[Light]) -> LightSet {
+        let diagonal = scene.bounds.size().length().max(1e-6);
+        let mut area = Vec::new();
+        let mut weights = Vec::new();
+        for (i, tri) in scene.triangles.iter().enumerate() {
+            let m = &scene.materials[scene.material_ids[i] as usize];
+            let emission = Vec3::from(
+                m.emission
+                    .map(|v| if v.is_finite() { v.max(0.0) } else { 0.0 }),
+            );
+            let tri_area = 0.5 * (tri[1] - tri[0]).cross(tri[2] - tri[0]).length();
+            let weight = tri_area as f64 * luminance(emission) as f64;
+            if weight > 0.0 && weight.is_finite() {
+                area.push(AreaLight {
+                    vertices: *tri,
+                    normal: scene.normals[i],
+                    emission,
+                    pdf_area: 0.0,
+                });
+                weights.push((weight, tri_area));
+            }
+        }
+        let total: f64 = weights.iter().map(|w| w.0).sum();
+        let mut acc = 0.0f64;
+        let mut cdf: Vec<f32> = weights
+            .iter()
+            .map(|w| {
+                acc += w.0;
+                (acc / total) as f32
+            })
+            .collect();
+        if let Some(last) = cdf.last_mut() {
+            *last = 1.0;
+        }
+        // Each triangle's density is the probability the search in `direct`
+        // actually gives it (the f32 CDF's step), divided by its area.
+        for (i, (light, w)) in area.iter_mut().zip(&weights).enumerate() {
+            let before = if i == 0 { 0.0 } else { cdf[i - 1] };
+            light.pdf_area = (cdf[i] - before) / w.1;
+        }
+        let mut set = LightSet {
+            area,
+            cdf,
+            points: Vec::new(),
+            spots: Vec::new(),
+            directionals: Vec::new(),
+            sky: Vec3::ZERO,
+            epsilon: 1e-4 * diagonal,
+            center: 0.5 * (scene.bounds.min + scene.bounds.max),
+            diagonal,
+        };
+        for light in lights {
+            match *light {
+                Light::Point {
+                    position,
+                    intensity,
+                } => set.points.push(PointLight {
+                    position: Vec3::from(position.0),
+                    intensity: Vec3::from(intensity.0),
+                }),
+                Light::Spot {
+                    position,
+                    direction,
+                    intensity,
+                    cone_degrees,
+                    edge_degrees,
+                } => {
+                    let outer = cone_degrees.0.to_radians();
+                    let inner = (cone_degrees.0 - edge_degrees.0).max(0.0).to_radians();
+                    set.spots.push(SpotLight {
+                        position: Vec3::from(position.0),
+                        axis: Vec3::from(direction.0).normalize(),
+                        intensity: Vec3::from(intensity.0),
+                        outer,
+                        inner,
+                        cos_outer: outer.cos(),
+                        cos_inner: inner.cos(),
+                    })
+                }
+                Light::Directional {
+                    direction,
+                    irradiance,
+                } => set.directionals.push(DirectionalLight {
+                    to_light: -Vec3::from(direction.0).normalize(),
+                    irradiance: Vec3::from(irradiance.0),
+                }),
+                Light::Sky { radiance } => set.sky += Vec3::from(radiance.0),
+            }
+        }
+        set
+    }
+
+    /// The sky's radiance (zero without a sky light): what a ray that
+    /// escapes the scene sees.
+    pub fn sky(&self) -> Vec3 {
+        self.sky
+    }
+
+    /// Number of emissive triangles.
+    pub fn area_light_count(&self) -> usize {
+        self.area.len()
+    }
+
+    /// Whether there is no light at all: every image would be black.
+    pub fn is_empty(&self) -> bool {
+        self.area.is_empty()
+            && self.points.is_empty()
+            && self.spots.is_empty()
+            && self.directionals.is_empty()
+            && self.sky == Vec3::ZERO
+    }
+
+    /// Offset of ray origins from surfaces and shrink of shadow-ray ends:
+    /// `1e-4 ×` the scene's bounding-box diagonal.
+    pub fn epsilon(&self) -> f32 {
+        self.epsilon
+    }
+
+    /// A point along `dir` from `from` that lies outside the scene's bounds:
+    /// the end of a shadow ray towards an infinitely distant light.
+    fn beyond_scene(&self, from: Vec3, dir: Vec3) -> Vec3 {
+        from + dir * ((from - self.center).length() + self.diagonal)
+    }
+
+    /// One-sample estimate of the direct light reflected towards `wo` at
+    /// surface point `p` with shading normal `n` (facing `wo`) and BSDF `bsdf`:
+    /// every delta light, one area-light sample, one sky sample (module docs).
+    ///
+    /// Distances and cosines are measured from `p` itself; only the shadow
+    /// rays start [`LightSet::epsilon`] off the surface, so the offset does not
+    /// bias the light's falloff.
+    ///
+    /// Contract: `n` and `wo` unit with `n·wo ≥ 0`; `p` on the surface.
+    /// Allocation-free; draws a fixed number of values from `sampler` for a
+    /// given light set (3 for the area lights if any, 2 for the sky if any).
+    pub fn direct(
+        &self,
+        bvh: &SceneBvh,
+        p: Vec3,
+        n: Vec3,
+        wo: Vec3,
+        bsdf: &Bsdf,
+        sampler: &mut Sampler,
+    ) -> Vec3 {
+        let eps = self.epsilon;
+        let origin = p + n * eps;
+        let mut sum = Vec3::ZERO;
+        for light in &self.points {
+            sum += self.delta(bvh, p, n, wo, bsdf, light.position, light.intensity);
+        }
+        for light in &self.spots {
+            let from_light = (p - light.position).normalize_or_zero();
+            let k = light.falloff(from_light.dot(light.axis));
+            if k > 0.0 {
+                sum += self.delta(bvh, p, n, wo, bsdf, light.position, light.intensity * k);
+            }
+        }
+        for light in &self.directionals {
+            let wi = light.to_light;
+            let cos = n.dot(wi);
+            if cos > 0.0 && !bvh.occluded(origin, self.beyond_scene(origin, wi), eps) {
+                sum += light.irradiance * bsdf.eval(n, wo, wi).total() * cos;
+            }
+        }
+        if !self.area.is_empty() {
+            let u = sampler.next_f32();
+            let uv = sampler.next_2d();
+            let i = self
+                .cdf
+                .partition_point(|&c| c <= u)
+                .min(self.area.len() - 1);
+            let light = &self.area[i];
+            let y = point_in_triangle(&light.vertices, uv.x, uv.y);
+            let to = y - p;
+            let d2 = to.length_squared();
+            if d2 > 0.0 {
+                let wi = to / d2.sqrt();
+                let cos = n.dot(wi);
+                let cos_light = light.normal.dot(wi).abs();
+                if cos > 0.0 && cos_light > 0.0 && !bvh.occluded(origin, y, eps) {
+                    let f = bsdf.eval(n, wo, wi).total();
+                    sum += light.emission * f * (cos * cos_light / (d2 * light.pdf_area));
+                }
+            }
+        }
+        if self.sky != Vec3::ZERO {
+            // Cosine-weighted: L f cos / (cos / π) = π f L.
+            let wi = cosine_hemisphere(n, sampler.next_2d());
+            if !bvh.occluded(origin, self.beyond_scene(origin, wi), eps) {
+                sum += self.sky * bsdf.eval(n, wo, wi).total() * std::f32::consts::PI;
+            }
+        }
+        sum
+    }
+
+    /// Light reflected at `p` from a point source of intensity `intensity` at `at`.
+    #[allow(clippy::too_many_arguments)]
+    fn delta(
+        &self,
+        bvh: &SceneBvh,
+        p: Vec3,
+        n: Vec3,
+        wo: Vec3,
+        bsdf: &Bsdf,
+        at: Vec3,
+        intensity: Vec3,
+    ) -> Vec3 {
+        let to = at - p;
+        let d2 = to.length_squared();
+        if d2 <= 0.0 {
+            return Vec3::ZERO;
+        }
+        let wi = to / d2.sqrt();
+        let cos = n.dot(wi);
+        if cos <= 0.0 || bvh.occluded(p + n * self.epsilon, at, self.epsilon) {
+            return Vec3::ZERO;
+        }
+        intensity * bsdf.eval(n, wo, wi).total() * (cos / d2)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::{Degrees, Direction, NonNegative, Point3, Rgb};
+    use crate::scene::Material;
+
+    fn emissive(ke: [f32; 3]) -> Material {
+        Material {
+            name: "light".into(),
+            diffuse: [0.0; 3],
+            specular: [0.0; 3],
+            shininess: 1.0,
+            emission: ke,
+        }
+    }
+
+    #[test]
+    fn area_lights_are_chosen_by_power() {
+        // Two emitters: unit right triangles, the second 3x as bright.
+        let a = [Vec3::ZERO, Vec3::X, Vec3::Z];
+        let b = a.map(|v| v + Vec3::Y);
+        let dark = [Vec3::ZERO, Vec3::X, Vec3::Y];
+        let scene = Scene::from_triangles(
+            "t".into(),
+            [(a, 0), (b, 1), (dark, 2)],
+            vec![emissive([1.0; 3]), emissive([3.0; 3]), emissive([0.0; 3])],
+        )
+        .unwrap();
+        let set = LightSet::new(&scene, &[]);
+        assert_eq!(set.area_light_count(), 2);
+        assert!((set.cdf[0] - 0.25).abs() < 1e-6 && set.cdf[1] == 1.0);
+        assert!((set.area[0].pdf_area - 0.25 / 0.5).abs() < 1e-6);
+        assert!((set.area[1].pdf_area - 0.75 / 0.5).abs() < 1e-6);
+        assert!(!set.is_empty());
+        assert!(LightSet::new(&scene, &[])
+            .area
+            .iter()
+            .all(|l| l.emission != Vec3::ZERO));
+    }
+
+    #[test]
+    fn spot_falloff_is_smooth_between_inner_and_outer_cone() {
+        let scene = crate::scene::testing::room_with_box();
+        let spot = Light::Spot {
+            position: Point3([1.0; 3]),
+            direction: Direction([0.0, -1.0, 0.0]),
+            intensity: Rgb([1.0; 3]),
+            cone_degrees: Degrees(30.0),
+            edge_degrees: NonNegative(10.0),
+        };
+        let set = LightSet::new(
+            &scene,
+            &[
+                spot,
+                Light::Sky {
+                    radiance: Rgb([0.5; 3]),
+                },
+            ],
+        );
+        let s = &set.spots[0];
+        let at = |deg: f32| s.falloff(deg.to_radians().cos());
+        assert_eq!(at(0.0), 1.0);
+        assert_eq!(at(19.9), 1.0);
+        assert_eq!(at(30.1), 0.0);
+        assert!((at(25.0) - 0.5).abs() < 0.05, "{}", at(25.0));
+        assert!(at(22.0) > at(25.0) && at(25.0) > at(28.0));
+        assert_eq!(set.sky(), Vec3::splat(0.5));
+    }
+}

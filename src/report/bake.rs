@@ -1,0 +1,122 @@
+//! What `bake` adds to the outputs: the `bake` section of `report.json`
+//! and the preview atlases of the probe maps.
+
+use crate::lightfield::maps::decode_normal;
+use crate::lightfield::LightField;
+use crate::trace::check::Agreement;
+use image::{Rgb, RgbImage};
+use serde::Serialize;
+use std::collections::BTreeMap;
+
+/// `report.bake`.
+#[derive(Debug, Clone, Serialize)]
+pub struct BakeReport {
+    /// Side of the radiance, normal and distance maps.
+    pub resolution: u32,
+    /// Side of the irradiance and moment maps.
+    pub irradiance_resolution: u32,
+    /// Probes baked.
+    pub probes: usize,
+    /// Radiance paths per texel.
+    pub samples: u32,
+    /// Indirect bounces in the probes' radiance.
+    pub bounces: u32,
+    /// Size of `lightfield.bin`.
+    pub bytes: usize,
+    /// Area lights (emissive triangles) and config lights used.
+    pub area_lights: usize,
+    /// Lights from the config.
+    pub config_lights: usize,
+    /// The CPU light-field tracer against exact ray casts, one random ray
+    /// from each of 4096 random free points, probes chosen by the SVO.
+    pub tracer: Agreement,
+    /// The reference image; `null` without a camera.
+    pub reference: Option<ReferenceReport>,
+    /// Wall time per step in milliseconds: `geometry`, `radiance`,
+    /// `pyramid`, `irradiance`, `tracer_check`, `reference`.
+    pub timings_ms: BTreeMap<String, f64>,
+}
+
+/// `report.bake.reference`.
+#[derive(Debug, Clone, Serialize)]
+pub struct ReferenceReport {
+    /// Image width in pixels.
+    pub width: u32,
+    /// Image height in pixels.
+    pub height: u32,
+    /// Paths per pixel.
+    pub samples_per_pixel: u32,
+    /// Indirect bounces.
+    pub bounces: u32,
+    /// Mean RGB radiance of the full image.
+    pub mean: [f64; 3],
+    /// Mean RGB radiance of the glossy-indirect image.
+    pub glossy_indirect_mean: [f64; 3],
+}
+
+/// Columns of a probe atlas: the probes tiled in a near-square grid.
+fn columns(probes: usize) -> usize {
+    (probes as f64).sqrt().ceil().max(1.0) as usize
+}
+
+/// `probes` maps of side `n` tiled row by row into one RGB float image;
+/// returns (width, height, pixels). `texel(i)` gives the colour of entry
+/// `i` = probe·n² + y·n + x.
+pub fn atlas(
+    n: u32,
+    probes: usize,
+    texel: impl Fn(usize) -> [f32; 3],
+) -> (u32, u32, Vec<[f32; 3]>) {
+    let n = n as usize;
+    let p = probes;
+    let cols = columns(p);
+    let rows = p.div_ceil(cols).max(1);
+    let (w, h) = (cols * n, rows * n);
+    let mut out = vec![[0.0f32; 3]; w * h];
+    for probe in 0..p {
+        let (ox, oy) = ((probe % cols) * n, (probe / cols) * n);
+        for y in 0..n {
+            for x in 0..n {
+                out[(oy + y) * w + ox + x] = texel(probe * n * n + y * n + x);
+            }
+        }
+    }
+    (w as u32, h as u32, out)
+}
+
+/// Distance atlas preview: near is bright, far dark, nothing seen is blue.
+pub fn distance_preview(field: &LightField) -> RgbImage {
+    let far = field.max_distance.max(1e-6);
+    let (w, h, px) = atlas(field.resolution, field.positions.len(), |i| {
+        let d = field.distance[i];
+        if d.is_finite() {
+            [1.0 - (d / far).min(1.0); 3]
+        } else {
+            [-1.0, -1.0, -1.0]
+        }
+    });
+    RgbImage::from_fn(w, h, |x, y| {
+        let v = px[(y * w + x) as usize];
+        if v[0] < 0.0 {
+            Rgb([40, 60, 160])
+        } else {
+            let g = (255.0 * v[0].sqrt()) as u8;
+            Rgb([g, g, g])
+        }
+    })
+}
+
+/// Normal atlas preview: components mapped from [-1, 1] to [0, 255].
+pub fn normal_preview(field: &LightField) -> RgbImage {
+    let (w, h, px) = atlas(field.resolution, field.positions.len(), |i| {
+        if field.distance[i].is_finite() {
+            decode_normal(field.normal[i]).to_array()
+        } else {
+            [-1.0; 3]
+        }
+    });
+    RgbImage::from_fn(w, h, |x, y| {
+        let v = px[(y * w + x) as usize];
+        Rgb(v.map(|c| (127.5 * (c + 1.0)).clamp(0.0, 255.0) as u8))
+    })
+}

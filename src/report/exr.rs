@@ -1,0 +1,213 @@
+//! Linear HDR images as OpenEXR files, and tone-mapped previews.
+//!
+//! Reference renders and probe maps hold radiance, which has no upper bound:
+//! PNG would clip it, and error metrics (Wang et al. 2019 §5.1 compare images
+//! by mean squared error) need the linear values. OpenEXR is the format every
+//! image tool reads. The writer is the smallest valid file, written by hand
+//! so the crate needs no EXR dependency: one part, scan lines, no
+//! compression, 32-bit float `B`, `G`, `R` channels (the format requires the
+//! channel list sorted by name), one scan line per block. Layout per the
+//! OpenEXR file-layout specification: magic number, version field, header
+//! attributes ended by a null byte, the table of block offsets, the blocks.
+//! Write the bytes with [`super::write_atomic`].
+
+use image::RgbImage;
+
+/// The OpenEXR magic number, 20000630.
+const MAGIC: u32 = 20_000_630;
+/// File format version 2, single-part scan-line file, short names (no flags).
+const VERSION: u32 = 2;
+/// `PixelType::FLOAT` in a channel list.
+const PIXEL_FLOAT: i32 = 2;
+
+/// An uncompressed scan-line OpenEXR file of the `width × height` image
+/// `pixels` (linear RGB, row-major, top row first), channels stored as 32-bit
+/// floats, bit for bit (NaN and infinities included).
+///
+/// Contract: `width` and `height` at least 1 and at most `i32::MAX`, and
+/// `pixels.len() == width·height`; anything else is a programming error and
+/// panics.
+pub fn encode_rgb(width: u32, height: u32, pixels: &[[f32; 3]]) -> Vec<u8> {
+    assert!(
+        width >= 1 && height >= 1 && width <= i32::MAX as u32 && height <= i32::MAX as u32,
+        "EXR size {width}x{height} out of range"
+    );
+    assert_eq!(
+        pixels.len() as u64,
+        width as u64 * height as u64,
+        "pixel count does not match {width}x{height}"
+    );
+    let (w, h) = (width as usize, height as usize);
+    let row_bytes = w * 3 * 4;
+    let mut out = Vec::with_capacity(512 + h * (8 + 8 + row_bytes));
+    out.extend_from_slice(&MAGIC.to_le_bytes());
+    out.extend_from_slice(&VERSION.to_le_bytes());
+
+    let mut channels = Vec::new();
+    for name in [b'B', b'G', b'R'] {
+        channels.extend_from_slice(&[name, 0]);
+        channels.extend_from_slice(&PIXEL_FLOAT.to_le_bytes());
+        // pLinear, three reserved bytes, then x and y sampling.
+        channels.extend_from_slice(&[0, 0, 0, 0]);
+        channels.extend_from_slice(&1i32.to_le_bytes());
+        channels.extend_from_slice(&1i32.to_le_bytes());
+    }
+    channels.push(0);
+    let window: Vec<u8> = [0, 0, width as i32 - 1, height as i32 - 1]
+        .iter()
+        .flat_map(|v| v.to_le_bytes())
+        .collect();
+    attribute(&mut out, "channels", "chlist", &channels);
+    attribute(&mut out, "compression", "compression", &[0]);
+    attribute(&mut out, "dataWindow", "box2i", &window);
+    attribute(&mut out, "displayWindow", "box2i", &window);
+    attribute(&mut out, "lineOrder", "lineOrder", &[0]);
+    attribute(&mut out, "pixelAspectRatio", "float", &1f32.to_le_bytes());
+    attribute(&mut out, "screenWindowCenter", "v2f", &[0; 8]);
+    attribute(&mut out, "screenWindowWidth", "float", &1f32.to_le_bytes());
+    out.push(0);
+
+    let block_bytes = 4 + 4 + row_bytes;
+    let first_block = out.len() + 8 * h;
+    for y in 0..h {
+        out.extend_from_slice(&((first_block + y * block_bytes) as u64).to_le_bytes());
+    }
+    for (y, row) in pixels.chunks_exact(w).enumerate() {
+        out.extend_from_slice(&(y as i32).to_le_bytes());
+        out.extend_from_slice(&(row_bytes as i32).to_le_bytes());
+        // Channels in the header's (alphabetical) order: B, G, R.
+        for c in [2, 1, 0] {
+            for p in row {
+                out.extend_from_slice(&p[c].to_le_bytes());
+            }
+        }
+    }
+    out
+}
+
+/// Appends one header attribute: name, type name, size, value.
+fn attribute(out: &mut Vec<u8>, name: &str, kind: &str, value: &[u8]) {
+    out.extend_from_slice(name.as_bytes());
+    out.push(0);
+    out.extend_from_slice(kind.as_bytes());
+    out.push(0);
+    out.extend_from_slice(&(value.len() as i32).to_le_bytes());
+    out.extend_from_slice(value);
+}
+
+/// An 8-bit sRGB preview of linear `pixels` (`width × height`, row-major):
+/// each channel multiplied by `exposure` (a linear factor, 1 = unchanged),
+/// encoded with the sRGB transfer function, clamped to [0, 1] and rounded.
+/// NaN becomes black.
+///
+/// Contract: `pixels.len() == width·height`, else it panics.
+pub fn tonemap(pixels: &[[f32; 3]], width: u32, height: u32, exposure: f32) -> RgbImage {
+    assert_eq!(
+        pixels.len() as u64,
+        width as u64 * height as u64,
+        "pixel count does not match {width}x{height}"
+    );
+    let mut img = RgbImage::new(width, height);
+    for (out, p) in img.pixels_mut().zip(pixels) {
+        out.0 = p.map(|c| srgb_byte(c * exposure));
+    }
+    img
+}
+
+/// The sRGB encoding of linear `c` as a byte.
+fn srgb_byte(c: f32) -> u8 {
+    let c = if c.is_nan() { 0.0 } else { c.clamp(0.0, 1.0) };
+    let v = if c <= 0.003_130_8 {
+        12.92 * c
+    } else {
+        1.055 * c.powf(1.0 / 2.4) - 0.055
+    };
+    (v * 255.0 + 0.5).clamp(0.0, 255.0) as u8
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use ::exr::prelude::*;
+    use std::io::Cursor;
+
+    fn test_image(w: u32, h: u32) -> Vec<[f32; 3]> {
+        (0..w * h)
+            .map(|i| {
+                let (x, y) = ((i % w) as f32, (i / w) as f32);
+                [x * 0.25 + y, 1e-3 * x * y, 1000.0 - y * 17.5]
+            })
+            .collect()
+    }
+
+    type Read = Image<Layer<AnyChannels<FlatSamples>>>;
+
+    fn read_back(bytes: &[u8]) -> Read {
+        read()
+            .no_deep_data()
+            .largest_resolution_level()
+            .all_channels()
+            .first_valid_layer()
+            .all_attributes()
+            .pedantic()
+            .from_buffered(Cursor::new(bytes))
+            .expect("the exr crate reads our file")
+    }
+
+    #[test]
+    fn exr_round_trips_through_the_exr_crate() {
+        let (w, h) = (7u32, 5u32);
+        let pixels = test_image(w, h);
+        let bytes = encode_rgb(w, h, &pixels);
+        let img = read_back(&bytes);
+        let layer = &img.layer_data;
+        assert_eq!(layer.size.0, w as usize);
+        assert_eq!(layer.size.1, h as usize);
+        assert_eq!(layer.encoding.compression, Compression::Uncompressed);
+        assert_eq!(layer.encoding.line_order, LineOrder::Increasing);
+        assert_eq!(img.attributes.display_window.size.0, w as usize);
+        assert_eq!(img.attributes.pixel_aspect, 1.0);
+        let names: Vec<String> = layer
+            .channel_data
+            .list
+            .iter()
+            .map(|c| c.name.to_string())
+            .collect();
+        assert_eq!(names, ["B", "G", "R"]);
+        for (ch, c) in layer.channel_data.list.iter().zip([2usize, 1, 0]) {
+            let FlatSamples::F32(values) = &ch.sample_data else {
+                panic!("channel {} is not f32", ch.name);
+            };
+            let want: Vec<f32> = pixels.iter().map(|p| p[c]).collect();
+            assert_eq!(values, &want, "channel {}", ch.name);
+        }
+    }
+
+    #[test]
+    fn one_pixel_and_special_values_survive() {
+        let pixels = [[f32::INFINITY, -0.0, 65504.5]];
+        let img = read_back(&encode_rgb(1, 1, &pixels));
+        let r = &img.layer_data.channel_data.list[2];
+        assert_eq!(r.sample_data, FlatSamples::F32(vec![f32::INFINITY]));
+        let b = &img.layer_data.channel_data.list[0];
+        assert_eq!(b.sample_data, FlatSamples::F32(vec![65504.5]));
+    }
+
+    #[test]
+    #[should_panic(expected = "pixel count")]
+    fn wrong_pixel_count_is_refused() {
+        encode_rgb(2, 2, &[[0.0; 3]; 3]);
+    }
+
+    #[test]
+    fn tonemap_applies_exposure_and_srgb() {
+        let px = [[0.0, 0.5, 1.0], [0.22, 2.0, f32::NAN]];
+        let img = tonemap(&px, 2, 1, 1.0);
+        assert_eq!(img.get_pixel(0, 0).0, [0, 188, 255]);
+        // sRGB(0.22) ≈ 0.506; over-range clamps; NaN is black.
+        assert_eq!(img.get_pixel(1, 0).0, [129, 255, 0]);
+        let darker = tonemap(&px, 2, 1, 0.5);
+        assert_eq!(darker.get_pixel(0, 0).0[2], 188);
+        assert_eq!(darker.get_pixel(1, 0).0[1], 255);
+    }
+}
