@@ -129,6 +129,77 @@ fn stages(c: &mut Criterion, name: &str, config: &str) {
                 .sum::<usize>()
         })
     });
+    // The light-field bake (McGuire §3, §5.2) of the first 8 refined probes (all 6 on Cornell)
+    // at the config's resolution, and the CPU light-field trace (McGuire
+    // Listing 1, SVO selection) of 4096 random rays, Hi-Z and texel march.
+    let renderer = probeplace::render::Renderer::new(&scene, &bvh, &cfg.lights, cfg.bake.bounces.0);
+    let radiance = |o: glam::Vec3, d: glam::Vec3, stream: u64| {
+        renderer.radiance(o, d, &mut probeplace::sampling::Sampler::new(1, stream))
+    };
+    let eight: Vec<glam::Vec3> = refined.positions().into_iter().take(8).collect();
+    let max_distance = scene.bounds.size().length();
+    let bake = || {
+        probeplace::lightfield::bake(
+            &cfg.bake,
+            &eight,
+            &scene,
+            &bvh,
+            max_distance,
+            1,
+            &radiance,
+            &progress,
+        )
+    };
+    g.throughput(criterion::Throughput::Elements(eight.len() as u64));
+    g.bench_function("lightfield_bake", |b| b.iter(bake));
+    let all = refined.positions();
+    let light_field = probeplace::lightfield::bake(
+        &cfg.bake,
+        &all,
+        &scene,
+        &bvh,
+        max_distance,
+        1,
+        &|_, _, _| glam::Vec3::ZERO,
+        &progress,
+    )
+    .field;
+    let origins = svo::random_free_points(&input, 4096, 3);
+    let dirs = probeplace::sampling::fibonacci_sphere(origins.len() as u32);
+    let bounds = probeplace::trace::check::padded_bounds(&scene.bounds);
+    let rays: Vec<(glam::Vec3, glam::Vec3, f32)> = origins
+        .iter()
+        .zip(&dirs)
+        .map(|(&o, &d)| (o, d, probeplace::trace::check::exit_distance(&bounds, o, d)))
+        .collect();
+    let selection = probeplace::trace::Selection::Svo(&tree);
+    g.throughput(criterion::Throughput::Elements(rays.len() as u64));
+    for (label, hiz) in [
+        ("lightfield_trace_4k_rays_hiz", true),
+        ("lightfield_trace_4k_rays_texel", false),
+    ] {
+        g.bench_function(label, |b| {
+            b.iter(|| {
+                let mut steps = probeplace::trace::single::Steps::default();
+                rays.iter()
+                    .filter(|(o, d, t)| {
+                        matches!(
+                            probeplace::trace::trace(
+                                &light_field,
+                                &selection,
+                                *o,
+                                *d,
+                                *t,
+                                hiz,
+                                &mut steps
+                            ),
+                            probeplace::trace::Outcome::Hit { .. }
+                        )
+                    })
+                    .count()
+            })
+        });
+    }
     // Ray throughput: 64k rays from the domain centre, closest hit.
     let centre = (scene.bounds.min + scene.bounds.max) * 0.5;
     let dirs = probeplace::sampling::fibonacci_sphere(65_536);

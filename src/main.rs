@@ -58,10 +58,13 @@ enum Command {
         #[arg(long)]
         no_refine: bool,
     },
-    /// Summarize an svo.bin (or the one in an output directory) after checking it.
+    /// Summarize an svo.bin (or the one in an output directory, with its lightfield.bin) after checking it.
     Inspect {
-        /// An output directory of `place`, or an svo.bin file.
+        /// An output directory of `place` or `bake`, or an svo.bin file.
         path: PathBuf,
+        /// Check only: print nothing, answer with the exit status.
+        #[arg(long)]
+        quiet: bool,
     },
 }
 
@@ -149,9 +152,11 @@ fn main() -> ExitCode {
                 Err(e) => fail(e),
             }
         }
-        Command::Inspect { path } => match probeplace::pipeline::inspect(&path) {
+        Command::Inspect { path, quiet } => match probeplace::pipeline::inspect(&path) {
             Ok(inspection) => {
-                println!("{inspection}");
+                if !quiet {
+                    println!("{inspection}");
+                }
                 ExitCode::SUCCESS
             }
             Err(e) => fail(e),

@@ -398,6 +398,8 @@ pub struct Inspection {
     pub path: PathBuf,
     /// Its contents.
     pub svo: Svo,
+    /// The `lightfield.bin` beside it, when there is one, checked too.
+    pub light_field: Option<(PathBuf, crate::lightfield::LightField)>,
 }
 
 impl std::fmt::Display for Inspection {
@@ -426,7 +428,20 @@ impl std::fmt::Display for Inspection {
             s.max_probes,
             s.distinct_lists(),
             s.leaves_without_visible_probe
-        )
+        )?;
+        if let Some((path, lf)) = &self.light_field {
+            write!(
+                f,
+                "\n{}: {} probes, {}² maps with {} pyramid levels, {}² irradiance, {} bytes",
+                path.display(),
+                lf.positions.len(),
+                lf.resolution,
+                lf.pyramid.len(),
+                lf.irradiance_resolution,
+                lf.bytes()
+            )?;
+        }
+        Ok(())
     }
 }
 
@@ -475,7 +490,29 @@ pub fn inspect(path: &Path) -> Result<Inspection> {
             }
         }
     }
-    Ok(Inspection { path: file, svo })
+    let lf_path = file.with_file_name("lightfield.bin");
+    let light_field = if lf_path.exists() {
+        let field = crate::lightfield::LightField::read(&lf_path)?;
+        if field.positions.len() != svo.probe_count as usize {
+            return Err(Error::user_file(
+                &lf_path,
+                format!(
+                    "holds {} probes but {} indexes {}: the two come from different runs",
+                    field.positions.len(),
+                    file.display(),
+                    svo.probe_count
+                ),
+            ));
+        }
+        Some((lf_path, field))
+    } else {
+        None
+    };
+    Ok(Inspection {
+        path: file,
+        svo,
+        light_field,
+    })
 }
 
 /// Seed offset of the probe radiance's random streams, so they differ from

@@ -127,7 +127,7 @@ fn luminance(v: &serde_json::Value) -> f64 {
 
 /// The acceptance: bake and reference complete, the reference converges
 /// (two seeds' means within 5%), and the files are what the report says.
-fn bake_converges(config: &str) -> serde_json::Value {
+fn bake_converges(config: &str) -> (serde_json::Value, tempfile::TempDir) {
     let a = tempfile::tempdir().unwrap();
     let b = tempfile::tempdir().unwrap();
     let ra = bake(config, a.path(), &[]);
@@ -190,12 +190,52 @@ fn bake_converges(config: &str) -> serde_json::Value {
         (ma - mb).abs() <= 0.05 * ma.max(mb),
         "{config}: reference means {ma} and {mb} differ by more than 5%"
     );
-    ra
+    (ra, a)
 }
 
 #[test]
 fn cornell_fixture_bakes_and_its_reference_converges() {
-    let r = bake_converges("configs/cornell.ron");
+    let (r, first) = bake_converges("configs/cornell.ron");
+    // Same config and seed: byte-identical maps and images.
+    let again = tempfile::tempdir().unwrap();
+    bake("configs/cornell.ron", again.path(), &[]);
+    for name in [
+        "lightfield.bin",
+        "reference.exr",
+        "reference-glossy.exr",
+        "radiance.png",
+        "svo.bin",
+    ] {
+        assert!(
+            std::fs::read(first.path().join(name)).unwrap()
+                == std::fs::read(again.path().join(name)).unwrap(),
+            "{name} differs between two runs of the same config"
+        );
+    }
+    // inspect checks and summarizes the light field beside the SVO, and
+    // refuses a damaged one in one line.
+    let o = probeplace(&["inspect", again.path().to_str().unwrap()]);
+    let text = String::from_utf8_lossy(&o.stdout).into_owned();
+    assert!(
+        o.status.success()
+            && text.contains(&format!(
+                "lightfield.bin: {} probes, 128² maps",
+                r["probe_count"]
+            )),
+        "{text}"
+    );
+    let lf = again.path().join("lightfield.bin");
+    let mut bytes = std::fs::read(&lf).unwrap();
+    bytes[1000] ^= 1;
+    std::fs::write(&lf, bytes).unwrap();
+    let o = probeplace(&["inspect", again.path().to_str().unwrap(), "--quiet"]);
+    let e = String::from_utf8_lossy(&o.stderr).into_owned();
+    assert_eq!(o.status.code(), Some(2), "{e}");
+    assert!(
+        e.contains("lightfield.bin") && e.contains("checksum") && e.trim().lines().count() == 1,
+        "{e}"
+    );
+    assert!(o.stdout.is_empty());
     // All-diffuse box: no glossy indirect light at all.
     assert_eq!(
         luminance(&r["bake"]["reference"]["glossy_indirect_mean"]),
@@ -206,6 +246,6 @@ fn cornell_fixture_bakes_and_its_reference_converges() {
 #[test]
 fn cornell_glossy_bakes_and_its_reference_converges() {
     shared_scenes();
-    let r = bake_converges("configs/cornell-glossy.ron");
+    let (r, _) = bake_converges("configs/cornell-glossy.ron");
     assert!(luminance(&r["bake"]["reference"]["glossy_indirect_mean"]) > 0.0);
 }

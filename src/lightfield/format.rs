@@ -16,7 +16,7 @@
 //! | … | 2Pn² | radial distance (f16, +∞ = nothing seen) |
 //! | … | 4P(n>>k)² per level k | (min, max) distance (2 × f16) |
 //! | … | 6Pm² | irradiance (3 × f16) |
-//! | … | 4Pm² | moments E[r], E[r²] (2 × f16) |
+//! | … | 4Pm² | moments E\[r\], E\[r²\] (2 × f16) |
 //! | end − 4 | 4 | CRC-32 of every byte before it |
 //!
 //! All little-endian; each section holds the probes one after another and

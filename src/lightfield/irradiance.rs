@@ -4,8 +4,8 @@
 //! Each irradiance texel, for the normal n through its centre, holds the
 //! cosine-convolved irradiance E(n) = ∫ L(ω) max(0, n·ω) dω over the
 //! probe's radiance map, and the first two moments of radial distance,
-//! E[r] and E[r²], averaged with a cosine-power lobe max(0, n·ω)^k: the
-//! inputs of the Chebyshev visibility test (variance σ² = |E[r]² − E[r²]|,
+//! E\[r\] and E\[r²\], averaged with a cosine-power lobe max(0, n·ω)^k: the
+//! inputs of the Chebyshev visibility test (variance σ² = |E\[r\]² − E\[r²\]|,
 //! §5.2) that weights probes when irradiance is interpolated.
 //!
 //! The integrals are sums over a source map of side min(n, 64): radiance,
@@ -26,7 +26,7 @@ pub const SOURCE_SIDE: u32 = 64;
 pub struct Irradiance {
     /// E(n) per texel (RGB, half precision), probes one after another.
     pub irradiance: Vec<[f32; 3]>,
-    /// (E[r], E[r²]) per texel (half precision).
+    /// (E\[r\], E\[r²\]) per texel (half precision).
     pub moments: Vec<[f32; 2]>,
 }
 
@@ -145,7 +145,7 @@ pub fn convolve(
 
 /// Chebyshev's upper bound on the chance that a point at distance `r` from
 /// the probe is visible from it, given the moments (McGuire §5.2, after
-/// variance shadow maps): 1 when r ≤ E[r], else σ² / (σ² + (r − E[r])²).
+/// variance shadow maps): 1 when r ≤ E\[r\], else σ² / (σ² + (r − E\[r\])²).
 pub fn chebyshev_visibility(moments: [f32; 2], r: f32) -> f32 {
     let mean = moments[0];
     if r <= mean {

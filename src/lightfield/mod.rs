@@ -44,7 +44,7 @@ pub struct LightField {
     pub pyramid: Vec<Vec<[f32; 2]>>,
     /// Irradiance E(n), RGB ([`irradiance`]).
     pub irradiance: Vec<[f32; 3]>,
-    /// Filtered distance moments (E[r], E[r²]).
+    /// Filtered distance moments (E\[r\], E\[r²\]).
     pub moments: Vec<[f32; 2]>,
 }
 
@@ -76,7 +76,7 @@ impl LightField {
         format::from_bytes(&bytes).map_err(|m| Error::user_file(path, m))
     }
 
-    /// The serialized bytes (see [`format`]).
+    /// The serialized bytes (see [`mod@format`]).
     pub fn to_bytes(&self) -> Vec<u8> {
         format::to_bytes(self)
     }
