@@ -8,8 +8,8 @@
 //!
 //! | method | file | paper |
 //! |---|---|---|
-//! | `sdf-skeleton`: cull SDF voxels near surfaces, keep the discrete medial axis | [`sdf_skeleton`] | §3.1 "Signed Distance Function Skeletonization", Fig. 2 |
-//! | `medial-axis`: shrink balls from pre-clustered oriented surface points | [`medial_axis`], built on [`surface_points`] and [`ball_shrinking`] | §3.1 "Ball Shrinking Skeletonization", Fig. 3; Ma, Bae, Choi 2012 |
+//! | `sdf-skeleton`: cull SDF voxels near surfaces, keep the discrete medial axis | [`mod@sdf_skeleton`] | §3.1 "Signed Distance Function Skeletonization", Fig. 2 |
+//! | `medial-axis`: shrink balls from pre-clustered oriented surface points | [`mod@medial_axis`], built on [`surface_points`] and [`ball_shrinking`] | §3.1 "Ball Shrinking Skeletonization", Fig. 3; Ma, Bae, Choi 2012 |
 //!
 //! Both end the same way ([`cluster`]): skeleton points, largest clearance
 //! first, gather the points they see nearby into clusters, one probe each.
