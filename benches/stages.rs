@@ -170,7 +170,7 @@ fn stages(c: &mut Criterion, name: &str, config: &str) {
     let rays: Vec<(glam::Vec3, glam::Vec3, f32)> = origins
         .iter()
         .zip(&dirs)
-        .map(|(&o, &d)| (o, d, probeplace::trace::check::exit_distance(&bounds, o, d)))
+        .map(|(&o, &d)| (o, d, bounds.exit_distance(o, d)))
         .collect();
     let selection = probeplace::trace::Selection::Svo(&tree);
     g.throughput(criterion::Throughput::Elements(rays.len() as u64));

@@ -1,6 +1,7 @@
 //! The `probeplace` command line: parses arguments and calls the library.
 
-use clap::{Parser, Subcommand};
+use clap::{Args, Parser, Subcommand};
+use probeplace::pipeline::{PlaceOptions, PlaceOutcome};
 use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -16,48 +17,34 @@ struct Cli {
     command: Command,
 }
 
+/// What `place` and `bake` share: the config and the overrides of its fields.
+#[derive(Args)]
+struct RunArgs {
+    /// The run's RON config file.
+    config: PathBuf,
+    /// Output directory (default: the config's `output`).
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Placement method: `sdf-skeleton`, `medial-axis` or `grid:NxMxK` (default: the config's).
+    #[arg(long)]
+    method: Option<String>,
+    /// Random seed (default: the config's).
+    #[arg(long)]
+    seed: Option<u64>,
+    /// No progress bars and no summary.
+    #[arg(long)]
+    quiet: bool,
+    /// Skip refinement, filling and pruning (the config's `refine.enabled: false`).
+    #[arg(long)]
+    no_refine: bool,
+}
+
 #[derive(Subcommand)]
 enum Command {
     /// Place probes as the config says; write probes.json, svo.bin, report.json and placement.png.
-    Place {
-        /// The run's RON config file.
-        config: PathBuf,
-        /// Output directory (default: the config's `output`).
-        #[arg(long)]
-        out: Option<PathBuf>,
-        /// Placement method: `sdf-skeleton`, `medial-axis` or `grid:NxMxK` (default: the config's).
-        #[arg(long)]
-        method: Option<String>,
-        /// Random seed (default: the config's).
-        #[arg(long)]
-        seed: Option<u64>,
-        /// No progress bars and no summary.
-        #[arg(long)]
-        quiet: bool,
-        /// Skip refinement, filling and pruning (the config's `refine.enabled: false`).
-        #[arg(long)]
-        no_refine: bool,
-    },
+    Place(RunArgs),
     /// Place probes as `place` does, then bake their light-field maps and the path-traced reference image.
-    Bake {
-        /// The run's RON config file.
-        config: PathBuf,
-        /// Output directory (default: the config's `output`).
-        #[arg(long)]
-        out: Option<PathBuf>,
-        /// Placement method: `sdf-skeleton`, `medial-axis` or `grid:NxMxK` (default: the config's).
-        #[arg(long)]
-        method: Option<String>,
-        /// Random seed (default: the config's).
-        #[arg(long)]
-        seed: Option<u64>,
-        /// No progress bars and no summary.
-        #[arg(long)]
-        quiet: bool,
-        /// Skip refinement, filling and pruning (the config's `refine.enabled: false`).
-        #[arg(long)]
-        no_refine: bool,
-    },
+    Bake(RunArgs),
     /// Summarize an svo.bin (or the one in an output directory, with its lightfield.bin) after checking it.
     Inspect {
         /// An output directory of `place` or `bake`, or an svo.bin file.
@@ -74,84 +61,29 @@ fn main() -> ExitCode {
         Err(e) => return usage_error(e),
     };
     match cli.command {
-        Command::Place {
-            config,
-            out,
-            method,
-            seed,
-            quiet,
-            no_refine,
-        } => {
-            let options = probeplace::pipeline::PlaceOptions {
-                out,
-                method,
-                seed,
-                progress: !quiet && std::io::stderr().is_terminal(),
-                no_refine,
-            };
-            match probeplace::pipeline::place(&config, &options) {
-                Ok(outcome) => {
-                    for w in &outcome.report.warnings {
-                        eprintln!("warning: {w}");
-                    }
-                    if !quiet {
-                        let r = &outcome.report;
-                        println!(
-                            "{}: {} probes, coverage {:.2}% ± {:.2}%, {} in solid; wrote {} in {:.1} s",
-                            r.method,
-                            r.probe_count,
-                            100.0 * r.coverage,
-                            100.0 * r.coverage_ci95,
-                            r.probes_in_solid,
-                            outcome.out_dir.display(),
-                            r.timings_ms.get("total").copied().unwrap_or(0.0) / 1e3
-                        );
-                    }
-                    ExitCode::SUCCESS
-                }
-                Err(e) => fail(e),
-            }
+        Command::Place(args) => run(args, probeplace::pipeline::place, |r| {
+            format!(
+                "{}: {} probes, coverage {:.2}% ± {:.2}%, {} in solid",
+                r.method,
+                r.probe_count,
+                100.0 * r.coverage,
+                100.0 * r.coverage_ci95,
+                r.probes_in_solid
+            )
+        }),
+        Command::Bake(args) => run(args, probeplace::pipeline::bake, |r| {
+            match &r.bake {
+            Some(b) => format!(
+                "{}: {} probes baked at {}² ({:.1} MB), tracer agrees with ray casts on {:.2}% of seen hits",
+                r.method,
+                b.probes,
+                b.resolution,
+                b.bytes as f64 / 1e6,
+                100.0 * b.tracer.rate()
+            ),
+            None => format!("{}: {} probes", r.method, r.probe_count),
         }
-        Command::Bake {
-            config,
-            out,
-            method,
-            seed,
-            quiet,
-            no_refine,
-        } => {
-            let options = probeplace::pipeline::PlaceOptions {
-                out,
-                method,
-                seed,
-                progress: !quiet && std::io::stderr().is_terminal(),
-                no_refine,
-            };
-            match probeplace::pipeline::bake(&config, &options) {
-                Ok(outcome) => {
-                    for w in &outcome.report.warnings {
-                        eprintln!("warning: {w}");
-                    }
-                    if !quiet {
-                        let r = &outcome.report;
-                        if let Some(b) = &r.bake {
-                            println!(
-                                "{}: {} probes baked at {}² ({:.1} MB), tracer agrees with ray casts on {:.2}% of seen hits; wrote {} in {:.1} s",
-                                r.method,
-                                b.probes,
-                                b.resolution,
-                                b.bytes as f64 / 1e6,
-                                100.0 * b.tracer.rate(),
-                                outcome.out_dir.display(),
-                                r.timings_ms.get("total").copied().unwrap_or(0.0) / 1e3
-                            );
-                        }
-                    }
-                    ExitCode::SUCCESS
-                }
-                Err(e) => fail(e),
-            }
-        }
+        }),
         Command::Inspect { path, quiet } => match probeplace::pipeline::inspect(&path) {
             Ok(inspection) => {
                 if !quiet {
@@ -161,6 +93,41 @@ fn main() -> ExitCode {
             }
             Err(e) => fail(e),
         },
+    }
+}
+
+/// Runs a job (`place` or `bake`) with the command line's overrides, prints
+/// its warnings and, unless quiet, `summary` of its report with where it
+/// wrote and how long it took.
+fn run(
+    args: RunArgs,
+    job: fn(&std::path::Path, &PlaceOptions) -> probeplace::Result<PlaceOutcome>,
+    summary: impl Fn(&probeplace::report::Report) -> String,
+) -> ExitCode {
+    let options = PlaceOptions {
+        out: args.out,
+        method: args.method,
+        seed: args.seed,
+        progress: !args.quiet && std::io::stderr().is_terminal(),
+        no_refine: args.no_refine,
+    };
+    match job(&args.config, &options) {
+        Ok(outcome) => {
+            for w in &outcome.report.warnings {
+                eprintln!("warning: {w}");
+            }
+            if !args.quiet {
+                let r = &outcome.report;
+                println!(
+                    "{}; wrote {} in {:.1} s",
+                    summary(r),
+                    outcome.out_dir.display(),
+                    r.timings_ms.get("total").copied().unwrap_or(0.0) / 1e3
+                );
+            }
+            ExitCode::SUCCESS
+        }
+        Err(e) => fail(e),
     }
 }
 

@@ -546,7 +546,6 @@ pub fn bake_stage(run: &mut PlaceRun) -> Result<()> {
     use crate::report::bake::{
         atlas, distance_preview, normal_preview, BakeReport, ReferenceReport,
     };
-    use crate::report::exr;
     use crate::sampling::Sampler;
     use crate::trace::{check, Selection};
 
@@ -599,23 +598,9 @@ pub fn bake_stage(run: &mut PlaceRun) -> Result<()> {
     let mut files: Vec<(String, Vec<u8>)> = vec![("lightfield.bin".into(), field.to_bytes())];
     let probes = positions.len();
     let (w, h, rad) = atlas(field.resolution, probes, |i| field.radiance[i]);
-    files.push(("radiance.exr".into(), exr::encode_rgb(w, h, &rad)));
-    files.push((
-        "radiance.png".into(),
-        encode_png(
-            &exr::tonemap(&rad, w, h, auto_exposure(&rad)),
-            "radiance.png",
-        )?,
-    ));
+    push_image(&mut files, "radiance", w, h, &rad, auto_exposure(&rad))?;
     let (w, h, irr) = atlas(field.irradiance_resolution, probes, |i| field.irradiance[i]);
-    files.push(("irradiance.exr".into(), exr::encode_rgb(w, h, &irr)));
-    files.push((
-        "irradiance.png".into(),
-        encode_png(
-            &exr::tonemap(&irr, w, h, auto_exposure(&irr)),
-            "irradiance.png",
-        )?,
-    ));
+    push_image(&mut files, "irradiance", w, h, &irr, auto_exposure(&irr))?;
     files.push((
         "distance.png".into(),
         encode_png(&distance_preview(&field), "distance.png")?,
@@ -640,28 +625,16 @@ pub fn bake_stage(run: &mut PlaceRun) -> Result<()> {
             );
             lap(&mut timings, "reference", t);
             let exposure = auto_exposure(&image.full);
-            files.push((
-                "reference.exr".into(),
-                exr::encode_rgb(image.width, image.height, &image.full),
-            ));
-            files.push((
-                "reference.png".into(),
-                encode_png(
-                    &exr::tonemap(&image.full, image.width, image.height, exposure),
-                    "reference.png",
-                )?,
-            ));
-            files.push((
-                "reference-glossy.exr".into(),
-                exr::encode_rgb(image.width, image.height, &image.glossy_indirect),
-            ));
-            files.push((
-                "reference-glossy.png".into(),
-                encode_png(
-                    &exr::tonemap(&image.glossy_indirect, image.width, image.height, exposure),
-                    "reference-glossy.png",
-                )?,
-            ));
+            let (w, h) = (image.width, image.height);
+            push_image(&mut files, "reference", w, h, &image.full, exposure)?;
+            push_image(
+                &mut files,
+                "reference-glossy",
+                w,
+                h,
+                &image.glossy_indirect,
+                exposure,
+            )?;
             Some(ReferenceReport {
                 width: image.width,
                 height: image.height,
@@ -707,12 +680,32 @@ pub fn bake_stage(run: &mut PlaceRun) -> Result<()> {
     Ok(())
 }
 
+/// Adds `<stem>.exr` (linear) and `<stem>.png` (at `exposure`) of the
+/// `width`×`height` image `pixels` to `files`.
+fn push_image(
+    files: &mut Vec<(String, Vec<u8>)>,
+    stem: &str,
+    width: u32,
+    height: u32,
+    pixels: &[[f32; 3]],
+    exposure: f32,
+) -> Result<()> {
+    let png = format!("{stem}.png");
+    let image = crate::report::exr::tonemap(pixels, width, height, exposure);
+    files.push((
+        format!("{stem}.exr"),
+        crate::report::exr::encode_rgb(width, height, pixels),
+    ));
+    files.push((png.clone(), encode_png(&image, &png)?));
+    Ok(())
+}
+
 /// Exposure that maps the mean luminance of `pixels` to 0.4 (display
 /// previews only; the EXR files hold the linear values).
 fn auto_exposure(pixels: &[[f32; 3]]) -> f32 {
     let mean = pixels
         .iter()
-        .map(|p| (0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2]) as f64)
+        .map(|&p| crate::render::lights::luminance(Vec3::from(p)) as f64)
         .filter(|v| v.is_finite())
         .sum::<f64>()
         / pixels.len().max(1) as f64;

@@ -102,22 +102,7 @@ fn tracer_and_pyramid_on_holodeck() {
 
 /// Runs `bake` on `config` into `out` with `extra` arguments; returns the report.
 fn bake(config: &str, out: &Path, extra: &[&str]) -> serde_json::Value {
-    let path = root().join(config);
-    let mut args = vec![
-        "bake",
-        path.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-        "--quiet",
-    ];
-    args.extend_from_slice(extra);
-    let o = probeplace(&args);
-    assert!(
-        o.status.success(),
-        "bake {config}: {}",
-        String::from_utf8_lossy(&o.stderr)
-    );
-    read_json(&out.join("report.json"))
+    run_job("bake", &root().join(config), out, extra)
 }
 
 fn luminance(v: &serde_json::Value) -> f64 {

@@ -272,29 +272,27 @@ mod tests {
         }
     }
 
+    /// The square y = 0, |x|, |z| ≤ `s`, as two triangles facing up.
+    fn floor(s: f32) -> [[Vec3; 3]; 2] {
+        [
+            [
+                Vec3::new(-s, 0.0, -s),
+                Vec3::new(-s, 0.0, s),
+                Vec3::new(s, 0.0, s),
+            ],
+            [
+                Vec3::new(-s, 0.0, -s),
+                Vec3::new(s, 0.0, s),
+                Vec3::new(s, 0.0, -s),
+            ],
+        ]
+    }
+
     /// A point light above a large diffuse floor: direct radiance is
     /// `Kd/π · I cos θ / d²` exactly.
     #[test]
     fn point_light_on_a_floor_matches_the_analytic_radiance() {
-        let s = 100.0;
-        let floor = [
-            (
-                [
-                    Vec3::new(-s, 0.0, -s),
-                    Vec3::new(-s, 0.0, s),
-                    Vec3::new(s, 0.0, s),
-                ],
-                0,
-            ),
-            (
-                [
-                    Vec3::new(-s, 0.0, -s),
-                    Vec3::new(s, 0.0, s),
-                    Vec3::new(s, 0.0, -s),
-                ],
-                0,
-            ),
-        ];
+        let floor = floor(100.0).map(|t| (t, 0));
         let scene = Scene::from_triangles("floor".into(), floor, vec![matte(0.6, 0.0)]).unwrap();
         let bvh = SceneBvh::new(&scene);
         let light = Light::Point {
@@ -458,19 +456,7 @@ mod tests {
     /// the same whichever way the emitter is wound.
     #[test]
     fn emitters_shine_from_both_sides() {
-        let s = 50.0;
-        let floor = [
-            [
-                Vec3::new(-s, 0.0, -s),
-                Vec3::new(-s, 0.0, s),
-                Vec3::new(s, 0.0, s),
-            ],
-            [
-                Vec3::new(-s, 0.0, -s),
-                Vec3::new(s, 0.0, s),
-                Vec3::new(s, 0.0, -s),
-            ],
-        ];
+        let floor = floor(50.0);
         let down = [
             Vec3::new(-0.5, 1.0, -0.5),
             Vec3::new(0.5, 1.0, 0.5),

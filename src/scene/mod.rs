@@ -71,6 +71,20 @@ impl Bounds {
         self.max - self.min
     }
 
+    /// Distance from `p` (inside the box) along `d` to the box's boundary;
+    /// 0 from outside, +∞ for a zero direction.
+    pub fn exit_distance(&self, p: Vec3, d: Vec3) -> f32 {
+        let mut t = f32::INFINITY;
+        for axis in 0..3 {
+            if d[axis] > 0.0 {
+                t = t.min((self.max[axis] - p[axis]) / d[axis]);
+            } else if d[axis] < 0.0 {
+                t = t.min((self.min[axis] - p[axis]) / d[axis]);
+            }
+        }
+        t.max(0.0)
+    }
+
     /// Whether `p` lies inside or on the box.
     pub fn contains(&self, p: Vec3) -> bool {
         p.cmpge(self.min).all() && p.cmple(self.max).all()

@@ -58,19 +58,6 @@ pub fn face_of(d: Vec3) -> usize {
     2 * axis + usize::from(d[axis] > 0.0)
 }
 
-/// Distance from `p` (inside `domain`) along unit `d` to the domain's boundary.
-pub fn exit_distance(domain: &Bounds, p: Vec3, d: Vec3) -> f32 {
-    let mut t = f32::INFINITY;
-    for axis in 0..3 {
-        if d[axis] > 0.0 {
-            t = t.min((domain.max[axis] - p[axis]) / d[axis]);
-        } else if d[axis] < 0.0 {
-            t = t.min((domain.min[axis] - p[axis]) / d[axis]);
-        }
-    }
-    t.max(0.0)
-}
-
 /// The influence of every probe at `positions`, sampled with `n`×`n`
 /// octahedral directions.
 ///
@@ -102,7 +89,7 @@ fn influence(
     let mut per_face: [Vec<f32>; 6] = Default::default();
     let mut omega_sum = 0.0f64;
     for &d in directions {
-        let exit = exit_distance(domain, p, d);
+        let exit = domain.exit_distance(p, d);
         // Walls often lie on the domain's boundary (an automatic domain is
         // the scene's bounds): look a little past it so they still count.
         let r = match bvh.closest_hit(p, d, 0.0, exit * 1.001 + 1e-6) {

@@ -74,14 +74,6 @@ pub fn padded_bounds(bounds: &Bounds) -> Bounds {
     }
 }
 
-/// Where a ray from `o` along `d` leaves `bounds` (0 when outside).
-pub fn exit_distance(bounds: &Bounds, o: Vec3, d: Vec3) -> f32 {
-    let inv = d.recip();
-    let t1 = (bounds.min - o) * inv;
-    let t2 = (bounds.max - o) * inv;
-    t1.max(t2).min_element().max(0.0)
-}
-
 /// Traces one random direction from each of `origins` (directions drawn
 /// from `seed`) and compares with the BVH.
 pub fn compare(
@@ -105,7 +97,7 @@ pub fn compare(
             let phi = std::f32::consts::TAU * unit_f32(hash2(seed, 2 * i as u64 + 1));
             let r = (1.0 - z * z).max(0.0).sqrt();
             let d = Vec3::new(r * phi.cos(), r * phi.sin(), z);
-            let t_max = exit_distance(&bounds, o, d);
+            let t_max = bounds.exit_distance(o, d);
             let mut steps = Steps::default();
             let out = trace(field, selection, o, d, t_max, hierarchical, &mut steps);
             let mut a = Agreement {

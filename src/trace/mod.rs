@@ -346,7 +346,7 @@ mod tests {
         let mut fewer = 0;
         for (i, &o) in origins.iter().enumerate() {
             let d = crate::sampling::fibonacci_sphere(3000)[i];
-            let t_max = check::exit_distance(&scene.bounds, o, d);
+            let t_max = scene.bounds.exit_distance(o, d);
             for probe in [0, 7, 17] {
                 let (mut s1, mut s2) = (single::Steps::default(), single::Steps::default());
                 let flat = single::trace(&field, probe, o, d, 0.0, t_max, false, &mut s1);

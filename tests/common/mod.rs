@@ -33,8 +33,14 @@ pub fn probeplace(args: &[&str]) -> Output {
 
 /// Runs `place` on `config` into `out` (quietly) and returns the parsed report.
 pub fn place(config: &Path, out: &Path, extra: &[&str]) -> serde_json::Value {
+    run_job("place", config, out, extra)
+}
+
+/// Runs job `command` (`place` or `bake`) on `config` into `out` (quietly),
+/// asserts it succeeded, and returns the parsed report.
+pub fn run_job(command: &str, config: &Path, out: &Path, extra: &[&str]) -> serde_json::Value {
     let mut args = vec![
-        "place",
+        command,
         config.to_str().unwrap(),
         "--out",
         out.to_str().unwrap(),
