@@ -174,9 +174,19 @@ fn stages(c: &mut Criterion, name: &str, config: &str) {
         .collect();
     let selection = probeplace::trace::Selection::Svo(&tree);
     g.throughput(criterion::Throughput::Elements(rays.len() as u64));
-    for (label, hiz) in [
-        ("lightfield_trace_4k_rays_hiz", true),
-        ("lightfield_trace_4k_rays_texel", false),
+    for (label, march) in [
+        (
+            "lightfield_trace_4k_rays_hiz",
+            probeplace::trace::single::March::HiZ,
+        ),
+        (
+            "lightfield_trace_4k_rays_bilevel",
+            probeplace::trace::single::March::BiLevel,
+        ),
+        (
+            "lightfield_trace_4k_rays_texel",
+            probeplace::trace::single::March::Texel,
+        ),
     ] {
         g.bench_function(label, |b| {
             b.iter(|| {
@@ -190,7 +200,7 @@ fn stages(c: &mut Criterion, name: &str, config: &str) {
                                 *o,
                                 *d,
                                 *t,
-                                hiz,
+                                march,
                                 &mut steps
                             ),
                             probeplace::trace::Outcome::Hit { .. }

@@ -18,6 +18,8 @@
 //! | path tracing: probe radiance, reference images | [`render`] | McGuire §3, §5.1; Wang §5.1 |
 //! | light-field probe bake: maps, pyramid, irradiance | [`lightfield`] | McGuire §3, §5.2; Wang §4.2 |
 //! | light-field ray tracing on the CPU | [`trace`] | McGuire §4, Listing 1 |
+//! | light-field ray tracing on the GPU (wgpu): bi-level and Hi-Z | [`gpu`] | McGuire §4, §5.2; Wang §4.2 |
+//! | validation renders against the reference | [`render::probes`] | Wang §5.1 |
 //! | outputs | [`report`] | — |
 //!
 //! [`pipeline::place`] runs them in order; the `probeplace` binary is a thin
@@ -27,6 +29,7 @@ pub mod config;
 pub mod coverage;
 pub mod error;
 pub mod fixtures;
+pub mod gpu;
 pub mod lightfield;
 pub mod pipeline;
 pub mod placement;

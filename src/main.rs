@@ -1,7 +1,7 @@
 //! The `probeplace` command line: parses arguments and calls the library.
 
-use clap::{Args, Parser, Subcommand};
-use probeplace::pipeline::{PlaceOptions, PlaceOutcome};
+use clap::{Args, Parser, Subcommand, ValueEnum};
+use probeplace::pipeline::{PlaceOptions, PlaceOutcome, RenderOptions, Variant};
 use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -17,7 +17,18 @@ struct Cli {
     command: Command,
 }
 
-/// What `place` and `bake` share: the config and the overrides of its fields.
+/// `render --variant`.
+#[derive(Clone, Copy, ValueEnum)]
+enum Variants {
+    /// Wang et al. 2019: Hi-Z march, SVO selection.
+    Hiz,
+    /// McGuire et al. 2017: bi-level march, grid selection.
+    Bilevel,
+    /// Both, for comparison.
+    Both,
+}
+
+/// What `place`, `bake` and `render` share: the config and the overrides of its fields.
 #[derive(Args)]
 struct RunArgs {
     /// The run's RON config file.
@@ -45,6 +56,17 @@ enum Command {
     Place(RunArgs),
     /// Place probes as `place` does, then bake their light-field maps and the path-traced reference image.
     Bake(RunArgs),
+    /// Place and bake as `bake` does, then render the reference's view through the probes on the GPU (bi-level and Hi-Z) and measure it against the reference.
+    Render {
+        #[command(flatten)]
+        run: RunArgs,
+        /// Which tracer to render with.
+        #[arg(long, value_enum, default_value = "both")]
+        variant: Variants,
+        /// Trace on the CPU twin even where a GPU adapter exists.
+        #[arg(long)]
+        cpu: bool,
+    },
     /// Summarize an svo.bin (or the one in an output directory, with its lightfield.bin) after checking it.
     Inspect {
         /// An output directory of `place` or `bake`, or an svo.bin file.
@@ -84,6 +106,49 @@ fn main() -> ExitCode {
             None => format!("{}: {} probes", r.method, r.probe_count),
         }
         }),
+        Command::Render {
+            run: args,
+            variant,
+            cpu,
+        } => {
+            let render = RenderOptions {
+                variants: match variant {
+                    Variants::Hiz => vec![Variant::HiZ],
+                    Variants::Bilevel => vec![Variant::BiLevel],
+                    Variants::Both => vec![Variant::BiLevel, Variant::HiZ],
+                },
+                cpu,
+            };
+            run(
+                args,
+                |path, options| probeplace::pipeline::render(path, options, &render),
+                |r| match &r.render {
+                    Some(x) => {
+                        let parts: Vec<String> = x
+                            .variants
+                            .iter()
+                            .map(|(name, v)| {
+                                format!(
+                                    "{name} mse_glossy {:.3e}, {:.1} texel fetches/ray{}",
+                                    v.mse_glossy,
+                                    v.texel_fetches_per_ray,
+                                    v.gpu_ms.map_or(String::new(), |ms| format!(", {ms:.1} ms"))
+                                )
+                            })
+                            .collect();
+                        format!(
+                            "{}: {}×{} on {}: {}",
+                            r.method,
+                            x.width,
+                            x.height,
+                            x.adapter,
+                            parts.join("; ")
+                        )
+                    }
+                    None => format!("{}: {} probes", r.method, r.probe_count),
+                },
+            )
+        }
         Command::Inspect { path, quiet } => match probeplace::pipeline::inspect(&path) {
             Ok(inspection) => {
                 if !quiet {
@@ -101,7 +166,7 @@ fn main() -> ExitCode {
 /// wrote and how long it took.
 fn run(
     args: RunArgs,
-    job: fn(&std::path::Path, &PlaceOptions) -> probeplace::Result<PlaceOutcome>,
+    job: impl Fn(&std::path::Path, &PlaceOptions) -> probeplace::Result<PlaceOutcome>,
     summary: impl Fn(&probeplace::report::Report) -> String,
 ) -> ExitCode {
     let options = PlaceOptions {

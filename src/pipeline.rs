@@ -540,14 +540,23 @@ pub fn bake(config_path: &Path, options: &PlaceOptions) -> Result<PlaceOutcome> 
     run.write()
 }
 
-/// The bake on top of a computed placement: adds its files and report.
-pub fn bake_stage(run: &mut PlaceRun) -> Result<()> {
+/// What the bake hands on to the validation render.
+pub struct BakeProducts {
+    /// The baked probes.
+    pub field: crate::lightfield::LightField,
+    /// The path-traced reference; `None` without a camera.
+    pub reference: Option<crate::render::Reference>,
+}
+
+/// The bake on top of a computed placement: adds its files and report, and
+/// returns the light field and the reference.
+pub fn bake_stage(run: &mut PlaceRun) -> Result<BakeProducts> {
     use crate::render::{reference::render_reference, Renderer};
     use crate::report::bake::{
         atlas, distance_preview, normal_preview, BakeReport, ReferenceReport,
     };
     use crate::sampling::Sampler;
-    use crate::trace::{check, Selection};
+    use crate::trace::{check, single::March, Selection};
 
     let config = &run.config;
     let Prepared {
@@ -591,7 +600,7 @@ pub fn bake_stage(run: &mut PlaceRun) -> Result<()> {
         bvh,
         &origins,
         seed ^ 0xD1EC,
-        true,
+        March::HiZ,
     );
     lap(&mut timings, "tracer_check", t);
 
@@ -635,14 +644,15 @@ pub fn bake_stage(run: &mut PlaceRun) -> Result<()> {
                 &image.glossy_indirect,
                 exposure,
             )?;
-            Some(ReferenceReport {
+            let report = ReferenceReport {
                 width: image.width,
                 height: image.height,
                 samples_per_pixel: r.samples_per_pixel.0,
                 bounces: r.bounces.0,
                 mean: image.mean(),
                 glossy_indirect_mean: image.glossy_mean(),
-            })
+            };
+            Some((report, image))
         }
         None => {
             run.report.warnings.push(
@@ -673,7 +683,246 @@ pub fn bake_stage(run: &mut PlaceRun) -> Result<()> {
         area_lights: renderer.lights().area_light_count(),
         config_lights: config.lights.len(),
         tracer,
-        reference,
+        reference: reference.as_ref().map(|(r, _)| r.clone()),
+        timings_ms: timings,
+    });
+    run.files.extend(files);
+    Ok(BakeProducts {
+        field,
+        reference: reference.map(|(_, image)| image),
+    })
+}
+
+/// The marches `render` can run (`--variant`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Variant {
+    /// McGuire et al. 2017 §4.1: bi-level march, grid selection where the
+    /// probes form a grid (else the SVO's).
+    BiLevel,
+    /// Wang et al. 2019 §4.2: Hi-Z march, SVO selection.
+    HiZ,
+}
+
+impl Variant {
+    /// The name in file names and the report.
+    pub fn name(self) -> &'static str {
+        match self {
+            Variant::BiLevel => "bilevel",
+            Variant::HiZ => "hiz",
+        }
+    }
+}
+
+/// What `render` adds to [`PlaceOptions`].
+#[derive(Debug, Clone)]
+pub struct RenderOptions {
+    /// Variants to render, in order.
+    pub variants: Vec<Variant>,
+    /// Trace on the CPU twin even where a GPU adapter exists.
+    pub cpu: bool,
+}
+
+/// `probeplace render`: place, bake, then render the reference's view
+/// through the probes with each variant and measure it (report.render).
+///
+/// Contract: a config without `reference.camera` is a user error before
+/// any work; without a GPU adapter the CPU twin traces and
+/// `report.warnings` says so. Writes nothing unless everything succeeds.
+pub fn render(
+    config_path: &Path,
+    options: &PlaceOptions,
+    render: &RenderOptions,
+) -> Result<PlaceOutcome> {
+    let config = Config::load(config_path)?;
+    if config.reference.camera.is_none() {
+        return Err(Error::user_file(
+            config_path,
+            "reference.camera: render needs a camera (the image is drawn from it and measured against the reference)",
+        ));
+    }
+    let mut run = compute_place(config, config_path, options)?;
+    let baked = bake_stage(&mut run)?;
+    render_stage(&mut run, &baked, render)?;
+    run.finish_timings();
+    run.write()
+}
+
+/// Random streams of the validation render's glossy rays.
+const RENDER_STREAMS: u64 = 0x6_1055;
+
+/// The validation renders on top of a bake ([`crate::render::probes`]):
+/// adds `render_<variant>` images, `error_<variant>.png` and report.render.
+pub fn render_stage(
+    run: &mut PlaceRun,
+    baked: &BakeProducts,
+    options: &RenderOptions,
+) -> Result<()> {
+    use crate::gpu::{kind, twin, Context, ProbeTracer, SelectionKind};
+    use crate::render::probes::{compose, error_heat_map, gbuffer, mse};
+    use crate::render::Renderer;
+    use crate::report::render::{RenderReport, VariantReport};
+    use crate::trace::{check::padded_bounds, single::March, Lattice, Selection};
+
+    let (Some(camera), Some(reference)) = (&run.config.reference.camera, &baked.reference) else {
+        return Err(Error::Internal("render without a reference".into()));
+    };
+    let field = &baked.field;
+    let scene = &run.prepared.scene;
+    let mut timings: BTreeMap<String, f64> = BTreeMap::new();
+    let t = Instant::now();
+    let renderer = Renderer::new(scene, &run.prepared.bvh, &run.config.lights, 0);
+    let (w, h) = (reference.width, reference.height);
+    let g = gbuffer(
+        &renderer,
+        camera,
+        w,
+        h,
+        &padded_bounds(&scene.bounds),
+        run.config.seed ^ RENDER_STREAMS,
+    );
+    lap(&mut timings, "gbuffer", t);
+
+    let t = Instant::now();
+    let lattice = Lattice::from_positions(&field.positions);
+    if options.variants.contains(&Variant::BiLevel) && lattice.is_none() {
+        run.report.warnings.push(
+            "render: the probes are not a regular grid, so bi-level selects them with the SVO (place with --method grid:… for McGuire's grid selection)".into(),
+        );
+    }
+    let context = if options.cpu {
+        None
+    } else {
+        Context::new()
+            .map_err(|e| {
+                run.report
+                    .warnings
+                    .push(format!("render: {e}; traced on the CPU twin"))
+            })
+            .ok()
+    };
+    let tracer = context.as_ref().and_then(|ctx| {
+        ProbeTracer::new(ctx, field, Some(&run.svo), lattice.as_ref())
+            .map_err(|e| {
+                run.report
+                    .warnings
+                    .push(format!("render: {e}; traced on the CPU twin"))
+            })
+            .ok()
+    });
+    let adapter = match (&context, &tracer) {
+        (Some(ctx), Some(_)) => ctx.adapter.clone(),
+        _ => "cpu twin".to_string(),
+    };
+    lap(&mut timings, "upload", t);
+
+    let exposure = auto_exposure(&reference.full);
+    let error_scale = 4.0
+        * reference
+            .glossy_indirect
+            .iter()
+            .map(|&p| crate::render::lights::luminance(Vec3::from(p)))
+            .sum::<f32>()
+        / reference.glossy_indirect.len().max(1) as f32;
+    let rays = g.glossy.len().max(1) as f64;
+    let mut variants = BTreeMap::new();
+    let mut files = Vec::new();
+    for variant in [Variant::BiLevel, Variant::HiZ] {
+        let name = variant.name();
+        if !options.variants.contains(&variant) {
+            run.stale.extend([
+                format!("render_{name}.exr"),
+                format!("render_{name}.png"),
+                format!("render_{name}-glossy.exr"),
+                format!("render_{name}-glossy.png"),
+                format!("error_{name}.png"),
+            ]);
+            continue;
+        }
+        let t = Instant::now();
+        let (march, grid) = match variant {
+            Variant::BiLevel => (March::BiLevel, lattice.as_ref()),
+            Variant::HiZ => (March::HiZ, None),
+        };
+        let (selection, selection_kind) = match grid {
+            Some(l) => (Selection::Grid(l), SelectionKind::Grid),
+            None => (Selection::Svo(&run.svo), SelectionKind::Svo),
+        };
+        let (glossy, irradiance, gpu_ms) = match &tracer {
+            Some(tr) => {
+                let gpu = |e: String| Error::Internal(format!("render {name}: {e}"));
+                let (glossy, a) = tr
+                    .trace_rays(&g.glossy, march, selection_kind)
+                    .map_err(gpu)?;
+                let (irr, b) = tr
+                    .gather_irradiance(&g.irradiance, selection_kind)
+                    .map_err(gpu)?;
+                (glossy, irr, a.zip(b).map(|(a, b)| a + b))
+            }
+            None => (
+                twin::trace_rays(field, &selection, &g.glossy, march),
+                twin::gather_irradiance(field, &selection, &g.irradiance),
+                None,
+            ),
+        };
+        let image = compose(&g, &irradiance, &glossy);
+        let sum =
+            |f: fn(&crate::gpu::Record) -> u32| glossy.iter().map(|r| f(r) as u64).sum::<u64>();
+        let count = |k: u32| glossy.iter().filter(|r| r.kind == k).count() as u64;
+        variants.insert(
+            name.to_string(),
+            VariantReport {
+                march: name,
+                selection: if grid.is_some() { "grid" } else { "svo" },
+                mse_glossy: mse(&image.glossy_indirect, &reference.glossy_indirect),
+                mse_full: mse(&image.full, &reference.full),
+                glossy_indirect_mean: crate::render::reference::mean_of(&image.glossy_indirect),
+                texel_fetches_per_ray: sum(|r| r.fetches) as f64 / rays,
+                surfel_fetches_per_ray: (crate::trace::single::SURFEL_TEST_FETCHES as u64
+                    * sum(|r| r.surfels)) as f64
+                    / rays,
+                probe_switches_per_ray: sum(|r| r.probes.saturating_sub(1)) as f64 / rays,
+                unresolved_rays: count(kind::UNKNOWN) + count(kind::NO_PROBE),
+                hits: count(kind::HIT),
+                misses: count(kind::MISS),
+                gpu_ms,
+            },
+        );
+        push_image(
+            &mut files,
+            &format!("render_{name}"),
+            w,
+            h,
+            &image.full,
+            exposure,
+        )?;
+        push_image(
+            &mut files,
+            &format!("render_{name}-glossy"),
+            w,
+            h,
+            &image.glossy_indirect,
+            exposure,
+        )?;
+        let heat = error_heat_map(
+            &image.glossy_indirect,
+            &reference.glossy_indirect,
+            w,
+            h,
+            error_scale,
+        );
+        let heat_name = format!("error_{name}.png");
+        files.push((heat_name.clone(), encode_png(&heat, &heat_name)?));
+        lap(&mut timings, name, t);
+    }
+    let total: f64 = timings.values().sum();
+    timings.insert("total".into(), total);
+    run.report.timings_ms.insert("render".into(), total);
+    run.report.render = Some(RenderReport {
+        adapter,
+        width: w,
+        height: h,
+        glossy_rays: g.glossy.len(),
+        variants,
         timings_ms: timings,
     });
     run.files.extend(files);

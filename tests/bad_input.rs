@@ -406,6 +406,7 @@ fn command_line_mistakes_are_one_line_and_exit_2() {
         &["place"][..],
         &["place", "configs/cornell.ron", "--bogus"],
         &["place", "configs/cornell.ron", "--seed", "x"],
+        &["render", "configs/cornell.ron", "--variant", "fastest"],
         &["frobnicate"],
     ] {
         let o = probeplace(args);
@@ -444,7 +445,7 @@ fn bake_and_light_mistakes_name_their_field() {
             "bk.ron",
             &format!("(scene: \"room.obj\", voxel_size: 0.1, placement: SdfSkeleton(()),\n {extra})"),
         );
-        for command in ["place", "bake"] {
+        for command in ["place", "bake", "render"] {
             let out = d.path().join("out");
             let o = probeplace(&[command, p.to_str().unwrap(), "--out", out.to_str().unwrap()]);
             let e = String::from_utf8_lossy(&o.stderr).into_owned();
@@ -454,4 +455,26 @@ fn bake_and_light_mistakes_name_their_field() {
             assert!(!out.exists(), "{extra}: nothing may be written");
         }
     }
+}
+
+#[test]
+fn render_without_a_camera_names_the_field() {
+    let d = tempfile::tempdir().unwrap();
+    obj(d.path(), "room.obj", CUBE_ROOM);
+    let p = config(d.path(), "room.obj", "");
+    let out = d.path().join("out");
+    let o = probeplace(&[
+        "render",
+        p.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let e = String::from_utf8_lossy(&o.stderr).into_owned();
+    assert_eq!(o.status.code(), Some(2), "{e}");
+    assert_eq!(e.trim().lines().count(), 1, "{e}");
+    assert!(
+        e.contains("run.ron") && e.contains("reference.camera"),
+        "{e}"
+    );
+    assert!(!out.exists(), "nothing may be written");
 }

@@ -10,6 +10,7 @@ use probeplace::lightfield::{self, pyramid, LightField};
 use probeplace::pipeline::{self, PlaceOptions};
 use probeplace::progress::Progress;
 use probeplace::svo;
+use probeplace::trace::single::March;
 use probeplace::trace::{check, Lattice, Selection};
 use std::path::Path;
 
@@ -60,8 +61,24 @@ fn check_scene(config: &str, method: Option<&str>) -> check::Agreement {
         }
         None => Selection::Svo(&run.svo),
     };
-    let a = check::compare(&field, &selection, &p.scene, &p.bvh, &origins, 77, true);
-    let flat = check::compare(&field, &selection, &p.scene, &p.bvh, &origins, 77, false);
+    let a = check::compare(
+        &field,
+        &selection,
+        &p.scene,
+        &p.bvh,
+        &origins,
+        77,
+        March::HiZ,
+    );
+    let flat = check::compare(
+        &field,
+        &selection,
+        &p.scene,
+        &p.bvh,
+        &origins,
+        77,
+        March::Texel,
+    );
     // Same answers up to rounding: texel spans computed at different levels
     // differ in the last bits, which can tip a ray grazing a texel's edge.
     assert_eq!(a.seen, flat.seen);

@@ -53,13 +53,15 @@ enum Lobe {
 
 /// A surface point seen along a ray.
 #[derive(Debug, Clone, Copy)]
-struct Vertex {
-    p: Vec3,
+pub struct Vertex {
+    /// The point.
+    pub p: Vec3,
     /// Shading normal, facing `wo`.
-    n: Vec3,
+    pub n: Vec3,
     /// Direction back along the ray.
-    wo: Vec3,
-    material: usize,
+    pub wo: Vec3,
+    /// Index into the scene's materials (and [`Renderer::bsdfs`]).
+    pub material: usize,
 }
 
 /// A path tracer over one scene (module docs).
@@ -115,6 +117,19 @@ impl<'a> Renderer<'a> {
     /// The BSDF of each of the scene's materials, in material order.
     pub fn bsdfs(&self) -> &[Bsdf] {
         &self.bsdfs
+    }
+
+    /// Emission `Ke` of material `material` (both sides).
+    pub fn emission(&self, material: usize) -> Vec3 {
+        self.emission[material]
+    }
+
+    /// Direct light at `v` from the point, spot and directional lights only
+    /// ([`LightSet::direct_delta`]): what a real-time renderer shades
+    /// analytically, leaving emissive surfaces and the sky to its probes.
+    pub fn direct_delta(&self, v: &Vertex) -> Vec3 {
+        self.lights
+            .direct_delta(self.bvh, v.p, v.n, v.wo, &self.bsdfs[v.material])
     }
 
     /// One path sample of the radiance arriving at `origin` from direction
@@ -204,7 +219,8 @@ impl<'a> Renderer<'a> {
         l
     }
 
-    fn intersect(&self, origin: Vec3, dir: Vec3) -> Option<Vertex> {
+    /// The first surface along `origin + t·dir`, t ≥ 0.
+    pub fn intersect(&self, origin: Vec3, dir: Vec3) -> Option<Vertex> {
         let hit = self.bvh.closest_hit(origin, dir, 0.0, f32::INFINITY)?;
         let tri = hit.triangle as usize;
         let wo = -dir;
@@ -217,7 +233,7 @@ impl<'a> Renderer<'a> {
     }
 
     /// Origin of rays leaving `v` on its shading side, lifted off the surface.
-    fn spawn(&self, v: &Vertex) -> Vec3 {
+    pub fn spawn(&self, v: &Vertex) -> Vec3 {
         v.p + v.n * self.lights.epsilon()
     }
 

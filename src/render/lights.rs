@@ -258,24 +258,7 @@ impl LightSet {
     ) -> Vec3 {
         let eps = self.epsilon;
         let origin = p + n * eps;
-        let mut sum = Vec3::ZERO;
-        for light in &self.points {
-            sum += self.delta(bvh, p, n, wo, bsdf, light.position, light.intensity);
-        }
-        for light in &self.spots {
-            let from_light = (p - light.position).normalize_or_zero();
-            let k = light.falloff(from_light.dot(light.axis));
-            if k > 0.0 {
-                sum += self.delta(bvh, p, n, wo, bsdf, light.position, light.intensity * k);
-            }
-        }
-        for light in &self.directionals {
-            let wi = light.to_light;
-            let cos = n.dot(wi);
-            if cos > 0.0 && !bvh.occluded(origin, self.beyond_scene(origin, wi), eps) {
-                sum += light.irradiance * bsdf.eval(n, wo, wi).total() * cos;
-            }
-        }
+        let mut sum = self.direct_delta(bvh, p, n, wo, bsdf);
         if !self.area.is_empty() {
             let u = sampler.next_f32();
             let uv = sampler.next_2d();
@@ -302,6 +285,35 @@ impl LightSet {
             let wi = cosine_hemisphere(n, sampler.next_2d());
             if !bvh.occluded(origin, self.beyond_scene(origin, wi), eps) {
                 sum += self.sky * bsdf.eval(n, wo, wi).total() * std::f32::consts::PI;
+            }
+        }
+        sum
+    }
+
+    /// The part of [`LightSet::direct`] from the delta lights: every point,
+    /// spot and directional light, with its shadow ray. Deterministic (no
+    /// samples drawn).
+    ///
+    /// Contract: as [`LightSet::direct`].
+    pub fn direct_delta(&self, bvh: &SceneBvh, p: Vec3, n: Vec3, wo: Vec3, bsdf: &Bsdf) -> Vec3 {
+        let eps = self.epsilon;
+        let origin = p + n * eps;
+        let mut sum = Vec3::ZERO;
+        for light in &self.points {
+            sum += self.delta(bvh, p, n, wo, bsdf, light.position, light.intensity);
+        }
+        for light in &self.spots {
+            let from_light = (p - light.position).normalize_or_zero();
+            let k = light.falloff(from_light.dot(light.axis));
+            if k > 0.0 {
+                sum += self.delta(bvh, p, n, wo, bsdf, light.position, light.intensity * k);
+            }
+        }
+        for light in &self.directionals {
+            let wi = light.to_light;
+            let cos = n.dot(wi);
+            if cos > 0.0 && !bvh.occluded(origin, self.beyond_scene(origin, wi), eps) {
+                sum += light.irradiance * bsdf.eval(n, wo, wi).total() * cos;
             }
         }
         sum

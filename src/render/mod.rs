@@ -26,6 +26,7 @@ pub mod camera;
 pub mod integrator;
 pub mod lights;
 pub mod material;
+pub mod probes;
 pub mod reference;
 
 pub use camera::Camera;

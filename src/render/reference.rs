@@ -43,7 +43,8 @@ impl Reference {
     }
 }
 
-fn mean_of(pixels: &[[f32; 3]]) -> [f64; 3] {
+/// Mean of `pixels` per channel (0 for no pixels).
+pub fn mean_of(pixels: &[[f32; 3]]) -> [f64; 3] {
     let sum = pixels.iter().fold(DVec3::ZERO, |acc, p| {
         acc + DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64)
     });

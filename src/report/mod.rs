@@ -9,6 +9,7 @@
 pub mod bake;
 pub mod exr;
 pub mod preview;
+pub mod render;
 
 use crate::config::UpAxis;
 use crate::coverage::{Coverage, ProbeHealth};
@@ -212,6 +213,8 @@ pub struct Report {
     pub svo: Option<SvoReport>,
     /// The light-field bake; `null` after `place`.
     pub bake: Option<bake::BakeReport>,
+    /// The validation renders; `null` unless `render` ran.
+    pub render: Option<render::RenderReport>,
     /// Wall time per stage, in milliseconds, plus `total`.
     pub timings_ms: BTreeMap<String, f64>,
     /// Warnings raised during the run.
@@ -261,6 +264,7 @@ impl Report {
             refine: None,
             svo: None,
             bake: None,
+            render: None,
             timings_ms,
             warnings,
         }

@@ -98,6 +98,12 @@ impl Svo {
         }
     }
 
+    /// The node words and the payload words, as `svo.bin` stores them
+    /// (docs/formats.md): what the GPU kernels walk.
+    pub fn words(&self) -> (&[u32], &[u32]) {
+        (&self.nodes, &self.payload)
+    }
+
     /// Nodes in the array (inner nodes and leaves).
     pub fn nodes(&self) -> usize {
         self.nodes.len()

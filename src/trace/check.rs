@@ -2,7 +2,7 @@
 //! find the hit a BVH finds wherever some probe sees that hit (McGuire §4.1:
 //! any probe that observes a point places it at the same world position).
 
-use super::{single::Steps, trace, Outcome, Selection};
+use super::{single::March, single::Steps, trace, Outcome, Selection};
 use crate::lightfield::LightField;
 use crate::sampling::{hash2, unit_f32};
 use crate::scene::raycast::SceneBvh;
@@ -83,7 +83,7 @@ pub fn compare(
     bvh: &SceneBvh,
     origins: &[Vec3],
     seed: u64,
-    hierarchical: bool,
+    march: March,
 ) -> Agreement {
     let diag = scene.bounds.size().length();
     let eps = 1e-4 * diag;
@@ -99,7 +99,7 @@ pub fn compare(
             let d = Vec3::new(r * phi.cos(), r * phi.sin(), z);
             let t_max = bounds.exit_distance(o, d);
             let mut steps = Steps::default();
-            let out = trace(field, selection, o, d, t_max, hierarchical, &mut steps);
+            let out = trace(field, selection, o, d, t_max, march, &mut steps);
             let mut a = Agreement {
                 rays: 1,
                 fine_steps: steps.fine as u64,
@@ -109,7 +109,7 @@ pub fn compare(
             match bvh.closest_hit(o, d, 0.0, t_max) {
                 None => {
                     a.escaping = 1;
-                    a.escaping_missed = matches!(out, Outcome::Miss) as u64;
+                    a.escaping_missed = matches!(out, Outcome::Miss { .. }) as u64;
                 }
                 Some(hit) => {
                     let x = o + d * hit.t;
@@ -124,7 +124,7 @@ pub fn compare(
                                 a.agree = ((t - hit.t).abs() <= texel_tolerance(r, n, cos)) as u64;
                             }
                             Outcome::Unknown { .. } => a.unknown = 1,
-                            Outcome::Miss => {}
+                            Outcome::Miss { .. } => {}
                         }
                     }
                 }

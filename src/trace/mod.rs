@@ -17,7 +17,7 @@
 pub mod check;
 pub mod single;
 
-use crate::lightfield::LightField;
+use crate::lightfield::{octahedral, LightField};
 use crate::svo::Svo;
 use glam::{IVec3, Vec3};
 use std::collections::HashMap;
@@ -33,13 +33,44 @@ pub enum Outcome {
         probe: u32,
     },
     /// The ray leaves the scene.
-    Miss,
+    Miss {
+        /// The probe that saw it leave.
+        probe: u32,
+    },
     /// No candidate probe could follow the ray past `t`; McGuire §4.1 then
     /// takes the last observed point as the hit.
     Unknown {
         /// Where the last probe lost sight of the ray.
         t: f32,
+        /// That probe; `None` when no probe was a candidate at all.
+        probe: Option<u32>,
     },
+}
+
+impl Outcome {
+    /// Where the ray's radiance is read (McGuire §4.1): the probe that
+    /// resolved it and the texel (`y·n + x`) of its maps that looks at the
+    /// ray's end. A hit reads the texel seeing the hit point; an unknown
+    /// ray, the texel seeing the last point observed; a miss, the texel
+    /// looking along the ray, which sees what lies beyond the scene.
+    /// `None` for an unknown ray no probe was a candidate for.
+    ///
+    /// Contract: `origin`, `dir` are the traced ray's; the GPU kernels read
+    /// the same texel.
+    pub fn lookup(&self, field: &LightField, origin: Vec3, dir: Vec3) -> Option<(u32, u32)> {
+        let (probe, toward) = match *self {
+            Outcome::Hit { t, probe }
+            | Outcome::Unknown {
+                t,
+                probe: Some(probe),
+            } => (probe, origin + dir * t - field.positions[probe as usize]),
+            Outcome::Miss { probe } => (probe, dir),
+            Outcome::Unknown { probe: None, .. } => return None,
+        };
+        let n = field.resolution;
+        let (x, y) = octahedral::texel_of(toward, n);
+        Some((probe, y * n + x))
+    }
 }
 
 /// How the next probe is chosen.
@@ -121,6 +152,21 @@ impl Lattice {
         c.clamp(IVec3::ZERO, (self.dims - 2).max(IVec3::ZERO))
     }
 
+    /// The probe index of every lattice point, x fastest, then y, then z:
+    /// the table the GPU kernels read.
+    pub fn dense_index(&self) -> Vec<u32> {
+        let d = self.dims;
+        let mut out = Vec::with_capacity((d.x * d.y * d.z) as usize);
+        for z in 0..d.z {
+            for y in 0..d.y {
+                for x in 0..d.x {
+                    out.push(self.index[&(x, y, z)]);
+                }
+            }
+        }
+        out
+    }
+
     /// Probe at corner `i` (0..8, bit 0 = +x, bit 1 = +y, bit 2 = +z) of
     /// `cell`; corners beyond a one-layer axis fold onto the layer.
     pub fn corner(&self, cell: IVec3, i: u32) -> u32 {
@@ -136,15 +182,16 @@ pub const MAX_PROBES_PER_RAY: usize = 16;
 /// Traces `origin + t·dir`, t in [0, `t_max`], through the light field.
 ///
 /// Contract: `dir` is unit length, `t_max` finite (the ray's exit from the
-/// scene's bounds). `hierarchical` selects the Hi-Z march. The result does
-/// not depend on anything but the arguments.
+/// scene's bounds). `march` chooses how each probe's maps are walked. The
+/// result does not depend on anything but the arguments; `steps` adds the
+/// work done (and the probes consulted) to what it holds.
 pub fn trace(
     field: &LightField,
     selection: &Selection,
     origin: Vec3,
     dir: Vec3,
     t_max: f32,
-    hierarchical: bool,
+    march: single::March,
     steps: &mut single::Steps,
 ) -> Outcome {
     let mut t = 0.0f32;
@@ -186,26 +233,22 @@ pub fn trace(
             }
         };
         let Some(probe) = next else {
-            return Outcome::Unknown { t };
+            let last = count.checked_sub(1).map(|i| tried[i]);
+            return Outcome::Unknown { t, probe: last };
         };
         tried[count] = probe;
         count += 1;
-        match single::trace(
-            field,
-            probe as usize,
-            origin,
-            dir,
-            t,
-            t_max,
-            hierarchical,
-            steps,
-        ) {
+        steps.probes += 1;
+        match single::trace(field, probe as usize, origin, dir, t, t_max, march, steps) {
             single::Probe::Hit(th) => return Outcome::Hit { t: th, probe },
-            single::Probe::Miss => return Outcome::Miss,
+            single::Probe::Miss => return Outcome::Miss { probe },
             single::Probe::Unknown(tu) => t = tu.max(t),
         }
     }
-    Outcome::Unknown { t }
+    Outcome::Unknown {
+        t,
+        probe: Some(tried[count - 1]),
+    }
 }
 
 /// The probe nearest to `p` not tried yet: the SVO's fallback once a
@@ -332,7 +375,7 @@ mod tests {
             &bvh,
             &origins,
             4,
-            true,
+            single::March::HiZ,
         );
         assert!(a.seen > 3000, "{a:?}");
         assert!(a.rate() >= 0.99, "{a:?}");
@@ -340,30 +383,53 @@ mod tests {
     }
 
     #[test]
-    fn hierarchical_march_equals_the_texel_march() {
+    fn every_march_equals_the_texel_march() {
         let (scene, _, field) = grid_field(64);
         let origins = free_points(3000);
-        let mut fewer = 0;
+        let mut fetches = [0u64; 3];
         for (i, &o) in origins.iter().enumerate() {
             let d = crate::sampling::fibonacci_sphere(3000)[i];
             let t_max = scene.bounds.exit_distance(o, d);
             for probe in [0, 7, 17] {
-                let (mut s1, mut s2) = (single::Steps::default(), single::Steps::default());
-                let flat = single::trace(&field, probe, o, d, 0.0, t_max, false, &mut s1);
-                let hiz = single::trace(&field, probe, o, d, 0.0, t_max, true, &mut s2);
-                match (flat, hiz) {
-                    (single::Probe::Hit(a), single::Probe::Hit(b))
-                    | (single::Probe::Unknown(a), single::Probe::Unknown(b)) => {
-                        assert!(
-                            (a - b).abs() <= 1e-4 * (1.0 + a),
-                            "ray {i} probe {probe}: {flat:?} vs {hiz:?}"
-                        )
+                let mut steps = [single::Steps::default(); 3];
+                let marches = [
+                    single::March::Texel,
+                    single::March::BiLevel,
+                    single::March::HiZ,
+                ];
+                let out: Vec<single::Probe> = marches
+                    .iter()
+                    .zip(steps.iter_mut())
+                    .map(|(&m, s)| single::trace(&field, probe, o, d, 0.0, t_max, m, s))
+                    .collect();
+                for k in 1..3 {
+                    match (out[0], out[k]) {
+                        (single::Probe::Hit(a), single::Probe::Hit(b))
+                        | (single::Probe::Unknown(a), single::Probe::Unknown(b)) => {
+                            assert!(
+                                (a - b).abs() <= 1e-4 * (1.0 + a),
+                                "ray {i} probe {probe} {:?}: {:?} vs {:?}",
+                                marches[k],
+                                out[0],
+                                out[k]
+                            )
+                        }
+                        (x, y) => assert_eq!(x, y, "ray {i} probe {probe} {:?}", marches[k]),
                     }
-                    (x, y) => assert_eq!(x, y, "ray {i} probe {probe}"),
+                    assert_eq!(
+                        steps[0].surfels, steps[k].surfels,
+                        "the same texels are tested"
+                    );
                 }
-                fewer += (s2.fine < s1.fine) as u32;
+                for k in 0..3 {
+                    fetches[k] += steps[k].march_fetches() as u64;
+                }
             }
         }
-        assert!(fewer > 3000, "the pyramid should spare fine steps: {fewer}");
+        // Texel > bi-level > Hi-Z in texels read (Wang §4.2).
+        assert!(
+            fetches[1] < fetches[0] && fetches[2] < fetches[1],
+            "{fetches:?}"
+        );
     }
 }

@@ -47,13 +47,65 @@ pub enum Probe {
     Unknown(f32),
 }
 
-/// Counters of one trace, for benchmarks and debugging.
+/// How the march walks one probe's distance pyramid.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum March {
+    /// Texel by texel at full resolution: the reference the others must match.
+    Texel,
+    /// McGuire et al. 2017 §4.1 (Fig. 4), as Wang et al. 2019 §4.2 describe
+    /// it: march at 1/16² resolution ([`BILEVEL_COARSE_LEVEL`]) and, where a
+    /// coarse texel may hold a hit, march its full-resolution texels.
+    BiLevel,
+    /// Wang et al. 2019 §4.2: climb and descend the whole min pyramid,
+    /// between [`top_level`] and full resolution. As in Hi-Z screen-space
+    /// tracing (Uludag 2014, which Wang cite), the march near the ray's
+    /// origin starts at full resolution and climbs: rays start on surfaces
+    /// (glossy rays leave one; a fallback probe resumes where the previous
+    /// one lost the ray behind one), where coarse texels would only send the
+    /// march down again. Later pieces of the polyline start at the top.
+    HiZ,
+}
+
+/// Pyramid level of McGuire's coarse march: 1/16 of the side, 1/16² of
+/// the texels (McGuire §4.1, Fig. 4).
+pub const BILEVEL_COARSE_LEVEL: usize = 4;
+
+/// Texture reads of one surfel test: distance and normal of the texel and
+/// of its four edge neighbours. The same in every march, so they are
+/// counted apart from the march's own reads.
+pub const SURFEL_TEST_FETCHES: u32 = 10;
+
+/// Counters of one trace, for benchmarks and the render report.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct Steps {
     /// Texels visited at level 0.
     pub fine: u32,
     /// Texels visited above level 0.
     pub coarse: u32,
+    /// Surfel tests run (each reads [`SURFEL_TEST_FETCHES`] texels).
+    pub surfels: u32,
+    /// Probes consulted ([`crate::trace::trace`] counts them).
+    pub probes: u32,
+}
+
+impl Steps {
+    /// The march's texture reads: one per pyramid texel visited, at any
+    /// level. This is where the marches differ (Wang §4.2: "fewer steps on
+    /// average compared to bi-scale marching").
+    pub fn march_fetches(&self) -> u32 {
+        self.fine + self.coarse
+    }
+
+    /// The surfel tests' texture reads, the same whichever march found the
+    /// texels to test.
+    pub fn surfel_fetches(&self) -> u32 {
+        SURFEL_TEST_FETCHES * self.surfels
+    }
+
+    /// Probes consulted after the first: McGuire's probe switches.
+    pub fn switches(&self) -> u32 {
+        self.probes.saturating_sub(1)
+    }
 }
 
 /// One polyline piece: the ray within one octant of the probe.
@@ -230,18 +282,29 @@ fn surfel_test(
     }
 }
 
-/// The highest pyramid level the march starts from: side 8 or more, as
-/// Wang §4.2 avoids the coarsest levels.
+/// The highest pyramid level the Hi-Z march starts from: side 8 or more,
+/// as Wang §4.2 avoids the coarsest levels.
 pub fn top_level(n: u32) -> usize {
     n.trailing_zeros().saturating_sub(3) as usize
 }
 
+/// The coarsest level a march uses: 0 for [`March::Texel`], McGuire's
+/// coarse level (capped at the map's) for [`March::BiLevel`], [`top_level`]
+/// for [`March::HiZ`]. Every piece starts there, but Hi-Z's first.
+pub fn start_level(n: u32, march: March) -> usize {
+    match march {
+        March::Texel => 0,
+        March::BiLevel => BILEVEL_COARSE_LEVEL.min(n.trailing_zeros() as usize),
+        March::HiZ => top_level(n),
+    }
+}
+
 /// Traces the ray `origin + t·dir`, `t` in [`t0`, `t1`], through probe
-/// `probe`'s maps; `hierarchical` uses the min pyramid.
+/// `probe`'s maps, walking the min pyramid as `march` says.
 ///
 /// Contract: `dir` is unit length and `t1` finite. `Hit(t)` and
-/// `Unknown(t)` have t in [`t0`, `t1`]. The hierarchical and the
-/// texel-by-texel march agree (see module docs).
+/// `Unknown(t)` have t in [`t0`, `t1`]. All marches agree (see module docs)
+/// up to rounding in the texel spans; they differ in `steps`.
 #[allow(clippy::too_many_arguments)]
 pub fn trace(
     field: &LightField,
@@ -250,7 +313,7 @@ pub fn trace(
     dir: Vec3,
     t0: f32,
     t1: f32,
-    hierarchical: bool,
+    march: March,
     steps: &mut Steps,
 ) -> Probe {
     let a = origin - field.positions[probe];
@@ -268,7 +331,7 @@ pub fn trace(
     }
     cuts[k] = t1;
     cuts[1..k].sort_by(f32::total_cmp);
-    for w in cuts[..=k].windows(2) {
+    for (i, w) in cuts[..=k].windows(2).enumerate() {
         let (ta, tb) = (w[0], w[1]);
         if tb <= ta {
             continue;
@@ -278,29 +341,63 @@ pub fn trace(
             continue;
         }
         let piece = Piece::new(a, dir, mid);
-        if let Some(r) = march(field, probe, a, dir, &piece, ta, tb, hierarchical, steps) {
+        let start = match march {
+            March::HiZ if i == 0 => 0,
+            _ => start_level(field.resolution, march),
+        };
+        if let Some(r) = march_piece(
+            field,
+            probe,
+            a,
+            dir,
+            &piece,
+            (ta, tb),
+            (march, start),
+            steps,
+        ) {
             return r;
         }
     }
     Probe::Miss
 }
 
-/// Marches one piece over [`ta`, `tb`]; `None` when it reaches `tb`.
+/// The Hi-Z level after the ray leaves a texel at `level` by an edge that is
+/// also an edge `shared` levels up. Climbing into the texel the ray was
+/// just sent down from would read it again only to descend again, so the
+/// march climbs one level only when it leaves that parent texel too.
+/// (Climbing all `shared` levels at once was measured and reads more
+/// texels: the coarser texels near a surface send the ray down again.)
+fn climb(level: usize, shared: u32, top: usize, march: March) -> usize {
+    match march {
+        March::HiZ if shared == 0 => level,
+        March::HiZ => (level + 1).min(top),
+        _ => top,
+    }
+}
+
+/// Marches one piece over `span` from pyramid level `start`; `None` when
+/// it reaches its end.
+///
+/// Hi-Z climbs one level after each texel the ray passes and descends one
+/// where it may not pass. Bi-level jumps from its coarse level straight to
+/// level 0 and marches full-resolution texels until the ray leaves the
+/// coarse texel (`coarse_end`), then returns to the coarse level.
 #[allow(clippy::too_many_arguments)]
-fn march(
+fn march_piece(
     field: &LightField,
     probe: usize,
     a: Vec3,
     d: Vec3,
     piece: &Piece,
-    ta: f32,
-    tb: f32,
-    hierarchical: bool,
+    span: (f32, f32),
+    (march, start): (March, usize),
     steps: &mut Steps,
 ) -> Option<Probe> {
+    let (ta, tb) = span;
     let n = field.resolution;
-    let top = if hierarchical { top_level(n) } else { 0 };
-    let mut level = top;
+    let top = start_level(n, march);
+    let mut level = start;
+    let mut coarse_end = ta;
     let mut t = ta;
     let radius = |t: f32| (a + d * t).length();
     // A guard against non-progress from rounding: a piece crosses at most
@@ -313,21 +410,24 @@ fn march(
         let ix = cell(ex, side, piece.sx);
         let iy = cell(ey, side, piece.sy);
         // Exit of this texel: the first of its edges the ray reaches.
-        let edge = |i: i64, motion: i32| -> f32 {
-            let next = if motion > 0 { i + 1 } else { i };
-            2.0 * next as f32 / side as f32 - 1.0
-        };
+        // The edge the ray leaves by, and how many levels up that edge is
+        // still a texel edge: the levels whose texel the ray leaves too.
         let mut exit = tb;
-        if piece.sx != 0 {
-            let c = piece.crossing(piece.nx, edge(ix, piece.sx));
-            if c > t {
-                exit = exit.min(c);
+        let mut shared = 0u32;
+        for (motion, i, n_coord) in [(piece.sx, ix, piece.nx), (piece.sy, iy, piece.ny)] {
+            if motion == 0 {
+                continue;
             }
-        }
-        if piece.sy != 0 {
-            let c = piece.crossing(piece.ny, edge(iy, piece.sy));
+            let next = if motion > 0 { i + 1 } else { i };
+            let c = piece.crossing(n_coord, 2.0 * next as f32 / side as f32 - 1.0);
             if c > t {
-                exit = exit.min(c);
+                let levels = (next as u32).trailing_zeros();
+                if c < exit {
+                    exit = c;
+                    shared = levels;
+                } else if c == exit {
+                    shared = shared.max(levels);
+                }
             }
         }
         let side_texels = (side * side) as usize;
@@ -338,7 +438,10 @@ fn march(
             steps.coarse += 1;
             if in_front {
                 t = exit;
-                level = (level + 1).min(top);
+                level = climb(level, shared, top, march);
+            } else if march == March::BiLevel {
+                coarse_end = exit;
+                level = 0;
             } else {
                 level -= 1;
             }
@@ -346,6 +449,7 @@ fn march(
         }
         steps.fine += 1;
         if !in_front {
+            steps.surfels += 1;
             let q = (a + d * t, a + d * exit);
             match surfel_test(field, probe, ix as u32, iy as u32, q, (t, exit)) {
                 Texel::Pass => {}
@@ -354,9 +458,12 @@ fn march(
             }
         }
         t = exit;
-        if hierarchical {
-            level = (level + 1).min(top);
-        }
+        level = match march {
+            March::Texel => 0,
+            March::BiLevel if t < coarse_end => 0,
+            March::BiLevel => top,
+            March::HiZ => climb(level, shared, top, march),
+        };
     }
     // Out of steps before the end: rounding stalled the march; say so
     // rather than claim a miss.

@@ -79,3 +79,22 @@ pub fn assert_svo_sound(r: &serde_json::Value, scene: &str) {
         "{scene}"
     );
 }
+
+/// The GPU context for GPU tests. Without an adapter the test skips with a
+/// visible message, except under CI (`CI` set), where it fails: CI installs
+/// lavapipe, so a missing adapter there is a broken set-up, not a skip.
+pub fn gpu_context(test: &str) -> Option<probeplace::gpu::Context> {
+    match probeplace::gpu::Context::new() {
+        Ok(ctx) => {
+            eprintln!("{test}: GPU adapter {}", ctx.adapter);
+            Some(ctx)
+        }
+        Err(e) if std::env::var_os("CI").is_some() => {
+            panic!("{test}: GPU tests need an adapter under CI (install mesa-vulkan-drivers, WGPU_BACKEND=vulkan): {e}")
+        }
+        Err(e) => {
+            eprintln!("SKIPPED {test}: {e}");
+            None
+        }
+    }
+}

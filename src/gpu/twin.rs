@@ -1,0 +1,76 @@
+//! The CPU twins of the kernels: the same answers from the Rust code the
+//! kernels mirror, in the kernels' record format, so that tests compare
+//! the two record by record and `render` can run without a GPU.
+
+use super::{kind, Query, Record};
+use crate::lightfield::{gather, LightField};
+use crate::trace::single::{March, Steps};
+use crate::trace::{self, Outcome, Selection};
+use bytemuck::Zeroable;
+use glam::Vec3;
+use rayon::prelude::*;
+
+/// What `trace_rays` computes for each query, on the CPU.
+///
+/// Contract: record `i` answers query `i` and equals the kernel's record up
+/// to floating-point rounding; deterministic whatever the thread count.
+pub fn trace_rays(
+    field: &LightField,
+    selection: &Selection,
+    queries: &[Query],
+    march: March,
+) -> Vec<Record> {
+    queries
+        .par_iter()
+        .map(|q| {
+            let (origin, dir) = (Vec3::from(q.origin), Vec3::from(q.dir));
+            let mut steps = Steps::default();
+            let outcome = trace::trace(field, selection, origin, dir, q.t_max, march, &mut steps);
+            let (kind, t) = match outcome {
+                Outcome::Hit { t, .. } => (kind::HIT, t),
+                Outcome::Miss { .. } => (kind::MISS, q.t_max),
+                Outcome::Unknown { t, probe: Some(_) } => (kind::UNKNOWN, t),
+                Outcome::Unknown { t, probe: None } => (kind::NO_PROBE, t),
+            };
+            let (probe, texel, radiance) = match outcome.lookup(field, origin, dir) {
+                Some((probe, texel)) => {
+                    let c = field.radiance[probe as usize * field.texels() + texel as usize];
+                    (probe, texel, [c[0], c[1], c[2], 1.0])
+                }
+                None => (u32::MAX, u32::MAX, [0.0; 4]),
+            };
+            Record {
+                kind,
+                probe,
+                texel,
+                t,
+                fetches: steps.march_fetches(),
+                probes: steps.probes,
+                surfels: steps.surfels,
+                pad: 0,
+                radiance,
+            }
+        })
+        .collect()
+}
+
+/// What `gather_irradiance` computes for each query, on the CPU.
+///
+/// Contract: as [`trace_rays`]; only `radiance` is meaningful.
+pub fn gather_irradiance(
+    field: &LightField,
+    selection: &Selection,
+    queries: &[Query],
+) -> Vec<Record> {
+    queries
+        .par_iter()
+        .map(|q| {
+            let e =
+                gather::irradiance_at(field, selection, Vec3::from(q.origin), Vec3::from(q.dir));
+            Record {
+                radiance: [e.x, e.y, e.z, 1.0],
+                ..Record::zeroed()
+            }
+        })
+        .collect()
+}

@@ -1,0 +1,199 @@
+//! The GPU kernels against their CPU twins, on real scenes: the bi-level
+//! and Hi-Z traces (McGuire et al. 2017 §4; Wang et al. 2019 §4.2) agree
+//! with the CPU tracer, and with each other, on hit/miss and on the texel
+//! a hit is read from; the irradiance gather (McGuire §5.2) matches its
+//! twin; and Hi-Z reads fewer texels than bi-level.
+
+mod common;
+use common::*;
+use glam::Vec3;
+use probeplace::config::Config;
+use probeplace::gpu::{kind, twin, ProbeTracer, Query, Record, SelectionKind};
+use probeplace::lightfield::{self, LightField};
+use probeplace::pipeline::{self, PlaceOptions, PlaceRun};
+use probeplace::progress::Progress;
+use probeplace::sampling::{hash2, unit_f32};
+use probeplace::svo;
+use probeplace::trace::check::padded_bounds;
+use probeplace::trace::single::March;
+use probeplace::trace::{Lattice, Selection};
+
+/// Rays per scene in the comparisons.
+const RAYS: usize = 6000;
+
+/// Places `config`'s probes (or a grid, for `method`) and bakes a light
+/// field whose radiance is a colour per direction, so that a wrong texel
+/// reads a wrong colour.
+fn scene(config: &str, method: Option<&str>) -> (PlaceRun, LightField) {
+    let path = root().join(config);
+    let cfg = Config::load(&path).unwrap();
+    let options = PlaceOptions {
+        method: method.map(String::from),
+        no_refine: method.is_some(),
+        ..PlaceOptions::default()
+    };
+    let run = pipeline::compute_place(cfg.clone(), &path, &options).unwrap();
+    let p = &run.prepared;
+    let field = lightfield::bake(
+        &cfg.bake,
+        &run.probes.positions(),
+        &p.scene,
+        &p.bvh,
+        p.domain.size().length(),
+        cfg.seed,
+        &|_, d, _| (d + Vec3::ONE) * 0.5,
+        &Progress::hidden(),
+    )
+    .field;
+    (run, field)
+}
+
+/// Random rays from free points, each to the padded bounds.
+fn rays(run: &PlaceRun) -> Vec<Query> {
+    let p = &run.prepared;
+    let input = p.placement_input(1, &run.progress);
+    let bounds = padded_bounds(&p.scene.bounds);
+    svo::random_free_points(&input, RAYS, 0x6EF0)
+        .into_iter()
+        .enumerate()
+        .map(|(i, o)| {
+            let z = 2.0 * unit_f32(hash2(17, 2 * i as u64)) - 1.0;
+            let phi = std::f32::consts::TAU * unit_f32(hash2(17, 2 * i as u64 + 1));
+            let r = (1.0 - z * z).max(0.0).sqrt();
+            let d = Vec3::new(r * phi.cos(), r * phi.sin(), z);
+            Query {
+                origin: o.to_array(),
+                t_max: bounds.exit_distance(o, d),
+                dir: d.to_array(),
+                pad: 0.0,
+            }
+        })
+        .collect()
+}
+
+/// Share of records that agree on hit/miss/unknown and, for hits, on the
+/// probe and texel.
+fn agreement(a: &[Record], b: &[Record]) -> f64 {
+    assert_eq!(a.len(), b.len());
+    let same = a
+        .iter()
+        .zip(b)
+        .filter(|(x, y)| {
+            x.kind == y.kind && (x.kind != kind::HIT || (x.probe, x.texel) == (y.probe, y.texel))
+        })
+        .count();
+    same as f64 / a.len() as f64
+}
+
+fn mean_fetches(r: &[Record]) -> f64 {
+    r.iter().map(|x| x.fetches as f64).sum::<f64>() / r.len() as f64
+}
+
+/// Every comparison of the issue on one scene and selection.
+fn compare(test: &str, config: &str, method: Option<&str>) {
+    let Some(ctx) = gpu_context(test) else {
+        return;
+    };
+    let (run, field) = scene(config, method);
+    let lattice = method.map(|_| Lattice::from_positions(&field.positions).unwrap());
+    let (selection, kind_of) = match &lattice {
+        Some(l) => (Selection::Grid(l), SelectionKind::Grid),
+        None => (Selection::Svo(&run.svo), SelectionKind::Svo),
+    };
+    let tracer = ProbeTracer::new(&ctx, &field, Some(&run.svo), lattice.as_ref()).unwrap();
+    let queries = rays(&run);
+    let mut gpu = Vec::new();
+    for march in [March::BiLevel, March::HiZ] {
+        let cpu = twin::trace_rays(&field, &selection, &queries, march);
+        let (g, _) = tracer.trace_rays(&queries, march, kind_of).unwrap();
+        let rate = agreement(&cpu, &g);
+        let hits = g.iter().filter(|r| r.kind == kind::HIT).count();
+        let same_fetches = cpu
+            .iter()
+            .zip(&g)
+            .filter(|(a, b)| (a.fetches, a.surfels, a.probes) == (b.fetches, b.surfels, b.probes))
+            .count();
+        eprintln!(
+            "{config} {method:?} {march:?}: GPU vs CPU agree {rate:.4}, {hits} hits, fetches/ray GPU {:.1} CPU {:.1}, equal counts {same_fetches}",
+            mean_fetches(&g),
+            mean_fetches(&cpu)
+        );
+        assert!(hits * 2 > RAYS, "{config}: most rays should hit: {hits}");
+        assert!(
+            rate >= 0.99,
+            "{config} {march:?}: GPU and CPU agree on {rate}"
+        );
+        assert!(
+            same_fetches * 100 >= 98 * RAYS,
+            "{config} {march:?}: fetch counts differ: {same_fetches}"
+        );
+        let radiance_ok = cpu
+            .iter()
+            .zip(&g)
+            .filter(|(a, b)| a.kind == b.kind && a.texel == b.texel && a.probe == b.probe)
+            .all(|(a, b)| a.radiance == b.radiance);
+        assert!(
+            radiance_ok,
+            "{config}: the same texel must read the same radiance"
+        );
+        gpu.push(g);
+    }
+    let between = agreement(&gpu[0], &gpu[1]);
+    let (bilevel, hiz) = (mean_fetches(&gpu[0]), mean_fetches(&gpu[1]));
+    eprintln!("{config} {method:?}: bi-level vs Hi-Z agree {between:.4}; fetches {bilevel:.1} vs {hiz:.1}");
+    assert!(
+        between >= 0.99,
+        "{config}: bi-level and Hi-Z agree on {between}"
+    );
+    assert!(hiz < bilevel, "{config}: Hi-Z should read fewer texels");
+
+    // Irradiance at the ray origins, facing along the rays.
+    let cpu = twin::gather_irradiance(&field, &selection, &queries);
+    let (g, _) = tracer.gather_irradiance(&queries, kind_of).unwrap();
+    let close = cpu
+        .iter()
+        .zip(&g)
+        .filter(|(a, b)| {
+            (0..3).all(|c| {
+                (a.radiance[c] - b.radiance[c]).abs() <= 1e-3 * (1.0 + a.radiance[c].abs())
+            })
+        })
+        .count();
+    eprintln!("{config} {method:?}: irradiance within 1e-3 on {close}/{RAYS}");
+    assert!(
+        close * 1000 >= 999 * RAYS,
+        "{config}: irradiance differs: {close}"
+    );
+    assert!(cpu
+        .iter()
+        .all(|r| r.radiance.iter().all(|v| v.is_finite() && *v >= 0.0)));
+}
+
+#[test]
+fn kernels_match_their_twins_on_cornell_glossy() {
+    shared_scenes();
+    compare(
+        "kernels_match_their_twins_on_cornell_glossy",
+        "configs/cornell-glossy.ron",
+        None,
+    );
+}
+
+#[test]
+fn kernels_match_their_twins_on_holodeck() {
+    shared_scenes();
+    compare(
+        "kernels_match_their_twins_on_holodeck",
+        "configs/holodeck.ron",
+        None,
+    );
+}
+
+#[test]
+fn kernels_match_their_twins_on_a_grid() {
+    compare(
+        "kernels_match_their_twins_on_a_grid",
+        "configs/cornell.ron",
+        Some("grid:4x4x4"),
+    );
+}
