@@ -34,6 +34,15 @@ pub fn fibonacci_sphere(n: u32) -> Vec<Vec3> {
         .collect()
 }
 
+/// The `i`-th of a stream of directions uniform over the sphere, keyed by
+/// `seed` (two hashed uniforms: z and the azimuth).
+pub fn uniform_direction(seed: u64, i: u64) -> Vec3 {
+    let z = 2.0 * unit_f32(hash2(seed, 2 * i)) - 1.0;
+    let phi = 2.0 * PI * unit_f32(hash2(seed, 2 * i + 1));
+    let r = (1.0 - z * z).max(0.0).sqrt();
+    Vec3::new(r * phi.cos(), r * phi.sin(), z)
+}
+
 /// A uniformly random rotation drawn from hash `h` (Shoemake's method), used
 /// to decorrelate the fixed direction set between voxels.
 pub fn random_rotation(h: u64) -> Mat3 {

@@ -7,12 +7,10 @@
 mod common;
 use common::*;
 use glam::Vec3;
-use probeplace::config::Config;
 use probeplace::gpu::{kind, twin, ProbeTracer, Query, Record, SelectionKind};
-use probeplace::lightfield::{self, LightField};
-use probeplace::pipeline::{self, PlaceOptions, PlaceRun};
-use probeplace::progress::Progress;
-use probeplace::sampling::{hash2, unit_f32};
+use probeplace::lightfield::LightField;
+use probeplace::pipeline::PlaceRun;
+use probeplace::sampling::uniform_direction;
 use probeplace::svo;
 use probeplace::trace::check::padded_bounds;
 use probeplace::trace::single::March;
@@ -25,27 +23,7 @@ const RAYS: usize = 6000;
 /// field whose radiance is a colour per direction, so that a wrong texel
 /// reads a wrong colour.
 fn scene(config: &str, method: Option<&str>) -> (PlaceRun, LightField) {
-    let path = root().join(config);
-    let cfg = Config::load(&path).unwrap();
-    let options = PlaceOptions {
-        method: method.map(String::from),
-        no_refine: method.is_some(),
-        ..PlaceOptions::default()
-    };
-    let run = pipeline::compute_place(cfg.clone(), &path, &options).unwrap();
-    let p = &run.prepared;
-    let field = lightfield::bake(
-        &cfg.bake,
-        &run.probes.positions(),
-        &p.scene,
-        &p.bvh,
-        p.domain.size().length(),
-        cfg.seed,
-        &|_, d, _| (d + Vec3::ONE) * 0.5,
-        &Progress::hidden(),
-    )
-    .field;
-    (run, field)
+    place_and_bake(config, method, &|_, d, _| (d + Vec3::ONE) * 0.5)
 }
 
 /// Random rays from free points, each to the padded bounds.
@@ -57,10 +35,7 @@ fn rays(run: &PlaceRun) -> Vec<Query> {
         .into_iter()
         .enumerate()
         .map(|(i, o)| {
-            let z = 2.0 * unit_f32(hash2(17, 2 * i as u64)) - 1.0;
-            let phi = std::f32::consts::TAU * unit_f32(hash2(17, 2 * i as u64 + 1));
-            let r = (1.0 - z * z).max(0.0).sqrt();
-            let d = Vec3::new(r * phi.cos(), r * phi.sin(), z);
+            let d = uniform_direction(17, i as u64);
             Query {
                 origin: o.to_array(),
                 t_max: bounds.exit_distance(o, d),

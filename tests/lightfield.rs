@@ -5,10 +5,7 @@
 
 mod common;
 use common::*;
-use probeplace::config::Config;
-use probeplace::lightfield::{self, pyramid, LightField};
-use probeplace::pipeline::{self, PlaceOptions};
-use probeplace::progress::Progress;
+use probeplace::lightfield::{pyramid, LightField};
 use probeplace::svo;
 use probeplace::trace::single::March;
 use probeplace::trace::{check, Lattice, Selection};
@@ -21,28 +18,10 @@ const RAYS: usize = 6000;
 /// their geometry at the config's resolution, and checks the pyramid and
 /// the tracer. Returns the tracer's agreement.
 fn check_scene(config: &str, method: Option<&str>) -> check::Agreement {
-    let path = root().join(config);
-    let cfg = Config::load(&path).unwrap();
-    let options = PlaceOptions {
-        method: method.map(String::from),
-        no_refine: method.is_some(),
-        ..PlaceOptions::default()
-    };
-    let run = pipeline::compute_place(cfg.clone(), &path, &options).unwrap();
-    let p = &run.prepared;
-    let positions = run.probes.positions();
     // Geometry only: radiance plays no part in tracing.
-    let field = lightfield::bake(
-        &cfg.bake,
-        &positions,
-        &p.scene,
-        &p.bvh,
-        p.domain.size().length(),
-        cfg.seed,
-        &|_, _, _| glam::Vec3::ZERO,
-        &Progress::hidden(),
-    )
-    .field;
+    let (run, field) = place_and_bake(config, method, &|_, _, _| glam::Vec3::ZERO);
+    let p = &run.prepared;
+    let positions = &field.positions;
     let n = field.resolution;
     let checked = pyramid::verify(n, &field.distance, &field.pyramid, 2 * n * n)
         .unwrap_or_else(|e| panic!("{config}: pyramid not conservative: {e}"));
@@ -51,34 +30,18 @@ fn check_scene(config: &str, method: Option<&str>) -> check::Agreement {
         (positions.len() as u64) * 2 * (n * n) as u64 * field.pyramid.len() as u64
     );
 
-    let input = p.placement_input(cfg.seed, &run.progress);
+    let input = p.placement_input(run.config.seed, &run.progress);
     let origins = svo::random_free_points(&input, RAYS, 0x5EED_0F0A);
     let lattice;
     let selection = match method {
         Some(_) => {
-            lattice = Lattice::from_positions(&positions).expect("a grid run gives a lattice");
+            lattice = Lattice::from_positions(positions).expect("a grid run gives a lattice");
             Selection::Grid(&lattice)
         }
         None => Selection::Svo(&run.svo),
     };
-    let a = check::compare(
-        &field,
-        &selection,
-        &p.scene,
-        &p.bvh,
-        &origins,
-        77,
-        March::HiZ,
-    );
-    let flat = check::compare(
-        &field,
-        &selection,
-        &p.scene,
-        &p.bvh,
-        &origins,
-        77,
-        March::Texel,
-    );
+    let [a, flat] = [March::HiZ, March::Texel]
+        .map(|m| check::compare(&field, &selection, &p.scene, &p.bvh, &origins, 77, m));
     // Same answers up to rounding: texel spans computed at different levels
     // differ in the last bits, which can tip a ray grazing a texel's edge.
     assert_eq!(a.seen, flat.seen);

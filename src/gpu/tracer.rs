@@ -98,6 +98,9 @@ impl<'c> ProbeTracer<'c> {
                 field.resolution, limits.max_texture_dimension_2d
             ));
         }
+        // Validation and memory errors become `Err`, not wgpu's panic.
+        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let memory = device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
         let n = field.resolution;
         let m = field.irradiance_resolution;
         let levels = field.pyramid.len() as u32;
@@ -340,6 +343,13 @@ impl<'c> ProbeTracer<'c> {
             .map_or(([0.0; 3], [1.0; 3], [1; 3]), |l| {
                 (l.origin.to_array(), l.spacing.to_array(), l.dims.to_array())
             });
+        let trace = pipeline("trace_rays");
+        let gather = pipeline("gather_irradiance");
+        for scope in [memory, scope] {
+            if let Some(e) = pollster::block_on(scope.pop()) {
+                return Err(format!("GPU set-up failed: {e}"));
+            }
+        }
         Ok(ProbeTracer {
             ctx,
             base: Params {
@@ -364,8 +374,8 @@ impl<'c> ProbeTracer<'c> {
             },
             has_svo: svo.is_some(),
             has_grid: lattice.is_some(),
-            trace: pipeline("trace_rays"),
-            gather: pipeline("gather_irradiance"),
+            trace,
+            gather,
             bind_group,
             params,
             queries,
@@ -416,6 +426,24 @@ impl<'c> ProbeTracer<'c> {
             SelectionKind::Svo if self.has_svo => 1,
             other => return Err(format!("{other:?} selection without its structure")),
         };
+        let scope = self
+            .ctx
+            .device
+            .push_error_scope(wgpu::ErrorFilter::Validation);
+        let result = self.batches(pipeline, queries, march, selection);
+        match pollster::block_on(scope.pop()) {
+            Some(e) => Err(format!("GPU failed: {e}")),
+            None => result,
+        }
+    }
+
+    fn batches(
+        &self,
+        pipeline: &wgpu::ComputePipeline,
+        queries: &[Query],
+        march: u32,
+        selection: u32,
+    ) -> Result<Traced, String> {
         let (device, queue) = (&self.ctx.device, &self.ctx.queue);
         let mut out = Vec::with_capacity(queries.len());
         let mut gpu_ms = self.timestamps.as_ref().map(|_| 0.0f64);

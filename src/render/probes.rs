@@ -62,6 +62,9 @@ pub struct GBuffer {
     pub glossy_pixel: Vec<u32>,
 }
 
+/// A pixel with its irradiance query and its glossy ray, if any.
+type PixelQueries = (Pixel, Option<Query>, Option<Query>);
+
 /// Casts the primary rays of `camera` at `width × height` and draws each
 /// pixel's glossy ray from stream `(seed, pixel)`; rays end at `bounds`
 /// (the scene's, padded as the tracer check pads them).
@@ -77,7 +80,7 @@ pub fn gbuffer(
     seed: u64,
 ) -> GBuffer {
     let cam = Camera::new(camera, width, height);
-    let rows: Vec<Vec<(Pixel, Option<Query>, Option<Query>)>> = (0..height)
+    let rows: Vec<Vec<PixelQueries>> = (0..height)
         .into_par_iter()
         .map(|y| {
             (0..width)

@@ -4,7 +4,7 @@
 
 use super::{single::March, single::Steps, trace, Outcome, Selection};
 use crate::lightfield::LightField;
-use crate::sampling::{hash2, unit_f32};
+use crate::sampling::uniform_direction;
 use crate::scene::raycast::SceneBvh;
 use crate::scene::{Bounds, Scene};
 use glam::Vec3;
@@ -93,10 +93,7 @@ pub fn compare(
         .par_iter()
         .enumerate()
         .map(|(i, &o)| {
-            let z = 2.0 * unit_f32(hash2(seed, 2 * i as u64)) - 1.0;
-            let phi = std::f32::consts::TAU * unit_f32(hash2(seed, 2 * i as u64 + 1));
-            let r = (1.0 - z * z).max(0.0).sqrt();
-            let d = Vec3::new(r * phi.cos(), r * phi.sin(), z);
+            let d = uniform_direction(seed, i as u64);
             let t_max = bounds.exit_distance(o, d);
             let mut steps = Steps::default();
             let out = trace(field, selection, o, d, t_max, march, &mut steps);

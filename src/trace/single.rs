@@ -57,12 +57,13 @@ pub enum March {
     /// coarse texel may hold a hit, march its full-resolution texels.
     BiLevel,
     /// Wang et al. 2019 §4.2: climb and descend the whole min pyramid,
-    /// between [`top_level`] and full resolution. As in Hi-Z screen-space
-    /// tracing (Uludag 2014, which Wang cite), the march near the ray's
-    /// origin starts at full resolution and climbs: rays start on surfaces
-    /// (glossy rays leave one; a fallback probe resumes where the previous
-    /// one lost the ray behind one), where coarse texels would only send the
-    /// march down again. Later pieces of the polyline start at the top.
+    /// between [`top_level`] and full resolution. Where the texel holding
+    /// the ray's origin cannot be passed at the top level, the origin lies
+    /// at a surface (glossy rays leave one; a fallback probe resumes where
+    /// the previous one lost the ray behind one): the march drops straight
+    /// to full resolution and climbs from there, as Hi-Z screen-space
+    /// tracing starts (Uludag 2014, which Wang cite), instead of reading
+    /// every level on the way down.
     HiZ,
 }
 
@@ -288,9 +289,9 @@ pub fn top_level(n: u32) -> usize {
     n.trailing_zeros().saturating_sub(3) as usize
 }
 
-/// The coarsest level a march uses: 0 for [`March::Texel`], McGuire's
-/// coarse level (capped at the map's) for [`March::BiLevel`], [`top_level`]
-/// for [`March::HiZ`]. Every piece starts there, but Hi-Z's first.
+/// The coarsest level a march uses, and where every piece starts: 0 for
+/// [`March::Texel`], McGuire's coarse level (capped at the map's) for
+/// [`March::BiLevel`], [`top_level`] for [`March::HiZ`].
 pub fn start_level(n: u32, march: March) -> usize {
     match march {
         March::Texel => 0,
@@ -341,10 +342,7 @@ pub fn trace(
             continue;
         }
         let piece = Piece::new(a, dir, mid);
-        let start = match march {
-            March::HiZ if i == 0 => 0,
-            _ => start_level(field.resolution, march),
-        };
+        let at_origin = i == 0;
         if let Some(r) = march_piece(
             field,
             probe,
@@ -352,7 +350,7 @@ pub fn trace(
             dir,
             &piece,
             (ta, tb),
-            (march, start),
+            (march, at_origin),
             steps,
         ) {
             return r;
@@ -375,8 +373,8 @@ fn climb(level: usize, shared: u32, top: usize, march: March) -> usize {
     }
 }
 
-/// Marches one piece over `span` from pyramid level `start`; `None` when
-/// it reaches its end.
+/// Marches one piece over `span`; `None` when it reaches its end.
+/// `at_origin`: the piece starts at the ray's origin.
 ///
 /// Hi-Z climbs one level after each texel the ray passes and descends one
 /// where it may not pass. Bi-level jumps from its coarse level straight to
@@ -390,13 +388,13 @@ fn march_piece(
     d: Vec3,
     piece: &Piece,
     span: (f32, f32),
-    (march, start): (March, usize),
+    (march, at_origin): (March, bool),
     steps: &mut Steps,
 ) -> Option<Probe> {
     let (ta, tb) = span;
     let n = field.resolution;
     let top = start_level(n, march);
-    let mut level = start;
+    let mut level = top;
     let mut coarse_end = ta;
     let mut t = ta;
     let radius = |t: f32| (a + d * t).length();
@@ -439,7 +437,7 @@ fn march_piece(
             if in_front {
                 t = exit;
                 level = climb(level, shared, top, march);
-            } else if march == March::BiLevel {
+            } else if march == March::BiLevel || (at_origin && t == ta) {
                 coarse_end = exit;
                 level = 0;
             } else {

@@ -160,7 +160,7 @@ fn surfel_test(probe: u32, x: i32, y: i32, q0: vec3f, q1: vec3f, ta: f32, tb: f3
     return TexelResult(TEXEL_PASS, 0.0);
 }
 
-// trace::single::start_level (the top level; Hi-Z's first piece starts at 0)
+// trace::single::start_level
 fn start_level(n: u32) -> u32 {
     let log2n = countTrailingZeros(n);
     if params.march == MARCH_BILEVEL {
@@ -170,6 +170,20 @@ fn start_level(n: u32) -> u32 {
         return select(0u, log2n - 3u, log2n >= 3u);
     }
     return 0u;
+}
+
+// One coordinate's part of trace::single::march_piece's exit: the edge of
+// texel i the ray reaches moving with motion m, if it is the first so far.
+fn leave_by(p: Piece, n: vec2f, i: i32, m: i32, side: u32, t: f32, exit: ptr<function, f32>, up: ptr<function, u32>) {
+    let next = select(i, i + 1, m > 0);
+    let c = piece_crossing(p, n, 2.0 * f32(next) / f32(side) - 1.0);
+    let levels = countTrailingZeros(u32(next));
+    if c > t && c < *exit {
+        *exit = c;
+        *up = levels;
+    } else if c > t && c == *exit {
+        *up = max(*up, levels);
+    }
 }
 
 // trace::single::climb
@@ -184,10 +198,10 @@ fn climb(level: u32, up_levels: u32, top: u32) -> u32 {
 }
 
 // trace::single::march_piece; kind PROBE_MISS means "reached the end".
-fn march_piece(probe: u32, a: vec3f, d: vec3f, piece: Piece, ta: f32, tb: f32, start: u32) -> ProbeResult {
+fn march_piece(probe: u32, a: vec3f, d: vec3f, piece: Piece, ta: f32, tb: f32, at_origin: bool) -> ProbeResult {
     let n = params.n;
     let top = start_level(n);
-    var level = start;
+    var level = top;
     var coarse_end = ta;
     var t = ta;
     var budget = 16u * n * (top + 1u) + 64u;
@@ -201,26 +215,10 @@ fn march_piece(probe: u32, a: vec3f, d: vec3f, piece: Piece, ta: f32, tb: f32, s
         var exit = tb;
         var up_levels = 0u;
         if piece.sx != 0 {
-            let next = select(ix, ix + 1, piece.sx > 0);
-            let c = piece_crossing(piece, piece.nx, 2.0 * f32(next) / f32(side) - 1.0);
-            let levels = countTrailingZeros(u32(next));
-            if c > t && c < exit {
-                exit = c;
-                up_levels = levels;
-            } else if c > t && c == exit {
-                up_levels = max(up_levels, levels);
-            }
+            leave_by(piece, piece.nx, ix, piece.sx, side, t, &exit, &up_levels);
         }
         if piece.sy != 0 {
-            let next = select(iy, iy + 1, piece.sy > 0);
-            let c = piece_crossing(piece, piece.ny, 2.0 * f32(next) / f32(side) - 1.0);
-            let levels = countTrailingZeros(u32(next));
-            if c > t && c < exit {
-                exit = c;
-                up_levels = levels;
-            } else if c > t && c == exit {
-                up_levels = max(up_levels, levels);
-            }
+            leave_by(piece, piece.ny, iy, piece.sy, side, t, &exit, &up_levels);
         }
         let lo = textureLoad(pyramid_min, vec2i(ix, iy), probe, level).r;
         let in_front = max(length(a + d * t), length(a + d * exit)) < lo;
@@ -229,7 +227,7 @@ fn march_piece(probe: u32, a: vec3f, d: vec3f, piece: Piece, ta: f32, tb: f32, s
             if in_front {
                 t = exit;
                 level = climb(level, up_levels, top);
-            } else if params.march == MARCH_BILEVEL {
+            } else if params.march == MARCH_BILEVEL || (at_origin && t == ta) {
                 coarse_end = exit;
                 level = 0u;
             } else {
@@ -296,11 +294,7 @@ fn trace_probe(probe: u32, origin: vec3f, dir: vec3f, t0: f32, t1: f32) -> Probe
         if dot(mid, mid) == 0.0 {
             continue;
         }
-        var start = start_level(params.n);
-        if params.march == MARCH_HIZ && w == 0 {
-            start = 0u;
-        }
-        let r = march_piece(probe, a, dir, piece_new(a, dir, mid), ta, tb, start);
+        let r = march_piece(probe, a, dir, piece_new(a, dir, mid), ta, tb, w == 0);
         if r.kind != PROBE_MISS {
             return r;
         }
