@@ -31,7 +31,7 @@ struct Params {
     svo_dims: vec3u,
     pad2: u32,
     lattice_origin: vec3f,
-    max_distance: f32,
+    pad3: f32,
     lattice_spacing: vec3f,
     pad0: u32,
     lattice_dims: vec3i,
