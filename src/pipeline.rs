@@ -816,14 +816,11 @@ pub fn render_stage(
     lap(&mut timings, "upload", t);
 
     let exposure = auto_exposure(&reference.full);
-    let error_scale = 4.0
-        * reference
-            .glossy_indirect
-            .iter()
-            .map(|&p| crate::render::lights::luminance(Vec3::from(p)))
-            .sum::<f32>()
-        / reference.glossy_indirect.len().max(1) as f32;
+    let error_scale = (4.0 * mean_luminance(&reference.glossy_indirect)) as f32;
     let rays = g.glossy.len().max(1) as f64;
+    // The irradiance gather depends on the selection only: when both
+    // variants select alike it runs once.
+    let mut gathered: Vec<(SelectionKind, Vec<crate::gpu::Record>, Option<f64>)> = Vec::new();
     let mut variants = BTreeMap::new();
     let mut files = Vec::new();
     for variant in [Variant::BiLevel, Variant::HiZ] {
@@ -847,24 +844,32 @@ pub fn render_stage(
             Some(l) => (Selection::Grid(l), SelectionKind::Grid),
             None => (Selection::Svo(&run.svo), SelectionKind::Svo),
         };
-        let (glossy, irradiance, gpu_ms) = match &tracer {
-            Some(tr) => {
-                let gpu = |e: String| Error::Internal(format!("render {name}: {e}"));
-                let (glossy, a) = tr
-                    .trace_rays(&g.glossy, march, selection_kind)
-                    .map_err(gpu)?;
-                let (irr, b) = tr
-                    .gather_irradiance(&g.irradiance, selection_kind)
-                    .map_err(gpu)?;
-                (glossy, irr, a.zip(b).map(|(a, b)| a + b))
+        let gpu = |e: String| Error::Internal(format!("render {name}: {e}"));
+        let slot = match gathered.iter().position(|(k, ..)| *k == selection_kind) {
+            Some(i) => i,
+            None => {
+                let (irr, ms) = match &tracer {
+                    Some(tr) => tr
+                        .gather_irradiance(&g.irradiance, selection_kind)
+                        .map_err(gpu)?,
+                    None => (
+                        twin::gather_irradiance(field, &selection, &g.irradiance),
+                        None,
+                    ),
+                };
+                gathered.push((selection_kind, irr, ms));
+                gathered.len() - 1
             }
-            None => (
-                twin::trace_rays(field, &selection, &g.glossy, march),
-                twin::gather_irradiance(field, &selection, &g.irradiance),
-                None,
-            ),
         };
-        let image = compose(&g, &irradiance, &glossy);
+        let (_, irradiance, gather_ms) = &gathered[slot];
+        let (glossy, trace_ms) = match &tracer {
+            Some(tr) => tr
+                .trace_rays(&g.glossy, march, selection_kind)
+                .map_err(gpu)?,
+            None => (twin::trace_rays(field, &selection, &g.glossy, march), None),
+        };
+        let gpu_ms = trace_ms.zip(*gather_ms).map(|(a, b)| a + b);
+        let image = compose(&g, irradiance, &glossy);
         let sum =
             |f: fn(&crate::gpu::Record) -> u32| glossy.iter().map(|r| f(r) as u64).sum::<u64>();
         let count = |k: u32| glossy.iter().filter(|r| r.kind == k).count() as u64;
@@ -949,15 +954,20 @@ fn push_image(
     Ok(())
 }
 
-/// Exposure that maps the mean luminance of `pixels` to 0.4 (display
-/// previews only; the EXR files hold the linear values).
-fn auto_exposure(pixels: &[[f32; 3]]) -> f32 {
-    let mean = pixels
+/// Mean luminance of `pixels`, non-finite values left out (0 for none).
+fn mean_luminance(pixels: &[[f32; 3]]) -> f64 {
+    pixels
         .iter()
         .map(|&p| crate::render::lights::luminance(Vec3::from(p)) as f64)
         .filter(|v| v.is_finite())
         .sum::<f64>()
-        / pixels.len().max(1) as f64;
+        / pixels.len().max(1) as f64
+}
+
+/// Exposure that maps the mean luminance of `pixels` to 0.4 (display
+/// previews only; the EXR files hold the linear values).
+fn auto_exposure(pixels: &[[f32; 3]]) -> f32 {
+    let mean = mean_luminance(pixels);
     if mean > 1e-12 {
         (0.4 / mean) as f32
     } else {

@@ -85,11 +85,6 @@ fn bake(config: &str, out: &Path, extra: &[&str]) -> serde_json::Value {
     run_job("bake", &root().join(config), out, extra)
 }
 
-fn luminance(v: &serde_json::Value) -> f64 {
-    let c: Vec<f64> = serde_json::from_value(v.clone()).unwrap();
-    0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]
-}
-
 /// The acceptance: bake and reference complete, the reference converges
 /// (two seeds' means within 5%), and the files are what the report says.
 fn bake_converges(config: &str) -> (serde_json::Value, tempfile::TempDir) {

@@ -12,11 +12,6 @@ fn render(config: &str, out: &Path, extra: &[&str]) -> serde_json::Value {
     run_job("render", &root().join(config), out, extra)
 }
 
-fn luminance(v: &serde_json::Value) -> f64 {
-    let c: Vec<f64> = serde_json::from_value(v.clone()).unwrap();
-    0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]
-}
-
 fn f(v: &serde_json::Value) -> f64 {
     v.as_f64().unwrap_or_else(|| panic!("not a number: {v}"))
 }

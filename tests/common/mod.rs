@@ -132,3 +132,9 @@ pub fn place_and_bake(
     .field;
     (run, field)
 }
+
+/// Rec. 709 luminance of an RGB triple in a report.
+pub fn luminance(v: &serde_json::Value) -> f64 {
+    let c: Vec<f64> = serde_json::from_value(v.clone()).unwrap();
+    0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]
+}
