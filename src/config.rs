@@ -267,6 +267,36 @@ impl TryFrom<RawGrid> for GridParams {
     }
 }
 
+impl GridParams {
+    /// The cell counts as written on the command line, e.g. `4x4x4`.
+    pub fn dims_text(&self) -> String {
+        format!(
+            "{}x{}x{}",
+            self.cells.0 .0, self.cells.1 .0, self.cells.2 .0
+        )
+    }
+
+    /// Parses `NxMxK` (the part after `method:` on the command line) with
+    /// the same limits as the config file. The error is the reason alone,
+    /// naming `method` in its example; the caller adds the context.
+    pub fn parse_dims(dims: &str, method: &str) -> Result<GridParams, String> {
+        let parts: Vec<&str> = dims.split('x').collect();
+        if parts.len() != 3 {
+            return Err(format!("expected {method}:NxMxK, e.g. {method}:4x4x4"));
+        }
+        let mut n = [Count(1); 3];
+        for (slot, part) in n.iter_mut().zip(&parts) {
+            let v: u64 = part.parse().map_err(|_| {
+                format!("grid dimensions must be whole numbers, e.g. {method}:4x4x4")
+            })?;
+            *slot = Count::try_from(v)?;
+        }
+        GridParams::try_from(RawGrid {
+            cells: (n[0], n[1], n[2]),
+        })
+    }
+}
+
 /// The placement method and its parameters.
 #[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
 pub enum Placement {
@@ -277,6 +307,25 @@ pub enum Placement {
     MedialAxis(MedialAxisParams),
     /// McGuire et al. 2017: uniform grid over the domain.
     Grid(GridParams),
+    /// The uniform grid with RTXGI's probe relocation and classification
+    /// (Majercik et al. 2019, DDGI): probes moved out of geometry within
+    /// their cells, and switched off where they stay inside or see no
+    /// surface nearby. A competitor: what users of current engines get.
+    Relocated(GridParams),
+    /// Silvennoinen & Lehtinen 2017 §4.1: greedy thinning of candidate
+    /// voxels near surfaces by kernel density. A competitor.
+    Greedy(GreedyParams),
+}
+
+/// Parameters of the greedy voxel placement (Silvennoinen & Lehtinen 2017,
+/// §4.1 "Probe Locations and Radii").
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GreedyParams {
+    /// The paper's ρ_probes (world units): the radius of the density
+    /// kernel, and the spacing of the regular grid over the domain whose
+    /// point count is the number of probes kept.
+    pub spacing: Positive,
 }
 
 impl Placement {
@@ -285,14 +334,15 @@ impl Placement {
         match self {
             Placement::SdfSkeleton(_) => "sdf-skeleton".into(),
             Placement::MedialAxis(_) => "medial-axis".into(),
-            Placement::Grid(g) => {
-                format!("grid:{}x{}x{}", g.cells.0 .0, g.cells.1 .0, g.cells.2 .0)
-            }
+            Placement::Grid(g) => format!("grid:{}", g.dims_text()),
+            Placement::Relocated(g) => format!("relocated:{}", g.dims_text()),
+            Placement::Greedy(g) => format!("greedy:{}", g.spacing.0),
         }
     }
 
     /// Parses a method given on the command line: `sdf-skeleton`,
-    /// `medial-axis` or `grid:NxMxK`. `base` supplies the method's parameters
+    /// `medial-axis`, `grid:NxMxK`, `relocated:NxMxK` or `greedy:SPACING`
+    /// (world units). `base` supplies the method's parameters
     /// when the config already uses that method; otherwise they take their
     /// defaults.
     pub fn parse_cli(text: &str, base: &Placement) -> Result<Placement> {
@@ -310,25 +360,24 @@ impl Placement {
             });
         }
         if let Some(dims) = text.strip_prefix("grid:") {
-            let parts: Vec<&str> = dims.split('x').collect();
-            if parts.len() != 3 {
-                return Err(bad("expected grid:NxMxK, e.g. grid:4x4x4"));
-            }
-            let mut n = [Count(1); 3];
-            for (slot, part) in n.iter_mut().zip(&parts) {
-                let v: u64 = part
-                    .parse()
-                    .map_err(|_| bad("grid dimensions must be whole numbers, e.g. grid:4x4x4"))?;
-                *slot = Count::try_from(v).map_err(|e| bad(&e))?;
-            }
-            let grid = GridParams::try_from(RawGrid {
-                cells: (n[0], n[1], n[2]),
-            })
-            .map_err(|e| bad(&e))?;
-            return Ok(Placement::Grid(grid));
+            return Ok(Placement::Grid(
+                GridParams::parse_dims(dims, "grid").map_err(|e| bad(&e))?,
+            ));
+        }
+        if let Some(dims) = text.strip_prefix("relocated:") {
+            return Ok(Placement::Relocated(
+                GridParams::parse_dims(dims, "relocated").map_err(|e| bad(&e))?,
+            ));
+        }
+        if let Some(spacing) = text.strip_prefix("greedy:") {
+            let v: f64 = spacing
+                .parse()
+                .map_err(|_| bad("the spacing must be a number in world units, e.g. greedy:0.5"))?;
+            let spacing = Positive::try_from(v).map_err(|e| bad(&format!("spacing {e}")))?;
+            return Ok(Placement::Greedy(GreedyParams { spacing }));
         }
         Err(bad(
-            "unknown method; expected sdf-skeleton, medial-axis or grid:NxMxK",
+            "unknown method; expected sdf-skeleton, medial-axis, grid:NxMxK, relocated:NxMxK or greedy:SPACING",
         ))
     }
 }
@@ -1028,5 +1077,97 @@ mod tests {
             ..MedialAxisParams::default()
         });
         assert_eq!(Placement::parse_cli("medial-axis", &tuned).unwrap(), tuned);
+    }
+
+    fn cli_error(text: &str) -> String {
+        let base = Placement::SdfSkeleton(SdfSkeletonParams::default());
+        match Placement::parse_cli(text, &base) {
+            Err(Error::User(m)) => {
+                assert!(!m.contains('\n'), "one line: {m}");
+                assert!(m.starts_with(&format!("--method {text}: ")), "{m}");
+                m
+            }
+            other => panic!("{text}: expected a user error, got {other:?}"),
+        }
+    }
+
+    #[test]
+    fn cli_competitor_methods_round_trip_and_reject_mistakes() {
+        let base = Placement::SdfSkeleton(SdfSkeletonParams::default());
+        let r = Placement::parse_cli("relocated:2x3x4", &base).unwrap();
+        assert_eq!(
+            r,
+            Placement::Relocated(GridParams {
+                cells: (Count(2), Count(3), Count(4))
+            })
+        );
+        assert_eq!(r.name(), "relocated:2x3x4");
+        assert_eq!(Placement::parse_cli(&r.name(), &base).unwrap(), r);
+        let g = Placement::parse_cli("greedy:0.5", &base).unwrap();
+        assert_eq!(
+            g,
+            Placement::Greedy(GreedyParams {
+                spacing: Positive(0.5)
+            })
+        );
+        assert_eq!(g.name(), "greedy:0.5");
+        assert_eq!(Placement::parse_cli(&g.name(), &base).unwrap(), g);
+        let g = Placement::parse_cli("greedy:0.15", &base).unwrap();
+        assert_eq!(g.name(), "greedy:0.15");
+
+        let m = cli_error("greedy:-1");
+        assert!(m.contains("greater than 0"), "{m}");
+        let m = cli_error("greedy:abc");
+        assert!(m.contains("greedy:0.5"), "{m}");
+        assert!(cli_error("greedy:0").contains("greater than 0"));
+        assert!(cli_error("greedy:").contains("greedy:0.5"));
+        let m = cli_error("relocated:2x2");
+        assert!(m.contains("relocated:NxMxK"), "{m}");
+        let m = cli_error("relocated:2xax2");
+        assert!(
+            m.contains("whole numbers") && m.contains("relocated:4x4x4"),
+            "{m}"
+        );
+        assert!(cli_error("relocated:0x2x2").contains("from 1 to"));
+        assert!(cli_error("relocated:1024x1024x2").contains("exceeds"));
+        let m = cli_error("voronoi");
+        assert!(
+            m.contains("relocated:NxMxK") && m.contains("greedy:SPACING"),
+            "{m}"
+        );
+    }
+
+    #[test]
+    fn competitor_methods_parse_from_ron() {
+        let text = MINIMAL.replace(
+            "placement: SdfSkeleton(())",
+            "placement: Relocated((cells: (4, 4, 4)))",
+        );
+        assert_eq!(parse(&text).unwrap().placement.name(), "relocated:4x4x4");
+        let text = MINIMAL.replace(
+            "placement: SdfSkeleton(())",
+            "placement: Greedy((spacing: 0.5))",
+        );
+        assert_eq!(parse(&text).unwrap().placement.name(), "greedy:0.5");
+        let text = MINIMAL.replace(
+            "placement: SdfSkeleton(())",
+            "placement: Greedy((spacing: -0.5))",
+        );
+        let m = user_message(parse(&text));
+        assert!(
+            m.contains("placement.Greedy.spacing") && m.contains("greater than 0"),
+            "{m}"
+        );
+        let text = MINIMAL.replace(
+            "placement: SdfSkeleton(())",
+            "placement: Greedy((spacing: 0.5, radius: 2))",
+        );
+        let m = user_message(parse(&text));
+        assert!(m.contains("radius"), "{m}");
+        let text = MINIMAL.replace(
+            "placement: SdfSkeleton(())",
+            "placement: Relocated((cells: (4, 4)))",
+        );
+        assert!(user_message(parse(&text)).contains("placement"));
     }
 }

@@ -36,7 +36,8 @@ struct RunArgs {
     /// Output directory (default: the config's `output`).
     #[arg(long)]
     out: Option<PathBuf>,
-    /// Placement method: `sdf-skeleton`, `medial-axis` or `grid:NxMxK` (default: the config's).
+    /// Placement method: `sdf-skeleton`, `medial-axis`, `grid:NxMxK`, `relocated:NxMxK` or
+    /// `greedy:SPACING` (default: the config's).
     #[arg(long)]
     method: Option<String>,
     /// Random seed (default: the config's).

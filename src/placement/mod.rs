@@ -3,6 +3,15 @@
 //! Every method is a function from the shared scene representation (scene,
 //! BVH, SDF, domain) to a [`ProbeSet`]; coverage and reports treat all methods
 //! alike, so comparisons between them are fair.
+//!
+//! Besides the paper's methods (in [`crate::skeleton`]) and McGuire's grid
+//! (here), two competitors live in their own modules: [`relocate`], the grid
+//! with RTXGI/DDGI probe relocation and classification that current engines
+//! ship, and [`greedy`], Silvennoinen & Lehtinen 2017's greedy thinning of
+//! voxels near surfaces.
+
+pub mod greedy;
+pub mod relocate;
 
 use crate::config::{GridParams, Placement};
 use crate::error::Result;
@@ -74,13 +83,20 @@ pub fn place(method: &Placement, input: &PlacementInput) -> Result<ProbeSet> {
             probes: grid(g, input.domain),
             stats: BTreeMap::new(),
             params: BTreeMap::new(),
-            // A grid has no clearance rule of its own: refinement keeps its
-            // probes where the coverage measure's reference points may be.
-            min_clearance: crate::coverage::REFERENCE_MIN_CLEARANCE_VOXELS * input.sdf.voxel_size,
+            min_clearance: grid_min_clearance(input.sdf),
         },
         Placement::SdfSkeleton(p) => skeleton::sdf_skeleton(p, input)?,
         Placement::MedialAxis(p) => skeleton::medial_axis(p, input)?,
+        Placement::Relocated(g) => relocate::relocated_grid(g, input)?,
+        Placement::Greedy(p) => greedy::greedy(p, input)?,
     })
+}
+
+/// The clearance refinement keeps for grid-based sets. A grid has no
+/// clearance rule of its own: refinement keeps its probes where the
+/// coverage measure's reference points may be (one voxel from a surface).
+pub fn grid_min_clearance(sdf: &Sdf) -> f32 {
+    crate::coverage::REFERENCE_MIN_CLEARANCE_VOXELS * sdf.voxel_size
 }
 
 /// McGuire et al. 2017's uniform grid: the domain divided into N×M×K cells,
