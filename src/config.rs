@@ -284,12 +284,21 @@ impl GridParams {
         if parts.len() != 3 {
             return Err(format!("expected {method}:NxMxK, e.g. {method}:4x4x4"));
         }
-        let mut n = [Count(1); 3];
+        let mut n = [1u32; 3];
         for (slot, part) in n.iter_mut().zip(&parts) {
-            let v: u64 = part.parse().map_err(|_| {
+            *slot = part.parse().map_err(|_| {
                 format!("grid dimensions must be whole numbers, e.g. {method}:4x4x4")
             })?;
-            *slot = Count::try_from(v)?;
+        }
+        GridParams::new(n)
+    }
+
+    /// `cells[0] × cells[1] × cells[2]` cells, each within the per-axis and
+    /// total limits; the error says which is broken.
+    pub fn new(cells: [u32; 3]) -> Result<GridParams, String> {
+        let mut n = [Count(1); 3];
+        for (slot, &c) in n.iter_mut().zip(&cells) {
+            *slot = Count::try_from(c as u64)?;
         }
         GridParams::try_from(RawGrid {
             cells: (n[0], n[1], n[2]),
@@ -801,6 +810,32 @@ impl Default for ReferenceParams {
     }
 }
 
+/// `probeplace compare` (Wang et al. 2019 §5: equal-count, equal-quality
+/// and equal-performance comparisons against uniform grids).
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct CompareParams {
+    /// The uniform grids to compare against; empty: a sweep from a quarter
+    /// to eight times our probe count, in steps of about 2×.
+    pub grids: Vec<GridParams>,
+    /// Cameras besides `reference.camera`; every placement is rendered and
+    /// measured from each.
+    pub cameras: Vec<CameraParams>,
+    /// Glossy rays per pixel of the validation renders. Placements differ
+    /// by less than one ray's noise, so `compare` averages several.
+    pub glossy_rays: Count<256>,
+}
+
+impl Default for CompareParams {
+    fn default() -> Self {
+        CompareParams {
+            grids: Vec::new(),
+            cameras: Vec::new(),
+            glossy_rays: Count(32),
+        }
+    }
+}
+
 /// One run's configuration, as read from a RON file.
 #[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -847,6 +882,9 @@ pub struct Config {
     /// The path-traced reference image.
     #[serde(default)]
     pub reference: ReferenceParams,
+    /// The comparison with uniform grids and other placements.
+    #[serde(default)]
+    pub compare: CompareParams,
 }
 
 fn unit_scale() -> Positive {

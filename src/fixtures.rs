@@ -186,7 +186,8 @@ pub fn pillared_hall() -> ObjFixture {
         "Scene: a pillared hall imitating the \"Iconic Temple\" scene of Wang et al. 2019:",
         "a 24 m x 14 m x 8 m hall (x 0..24, z 0..14), two rows of five 0.8 m square pillars,",
         "a 1.5 m stone platform at the +x end reached by a 6 m wide stair of five 0.3 m",
-        "risers (four step boxes and the platform edge), and one emissive ceiling panel.",
+        "risers (four step boxes and the platform edge), one emissive ceiling panel and a",
+        "polished (glossy) floor.",
         "Units: metres, Y up.",
     ];
 
@@ -238,7 +239,8 @@ pub fn pillared_hall() -> ObjFixture {
     );
 
     let mut mtl = MtlBuilder::new(NAME, &header);
-    mtl.material("floor", [0.45, 0.4, 0.35], [0.0; 3]);
+    // Polished stone: the glossy reflections the comparisons measure.
+    mtl.glossy_material("floor", [0.36, 0.32, 0.28], [0.3; 3], 60.0);
     mtl.material("walls", [0.75, 0.72, 0.66], [0.0; 3]);
     mtl.material("stone", [0.6, 0.58, 0.54], [0.0; 3]);
     mtl.material("light", [0.8, 0.8, 0.8], [10.0, 10.0, 10.0]);
@@ -460,6 +462,17 @@ impl MtlBuilder {
         let _ = writeln!(self.text, "Ks 0 0 0");
         let _ = writeln!(self.text, "Ns 10");
         let _ = writeln!(self.text, "Ke {}", rgb(ke));
+    }
+
+    /// Writes a material with a GGX glossy lobe: specular colour `ks` and
+    /// Phong exponent `ns` (`render::material::alpha_from_shininess`).
+    fn glossy_material(&mut self, name: &str, kd: Vec3, ks: Vec3, ns: f64) {
+        let rgb = |c: Vec3| format!("{} {} {}", num(c[0]), num(c[1]), num(c[2]));
+        let _ = writeln!(self.text, "\nnewmtl {name}");
+        let _ = writeln!(self.text, "Kd {}", rgb(kd));
+        let _ = writeln!(self.text, "Ks {}", rgb(ks));
+        let _ = writeln!(self.text, "Ns {}", num(ns));
+        let _ = writeln!(self.text, "Ke 0 0 0");
     }
 
     fn finish(self) -> String {

@@ -20,11 +20,15 @@
 //! | light-field ray tracing on the CPU | [`trace`] | McGuire §4, Listing 1 |
 //! | light-field ray tracing on the GPU (wgpu): bi-level and Hi-Z | [`gpu`] | McGuire §4, §5.2; Wang §4.2 |
 //! | validation renders against the reference | [`render::probes`] | Wang §5.1 |
-//! | outputs | [`report`] | — |
+//! | competing placements: relocated grid, greedy voxels | [`placement`] | RTXGI; Silvennoinen & Lehtinen 2017 §4.1 |
+//! | comparisons against grids and competitors | [`compare`] | Wang §5, Figs. 8–12, Tables 1–2 |
+//! | outputs, `compare`'s HTML report | [`report`] | — |
 //!
-//! [`pipeline::place`] runs them in order; the `probeplace` binary is a thin
-//! shell over it.
+//! [`pipeline::place`] runs them in order, [`compare::compare`] runs them
+//! for every placement compared; the `probeplace` binary is a thin shell
+//! over both.
 
+pub mod compare;
 pub mod config;
 pub mod coverage;
 pub mod error;

@@ -68,6 +68,26 @@ enum Command {
         #[arg(long)]
         cpu: bool,
     },
+    /// Compare our placements (sdf-skeleton and medial-axis, refined) with a sweep of uniform grids, a relocated grid (RTXGI) and greedy voxel placement (Silvennoinen & Lehtinen 2017) at equal count, quality and performance; write compare.json, compare.csv and report.html.
+    Compare {
+        /// The run's RON config file (it needs `reference.camera`).
+        config: PathBuf,
+        /// Output directory (default: the config's `output`).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Grids to compare with, e.g. `2x2x2,4x2x4` (default: the config's `compare.grids`, else a sweep around our probe count).
+        #[arg(long)]
+        grids: Option<String>,
+        /// Random seed (default: the config's).
+        #[arg(long)]
+        seed: Option<u64>,
+        /// Trace on the CPU twin even where a GPU adapter exists.
+        #[arg(long)]
+        cpu: bool,
+        /// No progress bars and no summary.
+        #[arg(long)]
+        quiet: bool,
+    },
     /// Summarize an svo.bin (or the one in an output directory, with its lightfield.bin) after checking it.
     Inspect {
         /// An output directory of `place` or `bake`, or an svo.bin file.
@@ -149,6 +169,52 @@ fn main() -> ExitCode {
                     None => format!("{}: {} probes", r.method, r.probe_count),
                 },
             )
+        }
+        Command::Compare {
+            config,
+            out,
+            grids,
+            seed,
+            cpu,
+            quiet,
+        } => {
+            let grids = match grids.as_deref().map(probeplace::compare::parse_grids) {
+                Some(Err(e)) => return fail(e),
+                Some(Ok(g)) => Some(g),
+                None => None,
+            };
+            let options = probeplace::compare::CompareOptions {
+                out,
+                seed,
+                grids,
+                cpu,
+                progress: !quiet && std::io::stderr().is_terminal(),
+            };
+            match probeplace::compare::compare(&config, &options) {
+                Ok(outcome) => {
+                    for w in &outcome.report.warnings {
+                        eprintln!("warning: {w}");
+                    }
+                    if !quiet {
+                        for line in probeplace::report::compare::summary(&outcome.report) {
+                            println!("{line}");
+                        }
+                        println!(
+                            "wrote {} in {:.1} s",
+                            outcome.out_dir.join("report.html").display(),
+                            outcome
+                                .report
+                                .timings_ms
+                                .get("total")
+                                .copied()
+                                .unwrap_or(0.0)
+                                / 1e3
+                        );
+                    }
+                    ExitCode::SUCCESS
+                }
+                Err(e) => fail(e),
+            }
         }
         Command::Inspect { path, quiet } => match probeplace::pipeline::inspect(&path) {
             Ok(inspection) => {

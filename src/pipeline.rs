@@ -154,23 +154,13 @@ pub fn compute_place(
 
     let input = prepared.placement_input(config.seed, &progress);
     let t = Instant::now();
-    let probes = placement::place(&config.placement, &input).map_err(|e| e.in_file(config_path))?;
-    lap(&mut timings, "placement", t);
-
-    let t = Instant::now();
     let reference =
         CoverageReference::new(scene, bvh, sdf, &config.coverage, config.seed, &progress);
     lap(&mut timings, "coverage_reference", t);
 
-    let (probes, refined) = if config.refine.enabled {
-        let t = Instant::now();
-        let out = refine::refine(&config.refine, probes, &input, &reference)
-            .map_err(|e| e.in_file(config_path))?;
-        lap(&mut timings, "refine", t);
-        (out.probes, Some((out.report, out.atlas_image)))
-    } else {
-        (probes, None)
-    };
+    let (probes, refined) =
+        placement_stage(&config, config_path, &input, &reference, &mut timings)?;
+    let refined = refined.map(|r| (r.report, r.atlas_image));
 
     let t = Instant::now();
     let positions = probes.positions();
@@ -253,6 +243,31 @@ pub fn compute_place(
         progress,
         started: t_start,
     })
+}
+
+/// Places probes with `config.placement`, then refines them (Wang et al.
+/// 2019 §3.3) where `config.refine.enabled`; `reference` is the coverage
+/// measure refinement maximizes. Stage times go into `timings`.
+///
+/// Contract: errors of config fields are prefixed with `config_path`.
+pub fn placement_stage(
+    config: &Config,
+    config_path: &Path,
+    input: &PlacementInput,
+    reference: &CoverageReference,
+    timings: &mut BTreeMap<String, f64>,
+) -> Result<(ProbeSet, Option<refine::Refined>)> {
+    let t = Instant::now();
+    let probes = placement::place(&config.placement, input).map_err(|e| e.in_file(config_path))?;
+    lap(timings, "placement", t);
+    if !config.refine.enabled {
+        return Ok((probes, None));
+    }
+    let t = Instant::now();
+    let out = refine::refine(&config.refine, probes, input, reference)
+        .map_err(|e| e.in_file(config_path))?;
+    lap(timings, "refine", t);
+    Ok((out.probes.clone(), Some(out)))
 }
 
 /// The scene and what every placement method reads, built by [`prepare`].
@@ -359,28 +374,40 @@ fn render_png(
     probes: &ProbeSet,
     holes: &[Vec3],
 ) -> Result<Vec<u8>> {
+    let image = placement_views(scene, domain, &probes.positions(), holes, PREVIEW_VIEW_SIZE);
+    encode_png(&image, "placement.png")
+}
+
+/// The top and side views of `probes` in `scene` over `domain`, surface
+/// samples in `holes` marked, each view `view_size` pixels wide
+/// ([`preview::render_preview`]).
+pub fn placement_views(
+    scene: &Scene,
+    domain: &Bounds,
+    probes: &[Vec3],
+    holes: &[Vec3],
+    view_size: u32,
+) -> image::RgbImage {
     let colors: Vec<[f32; 3]> = scene
         .material_ids
         .iter()
         .map(|&m| scene.materials[m as usize].diffuse)
         .collect();
-    let positions = probes.positions();
-    let image = preview::render_preview(
+    preview::render_preview(
         &preview::PreviewInput {
             triangles: &scene.triangles,
             colors: &colors,
-            probes: &positions,
+            probes,
             holes,
             bounds_min: domain.min,
             bounds_max: domain.max,
         },
-        PREVIEW_VIEW_SIZE,
-    );
-    encode_png(&image, "placement.png")
+        view_size,
+    )
 }
 
 /// PNG bytes of `image`, which will be written as `name`.
-fn encode_png(image: &image::RgbImage, name: &str) -> Result<Vec<u8>> {
+pub fn encode_png(image: &image::RgbImage, name: &str) -> Result<Vec<u8>> {
     let mut bytes = Vec::new();
     image
         .write_to(
@@ -555,13 +582,10 @@ pub fn bake_stage(run: &mut PlaceRun) -> Result<BakeProducts> {
     use crate::report::bake::{
         atlas, distance_preview, normal_preview, BakeReport, ReferenceReport,
     };
-    use crate::sampling::Sampler;
     use crate::trace::{check, single::March, Selection};
 
     let config = &run.config;
-    let Prepared {
-        scene, domain, bvh, ..
-    } = &run.prepared;
+    let Prepared { scene, bvh, .. } = &run.prepared;
     let seed = config.seed;
     let mut timings: BTreeMap<String, f64> = BTreeMap::new();
     let renderer = Renderer::new(scene, bvh, &config.lights, config.bake.bounces.0);
@@ -571,20 +595,7 @@ pub fn bake_stage(run: &mut PlaceRun) -> Result<BakeProducts> {
         );
     }
     let positions = run.probes.positions();
-    let radiance = |o: Vec3, d: Vec3, stream: u64| {
-        renderer.radiance(o, d, &mut Sampler::new(seed ^ BAKE_STREAMS, stream))
-    };
-    let max_distance = domain.size().length();
-    let baked = crate::lightfield::bake(
-        &config.bake,
-        &positions,
-        scene,
-        bvh,
-        max_distance,
-        seed,
-        &radiance,
-        &run.progress,
-    );
+    let baked = bake_probes(config, &run.prepared, &renderer, &positions, &run.progress);
     for (k, v) in &baked.timings_ms {
         timings.insert(k.to_string(), *v);
     }
@@ -693,6 +704,35 @@ pub fn bake_stage(run: &mut PlaceRun) -> Result<BakeProducts> {
     })
 }
 
+/// The light-field bake (McGuire et al. 2017 §3) of probes at `positions`
+/// with `config.bake`, radiance path traced by `renderer` from the config's
+/// seed.
+///
+/// Contract: deterministic for a config and positions.
+pub fn bake_probes(
+    config: &Config,
+    prepared: &Prepared,
+    renderer: &crate::render::Renderer,
+    positions: &[Vec3],
+    progress: &Progress,
+) -> crate::lightfield::Baked {
+    use crate::sampling::Sampler;
+    let seed = config.seed;
+    let radiance = |o: Vec3, d: Vec3, stream: u64| {
+        renderer.radiance(o, d, &mut Sampler::new(seed ^ BAKE_STREAMS, stream))
+    };
+    crate::lightfield::bake(
+        &config.bake,
+        positions,
+        &prepared.scene,
+        &prepared.bvh,
+        prepared.domain.size().length(),
+        seed,
+        &radiance,
+        progress,
+    )
+}
+
 /// The marches `render` can run (`--variant`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Variant {
@@ -777,6 +817,7 @@ pub fn render_stage(
         camera,
         w,
         h,
+        1,
         &padded_bounds(&scene.bounds),
         run.config.seed ^ RENDER_STREAMS,
     );
@@ -955,7 +996,7 @@ fn push_image(
 }
 
 /// Mean luminance of `pixels`, non-finite values left out (0 for none).
-fn mean_luminance(pixels: &[[f32; 3]]) -> f64 {
+pub fn mean_luminance(pixels: &[[f32; 3]]) -> f64 {
     pixels
         .iter()
         .map(|&p| crate::render::lights::luminance(Vec3::from(p)) as f64)
@@ -966,7 +1007,7 @@ fn mean_luminance(pixels: &[[f32; 3]]) -> f64 {
 
 /// Exposure that maps the mean luminance of `pixels` to 0.4 (display
 /// previews only; the EXR files hold the linear values).
-fn auto_exposure(pixels: &[[f32; 3]]) -> f32 {
+pub fn auto_exposure(pixels: &[[f32; 3]]) -> f32 {
     let mean = mean_luminance(pixels);
     if mean > 1e-12 {
         (0.4 / mean) as f32

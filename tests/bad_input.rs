@@ -407,6 +407,11 @@ fn command_line_mistakes_are_one_line_and_exit_2() {
         &["place", "configs/cornell.ron", "--bogus"],
         &["place", "configs/cornell.ron", "--seed", "x"],
         &["render", "configs/cornell.ron", "--variant", "fastest"],
+        &["compare", "configs/cornell.ron", "--grids", "2x2"],
+        &["compare", "configs/cornell.ron", "--grids", "2xtwox2"],
+        &["compare", "configs/cornell.ron", "--grids", "0x1x1"],
+        &["compare", "configs/cornell.ron", "--grids", ","],
+        &["compare", "configs/cornell.ron", "--method", "grid:2x2x2"],
         &["frobnicate"],
     ] {
         let o = probeplace(args);
@@ -445,7 +450,7 @@ fn bake_and_light_mistakes_name_their_field() {
             "bk.ron",
             &format!("(scene: \"room.obj\", voxel_size: 0.1, placement: SdfSkeleton(()),\n {extra})"),
         );
-        for command in ["place", "bake", "render"] {
+        for command in ["place", "bake", "render", "compare"] {
             let out = d.path().join("out");
             let o = probeplace(&[command, p.to_str().unwrap(), "--out", out.to_str().unwrap()]);
             let e = String::from_utf8_lossy(&o.stderr).into_owned();
@@ -477,4 +482,61 @@ fn render_without_a_camera_names_the_field() {
         "{e}"
     );
     assert!(!out.exists(), "nothing may be written");
+}
+
+#[test]
+fn compare_without_a_camera_names_the_field() {
+    let d = tempfile::tempdir().unwrap();
+    obj(d.path(), "room.obj", CUBE_ROOM);
+    let p = config(d.path(), "room.obj", "");
+    let out = d.path().join("out");
+    let o = probeplace(&[
+        "compare",
+        p.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let e = String::from_utf8_lossy(&o.stderr).into_owned();
+    assert_eq!(o.status.code(), Some(2), "{e}");
+    assert_eq!(e.trim().lines().count(), 1, "{e}");
+    assert!(
+        e.contains("run.ron") && e.contains("reference.camera"),
+        "{e}"
+    );
+    assert!(!out.exists(), "nothing may be written");
+}
+
+#[test]
+fn compare_mistakes_name_their_field() {
+    let d = tempfile::tempdir().unwrap();
+    obj(d.path(), "room.obj", CUBE_ROOM);
+    for (extra, why) in [
+        ("compare: (glossy_rays: 0)", "glossy_rays"),
+        ("compare: (grids: [(cells: (0, 1, 1))])", "grids"),
+        (
+            "compare: (cameras: [(position: (0, 1, 0), look_at: (0, 1, 0))])",
+            "look_at must differ",
+        ),
+        ("compare: (sweep: 3)", "sweep"),
+    ] {
+        let p = raw_config(
+            d.path(),
+            "cmp.ron",
+            &format!(
+                "(scene: \"room.obj\", voxel_size: 0.1, placement: SdfSkeleton(()),\n {extra})"
+            ),
+        );
+        let out = d.path().join("out");
+        let o = probeplace(&[
+            "compare",
+            p.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        let e = String::from_utf8_lossy(&o.stderr).into_owned();
+        assert_eq!(o.status.code(), Some(2), "{extra}: {e}");
+        assert_eq!(e.trim().lines().count(), 1, "{extra}: {e}");
+        assert!(e.contains("cmp.ron:2:") && e.contains(why), "{extra}: {e}");
+        assert!(!out.exists(), "{extra}: nothing may be written");
+    }
 }

@@ -158,8 +158,11 @@ impl<'a> Renderer<'a> {
     /// estimated as in [`Renderer::radiance`], then the diffuse lobe and the
     /// glossy lobe are each sampled once (not one chosen by albedo), and each
     /// path continues for `bounces − 1` further bounces. `glossy_indirect` is
-    /// thereby an unbiased estimate of the indirect light reflected by the
-    /// glossy lobe alone; `full` adds emission, direct and diffuse indirect.
+    /// thereby an unbiased estimate of the light the glossy lobe reflects
+    /// from other surfaces: the glossy bounce, plus the glossy part of the
+    /// area lights' direct light ([`LightSet::direct_split`]), which is what
+    /// a probe-traced glossy ray returns. Delta lights and the sky stay
+    /// direct light. `full` adds emission, direct and diffuse indirect.
     ///
     /// Contract: as [`Renderer::radiance`]; `glossy_indirect` is exactly 0
     /// where the first surface has no glossy lobe, and `full` has the same
@@ -171,16 +174,20 @@ impl<'a> Renderer<'a> {
                 glossy_indirect: Vec3::ZERO,
             };
         };
-        let mut full = self.emission[v.material] + self.direct(&v, sampler);
-        let mut glossy_indirect = Vec3::ZERO;
+        let (direct, area_glossy) =
+            self.lights
+                .direct_split(self.bvh, v.p, v.n, v.wo, &self.bsdfs[v.material], sampler);
+        let mut full = self.emission[v.material] + direct;
+        let mut glossy_indirect = area_glossy;
         if self.bounces > 0 {
             let start = self.spawn(&v);
             if let Some((wi, weight)) = self.sample_lobe(&v, Lobe::Diffuse, sampler) {
                 full += self.trace(start, wi, weight, self.bounces, sampler);
             }
             if let Some((wi, weight)) = self.sample_lobe(&v, Lobe::Glossy, sampler) {
-                glossy_indirect = self.trace(start, wi, weight, self.bounces, sampler);
-                full += glossy_indirect;
+                let reflected = self.trace(start, wi, weight, self.bounces, sampler);
+                glossy_indirect += reflected;
+                full += reflected;
             }
         }
         Split {
@@ -500,6 +507,64 @@ mod tests {
         // agree statistically, not bit for bit.
         assert!(a > 0.01, "{a}");
         assert!((a / b - 1.0).abs() < 0.01, "wound down {a}, wound up {b}");
+    }
+
+    /// An emitter seen in a glossy floor is glossy indirect light in the
+    /// split, as it is for a probe-traced glossy ray: its mean equals the
+    /// emission met by rays drawn from the glossy lobe alone.
+    #[test]
+    fn split_counts_emitters_seen_in_the_glossy_lobe() {
+        let floor = floor(50.0);
+        let quad = [
+            [
+                Vec3::new(-1.0, 1.0, -1.0),
+                Vec3::new(1.0, 1.0, 1.0),
+                Vec3::new(-1.0, 1.0, 1.0),
+            ],
+            [
+                Vec3::new(-1.0, 1.0, -1.0),
+                Vec3::new(1.0, 1.0, -1.0),
+                Vec3::new(1.0, 1.0, 1.0),
+            ],
+        ];
+        let polished = Material {
+            name: "polished".into(),
+            diffuse: [0.2; 3],
+            specular: [0.5; 3],
+            shininess: 50.0,
+            emission: [0.0; 3],
+        };
+        let scene = Scene::from_triangles(
+            "t".into(),
+            [(floor[0], 0), (floor[1], 0), (quad[0], 1), (quad[1], 1)],
+            vec![polished, matte(0.0, 3.0)],
+        )
+        .unwrap();
+        let bvh = SceneBvh::new(&scene);
+        let r = Renderer::new(&scene, &bvh, &[], 1);
+        let eye = Vec3::new(0.0, 0.6, -1.5);
+        let dir = (Vec3::new(0.0, 0.0, 0.3) - eye).normalize();
+        let v = r.intersect(eye, dir).unwrap();
+        let n = 200_000u64;
+        let (mut split, mut lobe) = (0.0f64, 0.0f64);
+        for i in 0..n {
+            split += r
+                .radiance_split(eye, dir, &mut Sampler::new(4, i))
+                .glossy_indirect
+                .x as f64;
+            let mut s = Sampler::new(5, i);
+            if let Some(g) = r.bsdfs()[v.material].sample_glossy(v.n, v.wo, s.next_2d()) {
+                if let Some(hit) = r.intersect(r.spawn(&v), g.wi) {
+                    lobe += (r.emission(hit.material) * g.weight).x as f64;
+                }
+            }
+        }
+        let (split, lobe) = (split / n as f64, lobe / n as f64);
+        assert!(lobe > 0.05, "the floor reflects the emitter: {lobe}");
+        assert!(
+            (split / lobe - 1.0).abs() < 0.03,
+            "glossy indirect {split} vs emission through the glossy lobe {lobe}"
+        );
     }
 
     /// `radiance_split` follows both lobes at the first surface where

@@ -256,9 +256,33 @@ impl LightSet {
         bsdf: &Bsdf,
         sampler: &mut Sampler,
     ) -> Vec3 {
+        self.direct_split(bvh, p, n, wo, bsdf, sampler).0
+    }
+
+    /// [`LightSet::direct`] (first) with, second, the part of it that the
+    /// glossy lobe reflects from emissive surfaces (the area lights). A
+    /// light-field probe stores the emission of the surface it sees, so a
+    /// probe-traced glossy ray returns exactly that light; the reference's
+    /// glossy split counts it too, or the probes would be charged for
+    /// light the reference leaves out (Wang et al. 2019 §5.1 compares the
+    /// glossy indirect images).
+    ///
+    /// Contract: as [`LightSet::direct`]; the first value is bit-for-bit
+    /// what [`LightSet::direct`] returns and draws the same samples.
+    #[allow(clippy::too_many_arguments)]
+    pub fn direct_split(
+        &self,
+        bvh: &SceneBvh,
+        p: Vec3,
+        n: Vec3,
+        wo: Vec3,
+        bsdf: &Bsdf,
+        sampler: &mut Sampler,
+    ) -> (Vec3, Vec3) {
         let eps = self.epsilon;
         let origin = p + n * eps;
         let mut sum = self.direct_delta(bvh, p, n, wo, bsdf);
+        let mut area_glossy = Vec3::ZERO;
         if !self.area.is_empty() {
             let u = sampler.next_f32();
             let uv = sampler.next_2d();
@@ -275,8 +299,10 @@ impl LightSet {
                 let cos = n.dot(wi);
                 let cos_light = light.normal.dot(wi).abs();
                 if cos > 0.0 && cos_light > 0.0 && !bvh.occluded(origin, y, eps) {
-                    let f = bsdf.eval(n, wo, wi).total();
-                    sum += light.emission * f * (cos * cos_light / (d2 * light.pdf_area));
+                    let f = bsdf.eval(n, wo, wi);
+                    let k = cos * cos_light / (d2 * light.pdf_area);
+                    sum += light.emission * f.total() * k;
+                    area_glossy += light.emission * f.glossy * k;
                 }
             }
         }
@@ -287,7 +313,7 @@ impl LightSet {
                 sum += self.sky * bsdf.eval(n, wo, wi).total() * std::f32::consts::PI;
             }
         }
-        sum
+        (sum, area_glossy)
     }
 
     /// The part of [`LightSet::direct`] from the delta lights: every point,

@@ -6,9 +6,11 @@
 //! through pixel centres of the reference's camera: the first surface's
 //! point, normal and material are exact, so the error against the
 //! reference measures the probes alone. At each pixel:
-//! - **glossy indirect**: one ray drawn from the material's glossy lobe
-//!   (seeded per pixel), traced through the probes on the GPU; the
-//!   radiance read where it ends, times the lobe's weight `f cos / pdf`;
+//! - **glossy indirect**: rays drawn from the material's glossy lobe
+//!   (seeded per pixel; one for `render`, more for `compare`, whose
+//!   placements differ by less than one ray's noise), traced through the
+//!   probes on the GPU; the radiance read where each ends, times the
+//!   lobe's weight `f cos / pdf`, averaged;
 //! - **diffuse indirect**: `kd′/π · E`, with E gathered from the
 //!   irradiance probes (McGuire §5.2);
 //! - **direct**: point, spot and directional lights, shaded analytically
@@ -16,8 +18,9 @@
 //!   the sky reach the image through the probes, as in a real-time engine.
 //!
 //! The glossy image is compared with the reference's glossy indirect
-//! component, which counts the sky and emitters seen in the glossy lobe as
-//! direct light: rays that leave the scene add nothing to it.
+//! component: light the glossy lobe reflects from surfaces, emitters
+//! included ([`crate::render::lights::LightSet::direct_split`]); the sky is
+//! direct light there, so rays that leave the scene add nothing to it.
 
 use super::integrator::Renderer;
 use super::lights::luminance;
@@ -37,8 +40,6 @@ pub struct Pixel {
     pub direct: Vec3,
     /// `kd′ / π`: what irradiance is multiplied by.
     pub diffuse: Vec3,
-    /// `f cos / pdf` of the glossy ray; zero where there is none.
-    pub glossy_weight: Vec3,
     /// Whether the primary ray hit a surface.
     pub surface: bool,
 }
@@ -60,25 +61,30 @@ pub struct GBuffer {
     pub glossy: Vec<Query>,
     /// Pixel of each glossy ray.
     pub glossy_pixel: Vec<u32>,
+    /// `f cos / pdf` of each glossy ray, divided by the rays per pixel.
+    pub glossy_weight: Vec<Vec3>,
 }
 
-/// A pixel with its irradiance query and its glossy ray, if any.
-type PixelQueries = (Pixel, Option<Query>, Option<Query>);
+/// A pixel with its irradiance query and its glossy rays with their weights.
+type PixelQueries = (Pixel, Option<Query>, Vec<(Query, Vec3)>);
 
 /// Casts the primary rays of `camera` at `width × height` and draws each
-/// pixel's glossy ray from stream `(seed, pixel)`; rays end at `bounds`
-/// (the scene's, padded as the tracer check pads them).
+/// pixel's `glossy_rays` glossy rays from stream `(seed, pixel)`; rays end
+/// at `bounds` (the scene's, padded as the tracer check pads them).
 ///
-/// Contract: deterministic for a seed, whatever the thread count; every
-/// query direction is unit length and every `t_max` finite.
+/// Contract: `glossy_rays ≥ 1`; deterministic for a seed, whatever the
+/// thread count; a pixel's first ray is the same whatever `glossy_rays`;
+/// every query direction is unit length and every `t_max` finite.
 pub fn gbuffer(
     renderer: &Renderer,
     camera: &CameraParams,
     width: u32,
     height: u32,
+    glossy_rays: u32,
     bounds: &Bounds,
     seed: u64,
 ) -> GBuffer {
+    let share = 1.0 / glossy_rays.max(1) as f32;
     let cam = Camera::new(camera, width, height);
     let rows: Vec<Vec<PixelQueries>> = (0..height)
         .into_par_iter()
@@ -92,14 +98,13 @@ pub fn gbuffer(
                             direct: renderer.lights().sky(),
                             ..Pixel::default()
                         };
-                        return (sky, None, None);
+                        return (sky, None, Vec::new());
                     };
                     let bsdf = &renderer.bsdfs()[v.material];
                     let start = renderer.spawn(&v);
-                    let mut pixel = Pixel {
+                    let pixel = Pixel {
                         direct: renderer.emission(v.material) + renderer.direct_delta(&v),
                         diffuse: bsdf.diffuse * std::f32::consts::FRAC_1_PI,
-                        glossy_weight: Vec3::ZERO,
                         surface: true,
                     };
                     let irradiance = Query {
@@ -109,15 +114,18 @@ pub fn gbuffer(
                         pad: 0.0,
                     };
                     let mut sampler = Sampler::new(seed, index);
-                    let glossy = bsdf.sample_glossy(v.n, v.wo, sampler.next_2d()).map(|s| {
-                        pixel.glossy_weight = s.weight;
-                        Query {
-                            origin: start.to_array(),
-                            t_max: bounds.exit_distance(start, s.wi),
-                            dir: s.wi.to_array(),
-                            pad: 0.0,
-                        }
-                    });
+                    let glossy = (0..glossy_rays)
+                        .filter_map(|_| {
+                            let s = bsdf.sample_glossy(v.n, v.wo, sampler.next_2d())?;
+                            let query = Query {
+                                origin: start.to_array(),
+                                t_max: bounds.exit_distance(start, s.wi),
+                                dir: s.wi.to_array(),
+                                pad: 0.0,
+                            };
+                            Some((query, s.weight * share))
+                        })
+                        .collect();
                     (pixel, Some(irradiance), glossy)
                 })
                 .collect()
@@ -131,6 +139,7 @@ pub fn gbuffer(
         irradiance_pixel: Vec::new(),
         glossy: Vec::new(),
         glossy_pixel: Vec::new(),
+        glossy_weight: Vec::new(),
     };
     for (i, (pixel, irradiance, glossy)) in rows.into_iter().flatten().enumerate() {
         g.pixels.push(pixel);
@@ -138,9 +147,10 @@ pub fn gbuffer(
             g.irradiance.push(q);
             g.irradiance_pixel.push(i as u32);
         }
-        if let Some(q) = glossy {
+        for (q, weight) in glossy {
             g.glossy.push(q);
             g.glossy_pixel.push(i as u32);
+            g.glossy_weight.push(weight);
         }
     }
     g
@@ -167,11 +177,11 @@ pub fn compose(g: &GBuffer, irradiance: &[Record], glossy: &[Record]) -> ProbeIm
         let e = Vec3::from_slice(&r.radiance[..3]);
         full[i as usize] += g.pixels[i as usize].diffuse * e;
     }
-    for (&i, r) in g.glossy_pixel.iter().zip(glossy) {
-        let l = Vec3::from_slice(&r.radiance[..3]) * g.pixels[i as usize].glossy_weight;
+    for ((&i, r), weight) in g.glossy_pixel.iter().zip(glossy).zip(&g.glossy_weight) {
+        let l = Vec3::from_slice(&r.radiance[..3]) * *weight;
         full[i as usize] += l;
         if r.kind != kind::MISS {
-            glossy_indirect[i as usize] = l;
+            glossy_indirect[i as usize] += l;
         }
     }
     ProbeImage {
@@ -191,6 +201,38 @@ pub fn mse(a: &[[f32; 3]], b: &[[f32; 3]]) -> f64 {
         .flat_map(|(x, y)| (0..3).map(move |c| (x[c] as f64 - y[c] as f64).powi(2)))
         .sum();
     sum / (3 * a.len().max(1)) as f64
+}
+
+/// `pixels` (`width × height`, row-major) averaged over the
+/// `(2·radius+1)²` window around each pixel, clipped at the borders (a
+/// separable box filter).
+///
+/// Contract: `pixels.len() == width · height`; deterministic.
+pub fn box_filter(pixels: &[[f32; 3]], width: u32, height: u32, radius: u32) -> Vec<[f32; 3]> {
+    let (w, h, r) = (width as usize, height as usize, radius as usize);
+    assert_eq!(pixels.len(), w * h, "image size");
+    let pass = |src: &[[f64; 3]], stride: usize, step: usize, n: usize, lines: usize| {
+        let mut out = vec![[0.0f64; 3]; src.len()];
+        for line in 0..lines {
+            let at = |i: usize| line * stride + i * step;
+            for i in 0..n {
+                let (lo, hi) = (i.saturating_sub(r), (i + r).min(n - 1));
+                let mut sum = [0.0f64; 3];
+                for j in lo..=hi {
+                    for c in 0..3 {
+                        sum[c] += src[at(j)][c];
+                    }
+                }
+                let k = (hi - lo + 1) as f64;
+                out[at(i)] = sum.map(|v| v / k);
+            }
+        }
+        out
+    };
+    let src: Vec<[f64; 3]> = pixels.iter().map(|p| p.map(f64::from)).collect();
+    let rows = pass(&src, w, 1, w, h);
+    let both = pass(&rows, 1, w, h, w);
+    both.iter().map(|p| p.map(|v| v as f32)).collect()
 }
 
 /// A heat map of the luminance of `a − b`: black where they agree, through

@@ -7,7 +7,9 @@
 //! never leaves a half-written or stale-looking output behind.
 
 pub mod bake;
+pub mod compare;
 pub mod exr;
+pub mod html;
 pub mod preview;
 pub mod render;
 

@@ -1,0 +1,411 @@
+//! `compare.json` and `compare.csv`: every placement measured alike, and
+//! the three matches Wang et al. 2019 §5 draws against uniform grids
+//! (Figs. 8–12, Tables 1–2): equal probe count, equal quality and equal
+//! performance.
+
+use serde::Serialize;
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+
+/// Which kind of placement a row is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Family {
+    /// Ours: a skeleton placement refined (Wang et al. 2019 §3).
+    Ours,
+    /// A uniform grid of the sweep (McGuire et al. 2017).
+    Grid,
+    /// A grid with RTXGI-style relocation and classification.
+    Relocated,
+    /// Silvennoinen & Lehtinen 2017's greedy voxel placement.
+    Greedy,
+}
+
+impl Family {
+    /// The name in `compare.json` and `compare.csv`.
+    pub fn key(self) -> &'static str {
+        match self {
+            Family::Ours => "ours",
+            Family::Grid => "grid",
+            Family::Relocated => "relocated",
+            Family::Greedy => "greedy",
+        }
+    }
+
+    /// The name in tables.
+    pub fn label(self) -> &'static str {
+        match self {
+            Family::Ours => "ours",
+            Family::Grid => "uniform grid",
+            Family::Relocated => "grid, relocated (RTXGI)",
+            Family::Greedy => "greedy (Silvennoinen & Lehtinen)",
+        }
+    }
+}
+
+/// One placement seen from one camera.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct CameraRow {
+    /// Glossy-indirect MSE against the reference (Wang et al. 2019 §5.1).
+    pub mse_glossy: f64,
+    /// The same after a 7×7 box filter of both images, which removes most
+    /// sampling noise and keeps what placement changes: missing and wrong
+    /// reflections (Wang's Fig. 8 compares filtered glossy components).
+    pub mse_glossy_filtered: f64,
+    /// MSE of the whole image against the reference.
+    pub mse_full: f64,
+    /// Pyramid texels the Hi-Z march visits per glossy ray.
+    pub texel_fetches_per_ray: f64,
+    /// Glossy rays no probe resolved (unknown or no probe), as a fraction.
+    pub unresolved_fraction: f64,
+    /// GPU time of the trace and the gather (timestamps); absent on the
+    /// CPU twin or without timestamp queries.
+    pub gpu_ms: Option<f64>,
+}
+
+/// One placement, measured.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct PlacementRow {
+    /// Unique name, e.g. `sdf-skeleton` or `grid:4x2x4`.
+    pub name: String,
+    /// What kind of placement it is.
+    pub family: Family,
+    /// The tracer: `bilevel+grid` (McGuire et al. 2017, for lattices) or
+    /// `hiz+svo` (Wang et al. 2019).
+    pub tracer: &'static str,
+    /// Probes placed.
+    pub probes: usize,
+    /// Fraction of the coverable surface some probe sees (the `place` measure).
+    pub coverage: f64,
+    /// Probes standing in solid space (SDF).
+    pub probes_in_solid: usize,
+    /// Bytes of the baked probe maps (`lightfield.bin`'s payload).
+    pub probe_bytes: u64,
+    /// Bytes of the SVO of probe indices (Wang et al. 2019 §4.1).
+    pub svo_bytes: u64,
+    /// Mean over cameras of [`CameraRow::mse_glossy`].
+    pub mse_glossy: f64,
+    /// Mean over cameras of [`CameraRow::mse_glossy_filtered`]: the quality
+    /// figure the matches use. At the sample counts a comparison can
+    /// afford, the unfiltered MSE is mostly Monte Carlo noise that every
+    /// placement shares; filtering leaves the errors placement causes.
+    pub mse_glossy_filtered: f64,
+    /// Mean over cameras of [`CameraRow::texel_fetches_per_ray`].
+    pub texel_fetches_per_ray: f64,
+    /// Sum over cameras of [`CameraRow::gpu_ms`], where every camera has it.
+    pub gpu_ms: Option<f64>,
+    /// One row per camera, in the order of `CompareReport::cameras`.
+    pub cameras: Vec<CameraRow>,
+    /// The method's own statistics (what relocation moved, what the
+    /// greedy removal kept, what refinement pruned).
+    pub stats: BTreeMap<String, f64>,
+}
+
+/// A grid picked by one of the three matches.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Matched {
+    /// The grid's name.
+    pub grid: String,
+    /// Its probe count.
+    pub probes: usize,
+    /// Its error ([`PlacementRow::error`]).
+    pub error: f64,
+    /// Its performance figure (see [`CompareReport::performance_metric`]).
+    pub performance: f64,
+}
+
+/// The three matches for one placement.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Comparison {
+    /// The placement matched.
+    pub placement: String,
+    /// Its probe count.
+    pub probes: usize,
+    /// Its error ([`PlacementRow::error`]).
+    pub error: f64,
+    /// The grid whose probe count is nearest (ties: the larger grid).
+    pub equal_count: Option<Matched>,
+    /// `equal_count`'s error over ours: above 1, ours has lower error.
+    pub error_ratio_at_equal_count: Option<f64>,
+    /// The smallest grid whose error is at or below ours; `None` when no grid
+    /// of the sweep reaches our quality.
+    pub equal_quality: Option<Matched>,
+    /// `equal_quality`'s probe count over ours: above 1, ours needs fewer.
+    pub probe_ratio_at_equal_quality: Option<f64>,
+    /// The grid whose performance figure is nearest ours.
+    pub equal_performance: Option<Matched>,
+    /// `equal_performance`'s error over ours.
+    pub error_ratio_at_equal_performance: Option<f64>,
+}
+
+/// A camera the placements are measured from.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct CameraRecord {
+    /// Eye position.
+    pub position: [f32; 3],
+    /// Point looked at.
+    pub look_at: [f32; 3],
+    /// Vertical field of view.
+    pub fov_degrees: f32,
+    /// Mean of the reference's glossy indirect component, per channel.
+    pub reference_glossy_mean: [f64; 3],
+}
+
+/// `compare.json`.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct CompareReport {
+    /// `"probeplace-compare"`.
+    pub format: &'static str,
+    /// Format version.
+    pub version: u32,
+    /// The config file.
+    pub config: String,
+    /// The scene file.
+    pub scene: String,
+    /// The seed.
+    pub seed: u64,
+    /// The tracer's adapter (`cpu twin` without one).
+    pub adapter: String,
+    /// What the matches compare errors by: `mse_glossy_filtered`.
+    pub quality_metric: &'static str,
+    /// `gpu_ms` where a hardware GPU timed every placement, else
+    /// `texel_fetches_per_ray` (lavapipe's times measure a CPU).
+    pub performance_metric: &'static str,
+    /// Render size.
+    pub width: u32,
+    /// Render size.
+    pub height: u32,
+    /// Glossy rays per pixel.
+    pub glossy_rays: u32,
+    /// The cameras.
+    pub cameras: Vec<CameraRecord>,
+    /// Every placement, ours first, then the grids by count, then the others.
+    pub placements: Vec<PlacementRow>,
+    /// The three matches for every placement that is not a sweep grid.
+    pub comparisons: Vec<Comparison>,
+    /// Problems worth knowing.
+    pub warnings: Vec<String>,
+    /// Wall time per step (ms).
+    pub timings_ms: BTreeMap<String, f64>,
+}
+
+impl PlacementRow {
+    /// The quality figure the matches use: [`PlacementRow::mse_glossy_filtered`].
+    pub fn error(&self) -> f64 {
+        self.mse_glossy_filtered
+    }
+
+    /// The figure equal performance matches on.
+    pub fn performance(&self, metric: &str) -> f64 {
+        match metric {
+            "gpu_ms" => self.gpu_ms.unwrap_or(f64::NAN),
+            _ => self.texel_fetches_per_ray,
+        }
+    }
+}
+
+/// The metric equal performance uses: GPU time where every placement has
+/// one from hardware, else texel fetches per ray.
+pub fn performance_metric(adapter: &str, rows: &[PlacementRow]) -> &'static str {
+    let software = ["llvmpipe", "lavapipe", "swiftshader", "cpu twin", "warp"]
+        .iter()
+        .any(|s| adapter.to_lowercase().contains(s));
+    if !software && rows.iter().all(|r| r.gpu_ms.is_some()) {
+        "gpu_ms"
+    } else {
+        "texel_fetches_per_ray"
+    }
+}
+
+/// The three matches of every non-grid row against the grid rows.
+///
+/// Contract: deterministic; rows with family [`Family::Grid`] form the
+/// sweep; an empty sweep gives matches of `None`.
+pub fn comparisons(rows: &[PlacementRow], metric: &str) -> Vec<Comparison> {
+    let mut grids: Vec<&PlacementRow> = rows.iter().filter(|r| r.family == Family::Grid).collect();
+    grids.sort_by(|a, b| a.probes.cmp(&b.probes).then(a.name.cmp(&b.name)));
+    let matched = |g: &PlacementRow| Matched {
+        grid: g.name.clone(),
+        probes: g.probes,
+        error: g.error(),
+        performance: g.performance(metric),
+    };
+    rows.iter()
+        .filter(|r| r.family != Family::Grid)
+        .map(|r| {
+            let equal_count = grids
+                .iter()
+                .min_by(|a, b| {
+                    let da = a.probes.abs_diff(r.probes);
+                    let db = b.probes.abs_diff(r.probes);
+                    da.cmp(&db).then(b.probes.cmp(&a.probes))
+                })
+                .map(|g| matched(g));
+            let equal_quality = grids
+                .iter()
+                .find(|g| g.error() <= r.error())
+                .map(|g| matched(g));
+            let ours = r.performance(metric);
+            let equal_performance = grids
+                .iter()
+                .filter(|g| g.performance(metric).is_finite())
+                .min_by(|a, b| {
+                    let da = (a.performance(metric) - ours).abs();
+                    let db = (b.performance(metric) - ours).abs();
+                    da.total_cmp(&db).then(a.probes.cmp(&b.probes))
+                })
+                .map(|g| matched(g));
+            let ratio = |a: f64, b: f64| (b > 0.0).then_some(a / b);
+            Comparison {
+                placement: r.name.clone(),
+                probes: r.probes,
+                error: r.error(),
+                error_ratio_at_equal_count: equal_count
+                    .as_ref()
+                    .and_then(|m| ratio(m.error, r.error())),
+                probe_ratio_at_equal_quality: equal_quality
+                    .as_ref()
+                    .and_then(|m| ratio(m.probes as f64, r.probes as f64)),
+                error_ratio_at_equal_performance: equal_performance
+                    .as_ref()
+                    .and_then(|m| ratio(m.error, r.error())),
+                equal_count,
+                equal_quality,
+                equal_performance,
+            }
+        })
+        .collect()
+}
+
+/// One line per placement of ours: its three matches, for the terminal.
+pub fn summary(report: &CompareReport) -> Vec<String> {
+    report
+        .comparisons
+        .iter()
+        .filter(|c| {
+            report
+                .placements
+                .iter()
+                .any(|p| p.name == c.placement && p.family == Family::Ours)
+        })
+        .map(|c| {
+            let count = match (&c.equal_count, c.error_ratio_at_equal_count) {
+                (Some(m), Some(r)) => format!("{} has {r:.2}× the error", m.grid),
+                _ => "no grid".into(),
+            };
+            let quality = match (&c.equal_quality, c.probe_ratio_at_equal_quality) {
+                (Some(m), Some(r)) => format!("{} ({} probes, {r:.2}×)", m.grid, m.probes),
+                _ => "no grid of the sweep".into(),
+            };
+            let perf = match (&c.equal_performance, c.error_ratio_at_equal_performance) {
+                (Some(m), Some(r)) => format!("{} has {r:.2}× the error", m.grid),
+                _ => "no grid".into(),
+            };
+            format!(
+                "{}: {} probes, filtered glossy MSE {:.3e}; equal count: {count}; equal quality: {quality}; equal {}: {perf}",
+                c.placement, c.probes, c.error, report.performance_metric
+            )
+        })
+        .collect()
+}
+
+/// `compare.csv`: one line per placement and camera, a header first.
+pub fn to_csv(report: &CompareReport) -> String {
+    let mut out = String::from(
+        "placement,family,tracer,camera,probes,coverage,probes_in_solid,probe_bytes,svo_bytes,texel_fetches_per_ray,gpu_ms,mse_glossy,mse_glossy_filtered,mse_full,unresolved_fraction\n",
+    );
+    for p in &report.placements {
+        for (i, c) in p.cameras.iter().enumerate() {
+            let gpu = c.gpu_ms.map(|v| format!("{v:.3}")).unwrap_or_default();
+            let _ = writeln!(
+                out,
+                "{},{},{},{i},{},{:.6},{},{},{},{:.4},{gpu},{:.6e},{:.6e},{:.6e},{:.6}",
+                p.name,
+                p.family.key(),
+                p.tracer,
+                p.probes,
+                p.coverage,
+                p.probes_in_solid,
+                p.probe_bytes,
+                p.svo_bytes,
+                c.texel_fetches_per_ray,
+                c.mse_glossy,
+                c.mse_glossy_filtered,
+                c.mse_full,
+                c.unresolved_fraction,
+            );
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn row(name: &str, family: Family, probes: usize, mse: f64, fetches: f64) -> PlacementRow {
+        PlacementRow {
+            name: name.into(),
+            family,
+            tracer: "hiz+svo",
+            probes,
+            coverage: 1.0,
+            probes_in_solid: 0,
+            probe_bytes: 0,
+            svo_bytes: 0,
+            mse_glossy: mse,
+            mse_glossy_filtered: mse,
+            texel_fetches_per_ray: fetches,
+            gpu_ms: None,
+            cameras: vec![],
+            stats: BTreeMap::new(),
+        }
+    }
+
+    #[test]
+    fn matches_pick_nearest_count_smallest_equal_quality_and_nearest_cost() {
+        let rows = vec![
+            row("ours", Family::Ours, 10, 2.0, 20.0),
+            row("g8", Family::Grid, 8, 5.0, 30.0),
+            row("g12", Family::Grid, 12, 3.0, 21.0),
+            row("g27", Family::Grid, 27, 1.9, 18.0),
+            row("g64", Family::Grid, 64, 1.0, 15.0),
+        ];
+        let c = &comparisons(&rows, "texel_fetches_per_ray")[0];
+        // 8 and 12 are both 2 away: the larger grid wins the tie.
+        assert_eq!(c.equal_count.as_ref().unwrap().grid, "g12");
+        assert_eq!(c.error_ratio_at_equal_count, Some(1.5));
+        assert_eq!(c.equal_quality.as_ref().unwrap().grid, "g27");
+        assert_eq!(c.probe_ratio_at_equal_quality, Some(2.7));
+        assert_eq!(c.equal_performance.as_ref().unwrap().grid, "g12");
+    }
+
+    #[test]
+    fn no_grid_reaching_our_quality_gives_none() {
+        let rows = vec![
+            row("ours", Family::Ours, 10, 0.5, 20.0),
+            row("g8", Family::Grid, 8, 5.0, 30.0),
+            row("reloc", Family::Relocated, 7, 6.0, 30.0),
+        ];
+        let cs = comparisons(&rows, "texel_fetches_per_ray");
+        assert_eq!(cs.len(), 2, "grids are not matched against themselves");
+        assert!(cs[0].equal_quality.is_none());
+        assert_eq!(cs[1].equal_quality.as_ref().unwrap().grid, "g8");
+    }
+
+    #[test]
+    fn software_adapters_fall_back_to_texel_fetches() {
+        let mut rows = vec![row("g", Family::Grid, 8, 1.0, 3.0)];
+        rows[0].gpu_ms = Some(2.0);
+        assert_eq!(
+            performance_metric("llvmpipe (LLVM 15.0.6, 256 bits) (Vulkan)", &rows),
+            "texel_fetches_per_ray"
+        );
+        assert_eq!(performance_metric("NVIDIA H100 (Vulkan)", &rows), "gpu_ms");
+        rows[0].gpu_ms = None;
+        assert_eq!(
+            performance_metric("NVIDIA H100 (Vulkan)", &rows),
+            "texel_fetches_per_ray"
+        );
+    }
+}

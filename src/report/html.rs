@@ -1,0 +1,651 @@
+//! `report.html`: the comparison at a glance, in one self-contained file
+//! (images inlined as base64 PNG, plots as inline SVG, no scripts or fonts
+//! fetched), so it opens in a browser with no network and can be mailed or
+//! attached to a review as it is.
+//!
+//! The plots are drawn here as SVG rather than with a plotting crate: two
+//! scatter plots need only axes, ticks and polylines, and hand-written SVG
+//! keeps the page byte-identical from run to run without font files.
+
+use super::compare::{CompareReport, Comparison, Family, Matched, PlacementRow};
+use std::fmt::Write as _;
+
+/// The images of one placement, PNG-encoded.
+pub struct PlacementFigures {
+    /// Top and side views of the probes (as `placement.png`).
+    pub views: Vec<u8>,
+    /// The validation render from each camera.
+    pub renders: Vec<Vec<u8>>,
+    /// The glossy-error heat map from each camera.
+    pub errors: Vec<Vec<u8>>,
+}
+
+/// Every image of the page, PNG-encoded.
+pub struct Figures {
+    /// The path-traced reference from each camera.
+    pub references: Vec<Vec<u8>>,
+    /// Per placement, in the order of `CompareReport::placements`.
+    pub placements: Vec<PlacementFigures>,
+}
+
+/// The page for `report` with `figures`.
+///
+/// Contract: deterministic; every `<img>` is a `data:image/png;base64` URI
+/// and nothing refers outside the file; text is HTML-escaped.
+pub fn page(report: &CompareReport, figures: &Figures) -> String {
+    let mut h = String::with_capacity(1 << 20);
+    let scene = escape(&report.scene);
+    let _ = write!(
+        h,
+        "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n\
+         <title>probeplace compare: {scene}</title>\n<style>{STYLE}</style>\n</head>\n<body>\n\
+         <h1>Probe placement compared: {scene}</h1>\n"
+    );
+    let _ = writeln!(
+        h,
+        "<p class=\"meta\">config <code>{}</code> · seed {} · grids traced by McGuire's bi-level march and grid selection, the rest by Wang's Hi-Z march and SVO selection, on <b>{}</b> · \
+         {}×{} pixels, {} glossy rays per pixel · {} camera(s) · equal performance by <code>{}</code></p>",
+        escape(&report.config),
+        report.seed,
+        escape(&report.adapter),
+        report.width,
+        report.height,
+        report.glossy_rays,
+        report.cameras.len(),
+        report.performance_metric
+    );
+    summary(&mut h, report);
+    placements_table(&mut h, report);
+    matches_table(&mut h, report);
+
+    h.push_str(
+        "<h2 id=\"plots\">Error and coverage against probe count</h2>\n<div class=\"plots\">\n",
+    );
+    h.push_str(&plot(
+        "Filtered glossy indirect MSE (lower is better)",
+        "probes",
+        "MSE",
+        true,
+        report,
+        |r| r.mse_glossy_filtered,
+    ));
+    h.push_str(&plot(
+        "Coverage (higher is better)",
+        "probes",
+        "coverage",
+        false,
+        report,
+        |r| r.coverage,
+    ));
+    h.push_str("</div>\n");
+
+    h.push_str("<h2 id=\"references\">Path-traced reference</h2>\n<div class=\"row\">\n");
+    for (i, png) in figures.references.iter().enumerate() {
+        figure(&mut h, png, &format!("camera {i}"), "reference");
+    }
+    h.push_str("</div>\n");
+
+    h.push_str("<h2 id=\"gallery\">Placements, renders and glossy error</h2>\n");
+    h.push_str("<p>Top and side views: probes as dots, surface samples no probe sees in red. Error maps: black where the glossy indirect light matches the reference, through red and yellow to white at four times its mean.</p>\n");
+    for (row, fig) in report.placements.iter().zip(&figures.placements) {
+        let _ = writeln!(
+            h,
+            "<section class=\"card {}\"><h3>{} <small>{} · {} · {} probes · filtered glossy MSE {}</small></h3>\n<div class=\"row\">",
+            row.family.key(),
+            escape(&row.name),
+            row.family.label(),
+            row.tracer,
+            row.probes,
+            sci(row.mse_glossy_filtered)
+        );
+        figure(&mut h, &fig.views, "top and side views", "views");
+        for (i, (render, error)) in fig.renders.iter().zip(&fig.errors).enumerate() {
+            figure(&mut h, render, &format!("render, camera {i}"), "render");
+            figure(&mut h, error, &format!("glossy error, camera {i}"), "error");
+        }
+        h.push_str("</div></section>\n");
+    }
+    if !report.warnings.is_empty() {
+        h.push_str("<h2>Warnings</h2>\n<ul>\n");
+        for w in &report.warnings {
+            let _ = writeln!(h, "<li>{}</li>", escape(w));
+        }
+        h.push_str("</ul>\n");
+    }
+    let _ = write!(
+        h,
+        "<p class=\"meta\" id=\"figures\">{} figures inlined.</p>\n<script>{CHECK}</script>\n</body>\n</html>\n",
+        count_figures(figures)
+    );
+    h
+}
+
+/// Marks the page with how many of its images decoded, so a reader (or a
+/// headless browser) sees at once whether the file arrived whole.
+const CHECK: &str = "window.addEventListener('load',function(){var i=document.images,n=0;\
+for(var k=0;k<i.length;k++){if(i[k].complete&&i[k].naturalWidth>0){n++;}}\
+var p=document.getElementById('figures');p.dataset.decoded=n;p.dataset.total=i.length;\
+p.textContent=n+' of '+i.length+' figures decoded.';});";
+
+const STYLE: &str = "body{font-family:system-ui,sans-serif;margin:1.5em;color:#222;max-width:1400px}\
+table{border-collapse:collapse;margin:1em 0;font-size:0.9em}th,td{border:1px solid #ccc;padding:3px 8px;text-align:right}\
+th{background:#f2f2f2}td:first-child,th:first-child{text-align:left}tr.ours td{background:#eaf5ea;font-weight:600}\
+.meta{color:#555;font-size:0.9em}.row{display:flex;flex-wrap:wrap;gap:8px}figure{margin:0}\
+figcaption{font-size:0.8em;color:#555}img{display:block;max-width:100%;image-rendering:auto}\
+.card{border:1px solid #ddd;border-radius:6px;padding:6px 10px;margin:10px 0}.card.ours{border-color:#5a5}\
+h3 small{font-weight:normal;color:#666}.plots{display:flex;flex-wrap:wrap;gap:16px}\
+.summary li{margin:0.3em 0}";
+
+fn count_figures(f: &Figures) -> usize {
+    f.references.len()
+        + f.placements
+            .iter()
+            .map(|p| 1 + p.renders.len() + p.errors.len())
+            .sum::<usize>()
+}
+
+/// One sentence per match of each of our placements.
+fn summary(h: &mut String, report: &CompareReport) {
+    h.push_str("<h2 id=\"summary\">Summary</h2>\n<ul class=\"summary\">\n");
+    for c in &report.comparisons {
+        let family = report
+            .placements
+            .iter()
+            .find(|p| p.name == c.placement)
+            .map(|p| p.family);
+        if family != Some(Family::Ours) {
+            continue;
+        }
+        let _ = write!(
+            h,
+            "<li><b>{}</b> ({} probes, filtered glossy MSE {}): ",
+            escape(&c.placement),
+            c.probes,
+            sci(c.error)
+        );
+        match (&c.equal_count, c.error_ratio_at_equal_count) {
+            (Some(m), Some(r)) => {
+                let _ = write!(
+                    h,
+                    "at equal count, {} ({} probes) has <b>{:.2}×</b> the error; ",
+                    escape(&m.grid),
+                    m.probes,
+                    r
+                );
+            }
+            _ => h.push_str("no grid to match the count; "),
+        }
+        match (&c.equal_quality, c.probe_ratio_at_equal_quality) {
+            (Some(m), Some(r)) => {
+                let _ = write!(
+                    h,
+                    "for equal quality a grid needs {} ({} probes, <b>{:.2}×</b> as many); ",
+                    escape(&m.grid),
+                    m.probes,
+                    r
+                );
+            }
+            _ => {
+                let largest = report
+                    .placements
+                    .iter()
+                    .filter(|p| p.family == Family::Grid)
+                    .map(|p| p.probes)
+                    .max()
+                    .unwrap_or(0);
+                let _ = write!(
+                    h,
+                    "<b>no grid of the sweep reaches its quality</b> (largest: {largest} probes); "
+                );
+            }
+        }
+        match (&c.equal_performance, c.error_ratio_at_equal_performance) {
+            (Some(m), Some(r)) => {
+                let _ = writeln!(
+                    h,
+                    "at equal performance, {} has {:.2}× the error.</li>",
+                    escape(&m.grid),
+                    r
+                );
+            }
+            _ => h.push_str("no grid to match the performance.</li>\n"),
+        }
+    }
+    h.push_str("</ul>\n");
+}
+
+fn placements_table(h: &mut String, report: &CompareReport) {
+    h.push_str("<h2 id=\"placements\">Placements</h2>\n<table id=\"placements-table\">\n<tr><th>placement</th><th>kind</th><th>probes</th><th>coverage</th><th>in solid</th><th>probe data</th><th>SVO</th><th>tracer</th><th>texel fetches / ray</th><th>GPU ms</th><th>glossy MSE</th><th>filtered glossy MSE</th>");
+    let cams = report.cameras.len();
+    if cams > 1 {
+        for i in 0..cams {
+            let _ = write!(h, "<th>filtered MSE cam {i}</th>");
+        }
+    }
+    h.push_str("</tr>\n");
+    for r in &report.placements {
+        let _ = write!(
+            h,
+            "<tr class=\"{}\"><td>{}</td><td>{}</td><td>{}</td><td>{:.2}%</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{:.1}</td><td>{}</td><td>{}</td><td>{}</td>",
+            r.family.key(),
+            escape(&r.name),
+            r.family.label(),
+            r.probes,
+            100.0 * r.coverage,
+            r.probes_in_solid,
+            bytes(r.probe_bytes),
+            bytes(r.svo_bytes),
+            r.tracer,
+            r.texel_fetches_per_ray,
+            r.gpu_ms.map(|v| format!("{v:.1}")).unwrap_or_else(|| "–".into()),
+            sci(r.mse_glossy),
+            sci(r.mse_glossy_filtered)
+        );
+        if cams > 1 {
+            for c in &r.cameras {
+                let _ = write!(h, "<td>{}</td>", sci(c.mse_glossy_filtered));
+            }
+        }
+        h.push_str("</tr>\n");
+    }
+    h.push_str("</table>\n");
+}
+
+fn matches_table(h: &mut String, report: &CompareReport) {
+    h.push_str("<h2 id=\"matches\">Matched grids</h2>\n<p>Equal count: the grid nearest in probe count. Errors are the glossy MSE after a 7×7 box filter of render and reference (sampling noise filtered out, as Wang et al. compare filtered glossy components). Equal quality: the smallest grid whose error is at or below the placement's. Equal performance: the grid nearest in ");
+    h.push_str(report.performance_metric);
+    h.push_str(".</p>\n<table id=\"matches-table\">\n<tr><th>placement</th><th>probes</th><th>equal count</th><th>grid error / ours</th><th>equal quality</th><th>grid probes / ours</th><th>equal performance</th><th>grid error / ours</th></tr>\n");
+    let cell = |m: &Option<Matched>| match m {
+        Some(m) => format!("{} ({} probes)", escape(&m.grid), m.probes),
+        None => "none in the sweep".into(),
+    };
+    let ratio = |r: Option<f64>| r.map(|v| format!("{v:.2}×")).unwrap_or_else(|| "–".into());
+    for c in &report.comparisons {
+        let Comparison {
+            placement, probes, ..
+        } = c;
+        let class = report
+            .placements
+            .iter()
+            .find(|p| &p.name == placement)
+            .map(|p| p.family.key())
+            .unwrap_or("");
+        let _ = writeln!(
+            h,
+            "<tr class=\"{class}\"><td>{}</td><td>{probes}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
+            escape(placement),
+            cell(&c.equal_count),
+            ratio(c.error_ratio_at_equal_count),
+            cell(&c.equal_quality),
+            ratio(c.probe_ratio_at_equal_quality),
+            cell(&c.equal_performance),
+            ratio(c.error_ratio_at_equal_performance),
+        );
+    }
+    h.push_str("</table>\n");
+}
+
+fn figure(h: &mut String, png: &[u8], caption: &str, class: &str) {
+    let _ = writeln!(
+        h,
+        "<figure class=\"{class}\"><img alt=\"{}\" src=\"data:image/png;base64,{}\"><figcaption>{}</figcaption></figure>",
+        escape(caption),
+        base64(png),
+        escape(caption)
+    );
+}
+
+/// Plot area and margins of the SVG plots, in pixels.
+const PLOT_W: f64 = 560.0;
+const PLOT_H: f64 = 340.0;
+const LEFT: f64 = 70.0;
+const BOTTOM: f64 = 45.0;
+const TOP: f64 = 30.0;
+const RIGHT: f64 = 170.0;
+
+/// Colour and marker of each family.
+fn style(f: Family) -> (&'static str, &'static str) {
+    match f {
+        Family::Ours => ("#2a8a2a", "circle"),
+        Family::Grid => ("#3060c0", "square"),
+        Family::Relocated => ("#c07020", "diamond"),
+        Family::Greedy => ("#a03090", "triangle"),
+    }
+}
+
+/// A scatter plot of `y(row)` against probe count (log scale), the grid
+/// sweep joined by a line; `log_y` puts y on a log scale too.
+fn plot(
+    title: &str,
+    x_label: &str,
+    y_label: &str,
+    log_y: bool,
+    report: &CompareReport,
+    y: impl Fn(&PlacementRow) -> f64,
+) -> String {
+    let points: Vec<(&PlacementRow, f64, f64)> = report
+        .placements
+        .iter()
+        .map(|r| (r, r.probes.max(1) as f64, y(r)))
+        .filter(|(_, _, v)| v.is_finite() && (!log_y || *v > 0.0))
+        .collect();
+    let mut s = String::new();
+    let (w, hgt) = (LEFT + PLOT_W + RIGHT, TOP + PLOT_H + BOTTOM);
+    let _ = writeln!(
+        s,
+        "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{w}\" height=\"{hgt}\" viewBox=\"0 0 {w} {hgt}\" font-family=\"sans-serif\" font-size=\"12\">"
+    );
+    let _ = writeln!(
+        s,
+        "<text x=\"{}\" y=\"18\" text-anchor=\"middle\" font-size=\"14\">{}</text>",
+        LEFT + PLOT_W / 2.0,
+        escape(title)
+    );
+    if points.is_empty() {
+        s.push_str("</svg>\n");
+        return s;
+    }
+    let xs = Axis::new(points.iter().map(|p| p.1), true);
+    let ys = Axis::new(points.iter().map(|p| p.2), log_y);
+    let px = |x: f64| LEFT + xs.unit(x) * PLOT_W;
+    let py = |v: f64| TOP + (1.0 - ys.unit(v)) * PLOT_H;
+    let _ = writeln!(
+        s,
+        "<rect x=\"{LEFT}\" y=\"{TOP}\" width=\"{PLOT_W}\" height=\"{PLOT_H}\" fill=\"none\" stroke=\"#888\"/>"
+    );
+    for t in xs.ticks() {
+        let x = px(t);
+        let _ = writeln!(
+            s,
+            "<line x1=\"{x:.1}\" y1=\"{TOP}\" x2=\"{x:.1}\" y2=\"{:.1}\" stroke=\"#eee\"/><text x=\"{x:.1}\" y=\"{:.1}\" text-anchor=\"middle\">{}</text>",
+            TOP + PLOT_H,
+            TOP + PLOT_H + 16.0,
+            tick_label(t)
+        );
+    }
+    for t in ys.ticks() {
+        let yy = py(t);
+        let _ = writeln!(
+            s,
+            "<line x1=\"{LEFT}\" y1=\"{yy:.1}\" x2=\"{:.1}\" y2=\"{yy:.1}\" stroke=\"#eee\"/><text x=\"{:.1}\" y=\"{:.1}\" text-anchor=\"end\">{}</text>",
+            LEFT + PLOT_W,
+            LEFT - 6.0,
+            yy + 4.0,
+            tick_label(t)
+        );
+    }
+    let _ = writeln!(
+        s,
+        "<text x=\"{}\" y=\"{}\" text-anchor=\"middle\">{}</text><text transform=\"translate(16 {}) rotate(-90)\" text-anchor=\"middle\">{}</text>",
+        LEFT + PLOT_W / 2.0,
+        hgt - 8.0,
+        escape(x_label),
+        TOP + PLOT_H / 2.0,
+        escape(y_label)
+    );
+    let mut grid: Vec<&(&PlacementRow, f64, f64)> = points
+        .iter()
+        .filter(|p| p.0.family == Family::Grid)
+        .collect();
+    grid.sort_by(|a, b| a.1.total_cmp(&b.1));
+    if grid.len() > 1 {
+        let line: Vec<String> = grid
+            .iter()
+            .map(|p| format!("{:.1},{:.1}", px(p.1), py(p.2)))
+            .collect();
+        let _ = writeln!(
+            s,
+            "<polyline fill=\"none\" stroke=\"{}\" stroke-width=\"1.5\" points=\"{}\"/>",
+            style(Family::Grid).0,
+            line.join(" ")
+        );
+    }
+    for (r, x, v) in &points {
+        let (color, shape) = style(r.family);
+        let (cx, cy) = (px(*x), py(*v));
+        let _ = writeln!(
+            s,
+            "{}<title>{}: {} probes, {}</title></g>",
+            marker(shape, color, cx, cy),
+            escape(&r.name),
+            r.probes,
+            sci(*v)
+        );
+        if r.family != Family::Grid {
+            let _ = writeln!(
+                s,
+                "<text x=\"{:.1}\" y=\"{:.1}\" font-size=\"10\" fill=\"{color}\">{}</text>",
+                cx + 7.0,
+                cy - 6.0,
+                escape(&r.name)
+            );
+        }
+    }
+    let mut ly = TOP + 10.0;
+    for f in [
+        Family::Ours,
+        Family::Grid,
+        Family::Relocated,
+        Family::Greedy,
+    ] {
+        if !points.iter().any(|p| p.0.family == f) {
+            continue;
+        }
+        let (color, shape) = style(f);
+        let lx = LEFT + PLOT_W + 16.0;
+        let _ = writeln!(
+            s,
+            "{}</g><text x=\"{:.1}\" y=\"{:.1}\" font-size=\"11\">{}</text>",
+            marker(shape, color, lx, ly),
+            lx + 10.0,
+            ly + 4.0,
+            escape(f.label())
+        );
+        ly += 18.0;
+    }
+    s.push_str("</svg>\n");
+    s
+}
+
+/// An open `<g>` holding a marker at (x, y); the caller closes it.
+fn marker(shape: &str, color: &str, x: f64, y: f64) -> String {
+    let body = match shape {
+        "circle" => format!("<circle cx=\"{x:.1}\" cy=\"{y:.1}\" r=\"5\"/>"),
+        "square" => format!(
+            "<rect x=\"{:.1}\" y=\"{:.1}\" width=\"8\" height=\"8\"/>",
+            x - 4.0,
+            y - 4.0
+        ),
+        "diamond" => format!(
+            "<polygon points=\"{:.1},{:.1} {:.1},{:.1} {:.1},{:.1} {:.1},{:.1}\"/>",
+            x,
+            y - 6.0,
+            x + 6.0,
+            y,
+            x,
+            y + 6.0,
+            x - 6.0,
+            y
+        ),
+        _ => format!(
+            "<polygon points=\"{:.1},{:.1} {:.1},{:.1} {:.1},{:.1}\"/>",
+            x,
+            y - 6.0,
+            x + 6.0,
+            y + 5.0,
+            x - 6.0,
+            y + 5.0
+        ),
+    };
+    format!("<g fill=\"{color}\" stroke=\"#fff\" stroke-width=\"0.8\">{body}")
+}
+
+/// A plot axis: a padded range, linear or logarithmic.
+struct Axis {
+    lo: f64,
+    hi: f64,
+    log: bool,
+}
+
+impl Axis {
+    fn new(values: impl Iterator<Item = f64>, log: bool) -> Axis {
+        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+        for v in values {
+            let v = if log { v.log10() } else { v };
+            lo = lo.min(v);
+            hi = hi.max(v);
+        }
+        let pad = if hi > lo { 0.06 * (hi - lo) } else { 0.5 };
+        Axis {
+            lo: lo - pad,
+            hi: hi + pad,
+            log,
+        }
+    }
+
+    /// Position of `v` along the axis, 0 to 1.
+    fn unit(&self, v: f64) -> f64 {
+        let v = if self.log { v.log10() } else { v };
+        (v - self.lo) / (self.hi - self.lo)
+    }
+
+    /// Tick values inside the range: 1, 2, 5 × 10ᵏ on a log axis (decades
+    /// alone when they are enough), about six round steps on a linear one.
+    fn ticks(&self) -> Vec<f64> {
+        if self.log {
+            let decades = self.hi - self.lo;
+            let mantissas: &[f64] = if decades > 3.0 {
+                &[1.0]
+            } else {
+                &[1.0, 2.0, 5.0]
+            };
+            let mut out = Vec::new();
+            for k in (self.lo.floor() as i32)..=(self.hi.ceil() as i32) {
+                for m in mantissas {
+                    let v = m * 10f64.powi(k);
+                    if (self.lo..=self.hi).contains(&v.log10()) {
+                        out.push(v);
+                    }
+                }
+            }
+            out
+        } else {
+            let raw = (self.hi - self.lo) / 6.0;
+            let mag = 10f64.powf(raw.log10().floor());
+            let step = [1.0, 2.0, 5.0, 10.0]
+                .iter()
+                .map(|m| m * mag)
+                .find(|s| *s >= raw)
+                .unwrap_or(10.0 * mag);
+            let mut v = (self.lo / step).ceil() * step;
+            let mut out = Vec::new();
+            while v <= self.hi {
+                out.push(v);
+                v += step;
+            }
+            out
+        }
+    }
+}
+
+fn tick_label(v: f64) -> String {
+    if v != 0.0 && (v.abs() < 1e-2 || v.abs() >= 1e5) {
+        format!("{v:.0e}")
+    } else if v.fract() == 0.0 {
+        format!("{v:.0}")
+    } else {
+        let s = format!("{v:.3}");
+        s.trim_end_matches('0').to_string()
+    }
+}
+
+/// `v` in scientific notation with three significant digits.
+fn sci(v: f64) -> String {
+    format!("{v:.3e}")
+}
+
+fn bytes(b: u64) -> String {
+    match b {
+        0..=9_999 => format!("{b} B"),
+        10_000..=9_999_999 => format!("{:.1} KiB", b as f64 / 1024.0),
+        _ => format!("{:.1} MiB", b as f64 / (1024.0 * 1024.0)),
+    }
+}
+
+/// Escapes the five HTML special characters.
+pub fn escape(s: &str) -> String {
+    let mut out = String::with_capacity(s.len());
+    for c in s.chars() {
+        match c {
+            '&' => out.push_str("&amp;"),
+            '<' => out.push_str("&lt;"),
+            '>' => out.push_str("&gt;"),
+            '"' => out.push_str("&quot;"),
+            '\'' => out.push_str("&#39;"),
+            c => out.push(c),
+        }
+    }
+    out
+}
+
+/// Standard base64 (RFC 4648 §4) with padding.
+pub fn base64(data: &[u8]) -> String {
+    const A: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    let mut out = String::with_capacity(data.len().div_ceil(3) * 4);
+    for chunk in data.chunks(3) {
+        let b = [
+            chunk[0],
+            *chunk.get(1).unwrap_or(&0),
+            *chunk.get(2).unwrap_or(&0),
+        ];
+        let n = (b[0] as u32) << 16 | (b[1] as u32) << 8 | b[2] as u32;
+        for i in 0..4 {
+            if i <= chunk.len() {
+                out.push(A[(n >> (18 - 6 * i) & 63) as usize] as char);
+            } else {
+                out.push('=');
+            }
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn base64_matches_rfc_4648_vectors() {
+        let cases = [
+            ("", ""),
+            ("f", "Zg=="),
+            ("fo", "Zm8="),
+            ("foo", "Zm9v"),
+            ("foob", "Zm9vYg=="),
+            ("fooba", "Zm9vYmE="),
+            ("foobar", "Zm9vYmFy"),
+        ];
+        for (plain, encoded) in cases {
+            assert_eq!(base64(plain.as_bytes()), encoded, "{plain}");
+        }
+    }
+
+    #[test]
+    fn escape_covers_markup_characters() {
+        assert_eq!(
+            escape("<a href=\"x\">Tom & Jerry's</a>"),
+            "&lt;a href=&quot;x&quot;&gt;Tom &amp; Jerry&#39;s&lt;/a&gt;"
+        );
+    }
+
+    #[test]
+    fn log_ticks_are_round_and_inside_the_range() {
+        let a = Axis::new([3.0, 250.0].into_iter(), true);
+        let t = a.ticks();
+        assert!(t.contains(&10.0) && t.contains(&100.0), "{t:?}");
+        assert!(t.iter().all(|v| (a.lo..=a.hi).contains(&v.log10())));
+        let lin = Axis::new([0.91, 1.0].into_iter(), false);
+        let t = lin.ticks();
+        assert!(t.len() >= 3 && t.len() <= 12, "{t:?}");
+    }
+}
