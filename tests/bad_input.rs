@@ -463,47 +463,22 @@ fn bake_and_light_mistakes_name_their_field() {
 }
 
 #[test]
-fn render_without_a_camera_names_the_field() {
+fn render_and_compare_without_a_camera_name_the_field() {
     let d = tempfile::tempdir().unwrap();
     obj(d.path(), "room.obj", CUBE_ROOM);
     let p = config(d.path(), "room.obj", "");
     let out = d.path().join("out");
-    let o = probeplace(&[
-        "render",
-        p.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-    ]);
-    let e = String::from_utf8_lossy(&o.stderr).into_owned();
-    assert_eq!(o.status.code(), Some(2), "{e}");
-    assert_eq!(e.trim().lines().count(), 1, "{e}");
-    assert!(
-        e.contains("run.ron") && e.contains("reference.camera"),
-        "{e}"
-    );
-    assert!(!out.exists(), "nothing may be written");
-}
-
-#[test]
-fn compare_without_a_camera_names_the_field() {
-    let d = tempfile::tempdir().unwrap();
-    obj(d.path(), "room.obj", CUBE_ROOM);
-    let p = config(d.path(), "room.obj", "");
-    let out = d.path().join("out");
-    let o = probeplace(&[
-        "compare",
-        p.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-    ]);
-    let e = String::from_utf8_lossy(&o.stderr).into_owned();
-    assert_eq!(o.status.code(), Some(2), "{e}");
-    assert_eq!(e.trim().lines().count(), 1, "{e}");
-    assert!(
-        e.contains("run.ron") && e.contains("reference.camera"),
-        "{e}"
-    );
-    assert!(!out.exists(), "nothing may be written");
+    for command in ["render", "compare"] {
+        let o = probeplace(&[command, p.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+        let e = String::from_utf8_lossy(&o.stderr).into_owned();
+        assert_eq!(o.status.code(), Some(2), "{command}: {e}");
+        assert_eq!(e.trim().lines().count(), 1, "{command}: {e}");
+        assert!(
+            e.contains("run.ron") && e.contains("reference.camera"),
+            "{command}: {e}"
+        );
+        assert!(!out.exists(), "{command}: nothing may be written");
+    }
 }
 
 #[test]

@@ -335,6 +335,7 @@ fn plot(
         s,
         "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{w}\" height=\"{hgt}\" viewBox=\"0 0 {w} {hgt}\" font-family=\"sans-serif\" font-size=\"12\">"
     );
+    s.push_str("<rect width=\"100%\" height=\"100%\" fill=\"#fff\"/>\n");
     let _ = writeln!(
         s,
         "<text x=\"{}\" y=\"18\" text-anchor=\"middle\" font-size=\"14\">{}</text>",
