@@ -176,8 +176,8 @@ pub fn compare(config_path: &Path, options: &CompareOptions) -> Result<CompareOu
             &mut stage_times,
         )?;
         let mut stats: BTreeMap<String, f64> = stats_of(&probes);
-        if let Some(r) = &refined {
-            stats.insert("refine_coverage_final".into(), r.report.coverage_final);
+        if let Some((report, _)) = &refined {
+            stats.insert("refine_coverage_final".into(), report.coverage_final);
         }
         if ours_count == 0 || method == config.placement.name() {
             ours_count = probes.probes.len();
@@ -203,40 +203,33 @@ pub fn compare(config_path: &Path, options: &CompareOptions) -> Result<CompareOu
         lap(&mut timings, &name, t);
     }
 
-    // What engines ship: the grid nearest our count, relocated and classified.
+    // The competitors: what engines ship (the grid nearest our count,
+    // relocated and classified), and Silvennoinen & Lehtinen's greedy
+    // placement with as many probes as ours.
+    let mut competitors = Vec::new();
     if let Some((_, g)) = grid_rows
         .iter()
         .min_by_key(|(n, _)| (n.abs_diff(ours_count), usize::MAX - n))
     {
-        let t = Instant::now();
-        let method = Placement::Relocated(*g);
-        let name = method.name();
-        match placement::place(&method, &input) {
-            Ok(probes) => {
-                let stats = stats_of(&probes);
-                push(bench.measure(&name, Family::Relocated, &probes, stats)?);
-            }
-            // Every probe switched off: a finding, not a failure.
-            Err(Error::User(e)) => bench.warnings.push(format!("compare: {name}: {e}")),
-            Err(e) => return Err(e),
-        }
-        lap(&mut timings, &name, t);
+        competitors.push((Placement::Relocated(*g), Family::Relocated));
     }
-
-    // Silvennoinen & Lehtinen's greedy placement, as many probes as ours.
-    {
-        let t = Instant::now();
-        let spacing = placement::greedy::spacing_for_count(&prepared.domain, ours_count.max(1));
-        let method = Placement::Greedy(GreedyParams {
+    let spacing = placement::greedy::spacing_for_count(&prepared.domain, ours_count.max(1));
+    competitors.push((
+        Placement::Greedy(GreedyParams {
             spacing: Positive(spacing),
-        });
+        }),
+        Family::Greedy,
+    ));
+    for (method, family) in competitors {
+        let t = Instant::now();
         let name = method.name();
         match placement::place(&method, &input) {
             Ok(probes) => {
                 let stats = stats_of(&probes);
-                push(bench.measure(&name, Family::Greedy, &probes, stats)?);
+                push(bench.measure(&name, family, &probes, stats)?);
             }
-            // No candidate voxel: a finding, not a failure.
+            // Every probe switched off, or no candidate voxel: a finding,
+            // not a failure.
             Err(Error::User(e)) => bench.warnings.push(format!("compare: {name}: {e}")),
             Err(e) => return Err(e),
         }

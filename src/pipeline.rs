@@ -160,7 +160,6 @@ pub fn compute_place(
 
     let (probes, refined) =
         placement_stage(&config, config_path, &input, &reference, &mut timings)?;
-    let refined = refined.map(|r| (r.report, r.atlas_image));
 
     let t = Instant::now();
     let positions = probes.positions();
@@ -247,7 +246,8 @@ pub fn compute_place(
 
 /// Places probes with `config.placement`, then refines them (Wang et al.
 /// 2019 §3.3) where `config.refine.enabled`; `reference` is the coverage
-/// measure refinement maximizes. Stage times go into `timings`.
+/// measure refinement maximizes. Returns the probes and, when refined,
+/// refinement's report and atlas image. Stage times go into `timings`.
 ///
 /// Contract: errors of config fields are prefixed with `config_path`.
 pub fn placement_stage(
@@ -256,7 +256,7 @@ pub fn placement_stage(
     input: &PlacementInput,
     reference: &CoverageReference,
     timings: &mut BTreeMap<String, f64>,
-) -> Result<(ProbeSet, Option<refine::Refined>)> {
+) -> Result<(ProbeSet, Option<(refine::RefineReport, image::RgbImage)>)> {
     let t = Instant::now();
     let probes = placement::place(&config.placement, input).map_err(|e| e.in_file(config_path))?;
     lap(timings, "placement", t);
@@ -267,7 +267,7 @@ pub fn placement_stage(
     let out = refine::refine(&config.refine, probes, input, reference)
         .map_err(|e| e.in_file(config_path))?;
     lap(timings, "refine", t);
-    Ok((out.probes.clone(), Some(out)))
+    Ok((out.probes, Some((out.report, out.atlas_image))))
 }
 
 /// The scene and what every placement method reads, built by [`prepare`].
