@@ -290,6 +290,30 @@ pub fn compare(config_path: &Path, options: &CompareOptions) -> Result<CompareOu
 /// Parses `--grids`: comma-separated `NxMxK`, e.g. `2x2x2,4x2x4`.
 ///
 /// Contract: at least one grid; a bad entry is a user error naming it.
+/// The first grid of [`placement::cubic_grid_sweep`] (up to `max_cells`
+/// cells along the domain's longest axis, by probe count) whose coverage,
+/// by `reference`, reaches `coverage`, with that coverage; `None` when no
+/// grid of the sweep does. The "smallest grid at the same coverage" that
+/// our placements must beat (Wang et al. 2019 §5, Table 1).
+pub fn smallest_grid_reaching(
+    prepared: &Prepared,
+    reference: &CoverageReference,
+    coverage: f64,
+    max_cells: u32,
+    progress: &Progress,
+) -> Option<(GridParams, f64)> {
+    placement::cubic_grid_sweep(prepared.domain.size(), max_cells)
+        .into_iter()
+        .find_map(|g| {
+            let positions: Vec<glam::Vec3> = placement::grid(&g, &prepared.domain)
+                .iter()
+                .map(|p| p.position)
+                .collect();
+            let c = reference.evaluate(&prepared.bvh, &positions, progress).coverage;
+            (c >= coverage).then_some((g, c))
+        })
+}
+
 pub fn parse_grids(text: &str) -> Result<Vec<GridParams>> {
     let grids = text
         .split(',')
@@ -437,6 +461,7 @@ impl Bench<'_> {
             domain,
             bvh,
             sdf,
+            ..
         } = self.prepared;
         let positions = probes.positions();
         let (cov, holes) = self

@@ -27,6 +27,82 @@ impl TryFrom<f64> for Positive {
     }
 }
 
+/// The SDF's voxel edge: chosen from the scene (`Auto`, the default; see
+/// the `resolution` module) or given in world units.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub enum VoxelSize {
+    /// Derived from the domain's volume and the scene's narrowest gaps.
+    #[default]
+    Auto,
+    /// This edge length (world units).
+    Fixed(Positive),
+}
+
+/// RON hands a bare identifier to `deserialize_any` as a unit, without its
+/// name, so `Auto` arrives as `()`; [`Config::parse`] checks beforehand
+/// that the identifier written is `Auto` ([`check_voxel_size_word`]).
+impl<'de> Deserialize<'de> for VoxelSize {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct Visitor;
+        impl serde::de::Visitor<'_> for Visitor {
+            type Value = VoxelSize;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("Auto or a voxel edge length in world units (a number greater than 0)")
+            }
+            fn visit_unit<E: serde::de::Error>(self) -> Result<VoxelSize, E> {
+                Ok(VoxelSize::Auto)
+            }
+            fn visit_f64<E: serde::de::Error>(self, v: f64) -> Result<VoxelSize, E> {
+                Positive::try_from(v).map(VoxelSize::Fixed).map_err(E::custom)
+            }
+            fn visit_u64<E: serde::de::Error>(self, v: u64) -> Result<VoxelSize, E> {
+                self.visit_f64(v as f64)
+            }
+            fn visit_i64<E: serde::de::Error>(self, v: i64) -> Result<VoxelSize, E> {
+                self.visit_f64(v as f64)
+            }
+        }
+        d.deserialize_any(Visitor)
+    }
+}
+
+/// The position (line, column, 1-based) of an identifier other than `Auto`
+/// given as `voxel_size`, which RON would pass on as a nameless unit (see
+/// [`VoxelSize`]'s `Deserialize`).
+fn check_voxel_size_word(text: &str) -> Option<(usize, usize, String)> {
+    for (n, line) in text.lines().enumerate() {
+        let code = line.split("//").next().unwrap_or("");
+        let mut rest = code;
+        let mut offset = 0;
+        while let Some(i) = rest.find("voxel_size") {
+            let after = &rest[i + "voxel_size".len()..];
+            let before_ok = rest[..i]
+                .chars()
+                .last()
+                .is_none_or(|c| !(c.is_alphanumeric() || c == '_'));
+            let trimmed = after.trim_start();
+            if before_ok {
+                if let Some(value) = trimmed.strip_prefix(':') {
+                    let value = value.trim_start();
+                    let word: String = value
+                        .chars()
+                        .take_while(|c| c.is_alphanumeric() || *c == '_')
+                        .collect();
+                    let starts_alpha = word.chars().next().is_some_and(|c| c.is_alphabetic());
+                    if starts_alpha && word != "Auto" && word != "inf" && word != "NaN" {
+                        let col = offset + code[offset..].len() - value.len() + 1;
+                        return Some((n + 1, col, word));
+                    }
+                }
+            }
+            let step = i + "voxel_size".len();
+            offset += step;
+            rest = &rest[step..];
+        }
+    }
+    None
+}
+
 /// A number in [0, 1].
 #[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
 #[serde(try_from = "f64")]
@@ -324,6 +400,12 @@ pub enum Placement {
     /// Silvennoinen & Lehtinen 2017 §4.1: greedy thinning of candidate
     /// voxels near surfaces by kernel density. A competitor.
     Greedy(GreedyParams),
+}
+
+impl Default for Placement {
+    fn default() -> Self {
+        Placement::SdfSkeleton(SdfSkeletonParams::default())
+    }
 }
 
 /// Parameters of the greedy voxel placement (Silvennoinen & Lehtinen 2017,
@@ -851,9 +933,12 @@ pub struct Config {
     /// Where probes may go.
     #[serde(default)]
     pub domain: Domain,
-    /// Edge length of an SDF voxel, in world units.
-    pub voxel_size: Positive,
-    /// Placement method.
+    /// Edge length of an SDF voxel, in world units, or `Auto` (the
+    /// default) to derive it from the scene.
+    #[serde(default)]
+    pub voxel_size: VoxelSize,
+    /// Placement method; `SdfSkeleton(())` when left out.
+    #[serde(default)]
     pub placement: Placement,
     /// Seed of every random choice.
     #[serde(default)]
@@ -916,6 +1001,12 @@ impl Config {
             ))
         };
         // Optional fields take plain values (`min_distance: 0.02`), not `Some(0.02)`.
+        if let Some((line, col, word)) = check_voxel_size_word(text) {
+            return Err(Error::User(format!(
+                "{}:{line}:{col}: voxel_size: expected Auto or a voxel edge length in world units (a number greater than 0), got `{word}`",
+                file.display()
+            )));
+        }
         let options = ron::Options::default()
             .with_default_extension(ron::extensions::Extensions::IMPLICIT_SOME);
         let mut de = ron::Deserializer::from_str_with_options(text, &options)
@@ -999,6 +1090,22 @@ mod tests {
         assert_eq!(c.sdf, SdfParams::default());
         assert_eq!(c.coverage.samples, Count(40_000));
         assert_eq!(c.placement.name(), "sdf-skeleton");
+        assert_eq!(c.voxel_size, VoxelSize::Fixed(Positive(0.1)));
+        let stock = parse("(scene: \"a.obj\")").unwrap();
+        assert_eq!(stock.voxel_size, VoxelSize::Auto);
+        assert_eq!(stock.placement, Placement::default());
+    }
+
+    #[test]
+    fn voxel_size_takes_auto_or_a_length() {
+        let with = |v: &str| parse(&MINIMAL.replace("voxel_size: 0.1", &format!("voxel_size: {v}")));
+        assert_eq!(with("Auto").unwrap().voxel_size, VoxelSize::Auto);
+        assert_eq!(with("2").unwrap().voxel_size, VoxelSize::Fixed(Positive(2.0)));
+        for bad in ["Automatic", "0", "-0.5", "\"0.1\"", "Auto(0.1)", "inf", "(0.1)"] {
+            let m = user_message(with(bad));
+            assert!(m.starts_with("c.ron:3:"), "{bad}: {m}");
+            assert!(m.contains("voxel_size"), "{bad}: {m}");
+        }
     }
 
     #[test]

@@ -8,6 +8,7 @@
 //! |---|---|---|
 //! | load the scene | [`scene`] | — |
 //! | ray casting | [`scene::raycast`] | — |
+//! | voxel size chosen from the scene | [`resolution`] | — |
 //! | signed distance field | [`sdf`] | Wang §3.1 |
 //! | skeletons (SDF, medial axis) and clustering | [`skeleton`] | Wang §3.1, Figs. 2–3; Ma et al. 2012 |
 //! | uniform grid baseline | [`placement`] | McGuire §4 |
@@ -41,6 +42,7 @@ pub mod progress;
 pub mod refine;
 pub mod render;
 pub mod report;
+pub mod resolution;
 pub mod sampling;
 pub mod scene;
 pub mod sdf;

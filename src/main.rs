@@ -106,12 +106,15 @@ fn main() -> ExitCode {
     match cli.command {
         Command::Place(args) => run(args, probeplace::pipeline::place, |r| {
             format!(
-                "{}: {} probes, coverage {:.2}% ± {:.2}%, {} in solid",
+                "{}: {} probes, coverage {:.2}% ± {:.2}%, {} in solid, {} near surfaces; voxel {:.4} ({})",
                 r.method,
                 r.probe_count,
                 100.0 * r.coverage,
                 100.0 * r.coverage_ci95,
-                r.probes_in_solid
+                r.probes_in_solid,
+                r.probes_below_clearance,
+                r.sdf.voxel_size,
+                r.resolution.map_or("config", |x| x.source)
             )
         }),
         Command::Bake(args) => run(args, probeplace::pipeline::bake, |r| {

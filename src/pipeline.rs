@@ -3,12 +3,13 @@
 //! to its own; this module only sequences them, times them, and writes the
 //! results once everything has succeeded.
 
-use crate::config::{Config, Domain, Placement};
+use crate::config::{Config, Domain, Placement, VoxelSize};
 use crate::coverage::{self, CoverageReference};
 use crate::error::{Error, Result};
 use crate::placement::{self, PlacementInput, ProbeSet};
 use crate::progress::Progress;
 use crate::refine;
+use crate::resolution::{self, Resolution};
 use crate::report::{self, preview, ProbesFile, Report};
 use crate::scene::raycast::SceneBvh;
 use crate::scene::{self, Bounds, Scene};
@@ -150,6 +151,7 @@ pub fn compute_place(
         domain,
         bvh,
         sdf,
+        ..
     } = &prepared;
 
     let input = prepared.placement_input(config.seed, &progress);
@@ -207,6 +209,7 @@ pub fn compute_place(
     );
     let mut report = report;
     report.svo = Some(baked.report);
+    report.resolution = Some(prepared.resolution);
     let mut files = vec![
         ("probes.json".to_string(), probes_json),
         ("svo.bin".to_string(), svo_bin),
@@ -218,12 +221,14 @@ pub fn compute_place(
             let target = config.refine.coverage_target.0 as f64;
             if config.refine.fill && refine_report.coverage_final < target {
                 report.warnings.push(format!(
-                    "refine: coverage {:.2}% is short of the target {:.2}%: no position at least {:.3} from every surface sees the rest; lower refine.min_clearance (or the placement's threshold) to reach it",
+                    "refine: coverage {:.2}% is short of the target {:.2}%: no position at least {:.3} from every surface sees the rest; lower refine.min_clearance (or remove it) to reach it",
                     100.0 * refine_report.coverage_final,
                     100.0 * target,
-                    refine_report.params["min_clearance"]
+                    refine_report.params["min_fill_clearance"]
                 ));
             }
+            report.probes_below_clearance = refine_report.probes_below_clearance;
+            report.best_view_incidence_deg = refine_report.best_view_incidence_deg_final;
             report.refine = Some(refine_report);
             files.push(("atlas.png".to_string(), encode_png(&image, "atlas.png")?));
         }
@@ -280,6 +285,8 @@ pub struct Prepared {
     pub bvh: SceneBvh,
     /// The SDF of the domain.
     pub sdf: Sdf,
+    /// How its voxel size was chosen.
+    pub resolution: Resolution,
 }
 
 impl Prepared {
@@ -317,11 +324,15 @@ pub fn prepare(
     lap(timings, "bvh", t);
 
     let t = Instant::now();
+    let resolution = resolve_voxel_size(config, &scene, &bvh, &domain);
+    lap(timings, "resolution", t);
+
+    let t = Instant::now();
     let sdf = sdf::build(
         &scene,
         &bvh,
         &domain,
-        config.voxel_size.0,
+        resolution.voxel_size,
         &config.sdf,
         config.seed,
         progress,
@@ -333,7 +344,22 @@ pub fn prepare(
         domain,
         bvh,
         sdf,
+        resolution,
     })
+}
+
+/// The voxel size of `config` for `domain` of `scene`: the config's, or
+/// the one [`resolution::auto`] chooses.
+pub fn resolve_voxel_size(
+    config: &Config,
+    scene: &Scene,
+    bvh: &SceneBvh,
+    domain: &Bounds,
+) -> Resolution {
+    match config.voxel_size {
+        VoxelSize::Fixed(v) => Resolution::fixed(v.0),
+        VoxelSize::Auto => resolution::auto(scene, bvh, domain, config.seed),
+    }
 }
 
 /// Records the milliseconds since `since` as stage `name`.

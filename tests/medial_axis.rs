@@ -24,7 +24,7 @@ fn counts_by_precluster_radius(config: &str, radii_voxels: &[f32]) -> Vec<usize>
         .iter()
         .map(|&r| {
             let method = Placement::MedialAxis(MedialAxisParams {
-                precluster_radius: Some(Positive(r * config.voxel_size.0)),
+                precluster_radius: Some(Positive(r * prepared.sdf.voxel_size)),
                 ..MedialAxisParams::default()
             });
             let set = placement::place(&method, &input).unwrap();

@@ -8,34 +8,13 @@
 
 mod common;
 use common::*;
-use probeplace::config::{Config, Count, GridParams};
+use probeplace::config::Config;
 use probeplace::coverage::CoverageReference;
 use probeplace::pipeline::{self, PlaceOptions};
-use probeplace::placement;
 use probeplace::progress::Progress;
 
 /// Largest number of cells along the domain's longest axis in the sweep.
 const SWEEP_STEPS: u32 = 16;
-
-/// Uniform grids shaped like the domain: for k = 1..=SWEEP_STEPS cells along
-/// the longest axis, the other axes get as many cells as keep the cells
-/// closest to cubes. Sorted by probe count, duplicates removed.
-fn grid_sweep(size: glam::Vec3) -> Vec<[u32; 3]> {
-    let longest = size.max_element();
-    let mut grids: Vec<[u32; 3]> = (1..=SWEEP_STEPS)
-        .map(|k| {
-            let cell = longest / k as f32;
-            (size / cell)
-                .round()
-                .max(glam::Vec3::ONE)
-                .as_uvec3()
-                .to_array()
-        })
-        .collect();
-    grids.sort_by_key(|g| (g[0] * g[1] * g[2], *g));
-    grids.dedup();
-    grids
-}
 
 /// Runs the default pipeline on `config` with `coverage_target` = `target`,
 /// checks the acceptance bar, then sweeps grids; returns (ours, smallest
@@ -73,23 +52,9 @@ fn compare_with_grids(config: &str, target: f32) -> (u64, Option<([u32; 3], f64)
         cfg.seed,
         &progress,
     );
-    let mut smallest = None;
-    for g in grid_sweep(prepared.domain.size()) {
-        let params = GridParams {
-            cells: (Count(g[0]), Count(g[1]), Count(g[2])),
-        };
-        let positions: Vec<glam::Vec3> = placement::grid(&params, &prepared.domain)
-            .iter()
-            .map(|p| p.position)
-            .collect();
-        let cov = reference
-            .evaluate(&prepared.bvh, &positions, &progress)
-            .coverage;
-        if cov >= target as f64 {
-            smallest = Some((g, cov));
-            break;
-        }
-    }
+    let smallest =
+        probeplace::compare::smallest_grid_reaching(&prepared, &reference, target as f64, SWEEP_STEPS, &progress)
+            .map(|(g, cov)| ([g.cells.0 .0, g.cells.1 .0, g.cells.2 .0], cov));
     let grid = match smallest {
         Some((g, cov)) => format!(
             "{}x{}x{} = {} probes, coverage {cov:.4}",

@@ -99,6 +99,26 @@ pub fn grid_min_clearance(sdf: &Sdf) -> f32 {
     crate::coverage::REFERENCE_MIN_CLEARANCE_VOXELS * sdf.voxel_size
 }
 
+/// Uniform grids shaped like a domain of `size`: for k = 1..=`max_cells`
+/// cells along the longest axis, the other axes get as many cells as keep
+/// the cells closest to cubes (at least one). Sorted by probe count, then
+/// dimensions; duplicates removed.
+pub fn cubic_grid_sweep(size: Vec3, max_cells: u32) -> Vec<GridParams> {
+    let longest = size.max_element();
+    let mut grids: Vec<[u32; 3]> = (1..=max_cells)
+        .map(|k| {
+            let cell = longest / k as f32;
+            (size / cell).round().max(Vec3::ONE).as_uvec3().to_array()
+        })
+        .collect();
+    grids.sort_by_key(|g| (g[0] * g[1] * g[2], *g));
+    grids.dedup();
+    grids
+        .into_iter()
+        .filter_map(|g| GridParams::new(g).ok())
+        .collect()
+}
+
 /// McGuire et al. 2017's uniform grid: the domain divided into N×M×K cells,
 /// one probe at each cell centre, x fastest, then y, then z.
 pub fn grid(params: &GridParams, domain: &Bounds) -> Vec<Probe> {

@@ -26,7 +26,7 @@ pub mod prune;
 pub mod view;
 
 use crate::config::{FitnessKind, RefineParams};
-use crate::coverage::CoverageReference;
+use crate::coverage::{CoverageReference, REFERENCE_MIN_CLEARANCE_VOXELS};
 use crate::error::Result;
 use crate::placement::{PlacementInput, Probe, ProbeSet};
 use crate::sampling::hash2;
@@ -91,6 +91,14 @@ pub struct RefineReport {
     /// Probes added by filling and kept (`probes_final = probes_initial −
     /// removed + added`).
     pub added: usize,
+    /// Final probes nearer to a surface than `params.min_clearance` (the
+    /// placement's clearance): those filling had to add from a lower tier,
+    /// because no position at that clearance sees what they see.
+    pub probes_below_clearance: usize,
+    /// Clearances of the fill tiers, in order (world units).
+    pub clearance_tiers: Vec<f64>,
+    /// Filling's rounds.
+    pub fill_rounds: Vec<prune::FillRound>,
     /// Parameters as used, defaults resolved (lengths in world units).
     pub params: BTreeMap<&'static str, f64>,
 }
@@ -114,6 +122,9 @@ struct Resolved {
     min_step: f32,
     beta: f64,
     min_clearance: f32,
+    /// Clearances of the fill tiers, from `min_clearance` down to the least
+    /// clearance any probe may have.
+    tiers: Vec<f32>,
     diagonal: f32,
 }
 
@@ -122,6 +133,13 @@ impl Resolved {
         let voxel = input.sdf.voxel_size;
         let clearance = input.sdf.largest_clearance().max(voxel);
         let n = params.directions.0;
+        // The least clearance: the user's pin, or the coverage measure's
+        // own reference clearance, at which every coverable sample is seen
+        // by some candidate.
+        let floor = params
+            .min_clearance
+            .map_or(REFERENCE_MIN_CLEARANCE_VOXELS * voxel, |c| c.0);
+        let start = probes.min_clearance.max(floor);
         // Solid angle per direction ≈ 4π/n²: its footprint's edge at the
         // distance of the largest clearance.
         let spacing = (4.0 * std::f32::consts::PI).sqrt() / n as f32;
@@ -135,7 +153,8 @@ impl Resolved {
             beta: params
                 .acceptance_exponent
                 .map_or(probes.probes.len().max(1) as f64, |b| b.0 as f64),
-            min_clearance: params.min_clearance.map_or(probes.min_clearance, |c| c.0),
+            min_clearance: start,
+            tiers: clearance_tiers(start, floor),
             diagonal: input.domain.size().length(),
         }
     }
@@ -149,6 +168,10 @@ impl Resolved {
             ("min_step", self.min_step as f64),
             ("acceptance_exponent", self.beta),
             ("min_clearance", self.min_clearance as f64),
+            (
+                "min_fill_clearance",
+                self.tiers.last().copied().unwrap_or(self.min_clearance) as f64,
+            ),
             ("coverage_target", params.coverage_target.0 as f64),
             ("w_orientation", params.w_orientation.0 as f64),
             ("w_distance", params.w_distance.0 as f64),
@@ -226,10 +249,10 @@ pub fn refine(
     let r_refined = AtlasState::new(params.fitness, &atlas, views_of(&refined)).r();
 
     let matrix = CoverMatrix::new(reference, input.bvh);
-    let candidates = fill_candidates(params, &r, input, reference);
+    let tiers = fill_candidates(params, &r, input, reference);
     let fp = matrix.fill_and_prune(
         &refined,
-        &candidates,
+        &tiers,
         params.coverage_target.0 as f64,
         params.fill,
         params.prune,
@@ -275,6 +298,9 @@ pub fn refine(
         probes_final: final_probes.len(),
         removed: initial.len() - (final_probes.len() - added_kept),
         added: added_kept,
+        probes_below_clearance: fp.kept_tiers.iter().filter(|&&t| t > 0).count(),
+        clearance_tiers: r.tiers.iter().map(|&c| c as f64).collect(),
+        fill_rounds: fp.rounds.clone(),
         params: r.report(params, atlas.len()),
     };
     let color = |seen: bool| if seen { SEEN } else { UNSEEN };
@@ -288,38 +314,67 @@ pub fn refine(
             probes: final_probes,
             stats: probes.stats,
             params: probes.params,
-            min_clearance: r.min_clearance,
+            min_clearance: fp
+                .kept_tiers
+                .iter()
+                .map(|&t| r.tiers[t])
+                .fold(r.min_clearance, f32::min),
         },
         report,
         atlas_image: side_by_side(&before, &after),
     })
 }
 
-/// Positions filling may add a probe at: the coverage reference points
-/// where a probe may stand (every coverable sample is seen by one of them),
-/// then up to `fill_candidates` other free voxel centres where a probe may
-/// stand, chosen by a seeded hash.
+/// Clearances of the fill tiers: `start`, halved until it reaches `floor`,
+/// which ends the list (one tier when `start <= floor`).
+fn clearance_tiers(start: f32, floor: f32) -> Vec<f32> {
+    let mut tiers = vec![start.max(floor)];
+    while let Some(&last) = tiers.last() {
+        if last <= floor * (1.0 + 1e-4) {
+            break;
+        }
+        tiers.push((0.5 * last).max(floor));
+    }
+    tiers
+}
+
+/// Positions filling may add a probe at, one list per clearance tier of
+/// `r.tiers`: in tier `t`, the positions where a probe may stand at tier
+/// `t`'s clearance but not at the tier before's. Each tier holds the
+/// coverage reference points of its band (in the last tier, at the
+/// coverage measure's own clearance, every reference point is a candidate
+/// of some tier, and every coverable sample is seen by one of them), then
+/// up to `fill_candidates` other free voxel centres of its band where a
+/// probe may stand, chosen by a seeded hash.
 fn fill_candidates(
     params: &RefineParams,
     r: &Resolved,
     input: &PlacementInput,
     reference: &CoverageReference,
-) -> Vec<Vec3> {
-    let stand = |p: Vec3| may_stand(input.sdf, input.domain, r.min_clearance, p);
-    let mut out: Vec<Vec3> = reference
-        .references
-        .iter()
-        .copied()
-        .filter(|&p| stand(p))
-        .collect();
-    let mut voxels: Vec<(u64, usize)> = (0..input.sdf.len())
-        .filter(|&v| stand(input.sdf.center(v)))
-        .map(|v| (hash2(hash2(input.seed, 0xF111), v as u64), v))
-        .collect();
-    voxels.sort_unstable();
-    voxels.truncate(params.fill_candidates.0 as usize);
-    out.extend(voxels.iter().map(|&(_, v)| input.sdf.center(v)));
-    out
+) -> Vec<Vec<Vec3>> {
+    let tier_of = |p: Vec3| {
+        r.tiers
+            .iter()
+            .position(|&c| may_stand(input.sdf, input.domain, c, p))
+    };
+    let mut tiers: Vec<Vec<Vec3>> = vec![Vec::new(); r.tiers.len()];
+    for &p in &reference.references {
+        if let Some(t) = tier_of(p) {
+            tiers[t].push(p);
+        }
+    }
+    let mut voxels: Vec<Vec<(u64, usize)>> = vec![Vec::new(); r.tiers.len()];
+    for v in 0..input.sdf.len() {
+        if let Some(t) = tier_of(input.sdf.center(v)) {
+            voxels[t].push((hash2(hash2(input.seed, 0xF111), v as u64), v));
+        }
+    }
+    for (tier, mut band) in tiers.iter_mut().zip(voxels) {
+        band.sort_unstable();
+        band.truncate(params.fill_candidates.0 as usize);
+        tier.extend(band.iter().map(|&(_, v)| input.sdf.center(v)));
+    }
+    tiers
 }
 
 /// Two panels side by side with a dark gap, top-aligned.

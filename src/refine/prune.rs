@@ -10,13 +10,17 @@
 //!
 //! * **Fill** is greedy set cover over candidate positions: while coverage
 //!   is under the target, add the candidate that sees the most coverable
-//!   samples no probe sees (ties: the earlier candidate). Candidates are the
-//!   caller's (free positions where a probe may stand). With more than
-//!   [`MAX_SCORED_HOLES`] holes, candidates are scored on an even subsample
-//!   of them; coverage is then recounted exactly.
+//!   samples no probe sees (ties: the earlier candidate). Candidates come in
+//!   tiers of decreasing clearance (the caller's: positions where a probe
+//!   may stand at the placement's clearance first, then nearer surfaces),
+//!   and a tier is used only for the holes the tiers before it cannot see.
+//!   With more than [`MAX_SCORED_HOLES`] holes, candidates are scored on an
+//!   even subsample of them; coverage is then recounted exactly and the
+//!   holes that remain are scored again, so filling ends only when the
+//!   target holds or no candidate sees any remaining hole.
 //! * **Prune** is reverse greedy: while some probe can go, drop the one that
-//!   alone sees the fewest samples (ties: the one that sees fewest overall,
-//!   then the later one). A probe can go when coverage without it stays at
+//!   alone sees the fewest samples (ties: the one nearest a surface, by
+//!   tier; then the one that sees fewest overall; then the later one). A probe can go when coverage without it stays at
 //!   or above the target, or, when the target is out of reach, when nothing
 //!   depends on it alone.
 
@@ -33,6 +37,10 @@ type Bits = Vec<u64>;
 /// (candidates × holes visibility tests) would dominate the run on scenes
 /// far from the target, and an even subsample ranks candidates as well.
 pub const MAX_SCORED_HOLES: usize = 2048;
+
+/// Partial scorings (on a subsample of the holes) one tier of candidates
+/// gets before filling moves on to the next (see [`CoverMatrix::fill`]).
+pub const SUBSAMPLES_PER_TIER: usize = 2;
 
 fn popcount(bits: &[u64]) -> u32 {
     bits.iter().map(|w| w.count_ones()).sum()
@@ -58,13 +66,41 @@ pub struct CoverMatrix<'r> {
     coverable: Vec<usize>,
 }
 
+/// One round of filling (see [`CoverMatrix::fill_and_prune`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+pub struct FillRound {
+    /// Candidate tier filled from (0: the placement's clearance), or the
+    /// number of tiers for the last sweep over all of them.
+    pub tier: usize,
+    /// Holes at the start of the round.
+    pub holes: usize,
+    /// Holes the candidates were scored on.
+    pub scored: usize,
+    /// Probes added.
+    pub added: usize,
+    /// Coverable samples covered after the round, counted exactly.
+    pub covered: usize,
+}
+
+/// What filling added.
+#[derive(Debug, Clone, Default, PartialEq)]
+struct Filled {
+    added: Vec<Vec3>,
+    tiers: Vec<usize>,
+    rounds: Vec<FillRound>,
+}
+
 /// Result of [`CoverMatrix::fill_and_prune`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct FillPrune {
     /// Final probes, as indices into `positions ++ added`.
     pub kept: Vec<usize>,
+    /// The candidate tier of each kept probe (0 for the input probes).
+    pub kept_tiers: Vec<usize>,
     /// Probes added by filling (some may have been pruned again).
     pub added: Vec<Vec3>,
+    /// The rounds of filling, in order.
+    pub rounds: Vec<FillRound>,
     /// Coverable samples the input probes see.
     pub covered_initial: usize,
     /// Coverable samples the final probes see.
@@ -127,23 +163,25 @@ impl<'r> CoverMatrix<'r> {
     }
 
     /// Fills and prunes (module docs) the probes at `positions` towards
-    /// `target` (a share of the coverable samples), filling from
-    /// `candidates`.
+    /// `target` (a share of the coverable samples), filling from the
+    /// candidate `tiers` in order (see [`CoverMatrix::fill`]).
     ///
     /// Contract: deterministic; if the input or filling reaches the target,
     /// the final probes do too; the final probes never see fewer samples
-    /// than `min(target, what positions ++ added see)` requires.
+    /// than `min(target, what positions ++ added see)` requires. When the
+    /// last tier holds every reference point of the coverage measure, filling
+    /// reaches the target whatever the input (every coverable sample is seen
+    /// by some reference point).
     pub fn fill_and_prune(
         &self,
         positions: &[Vec3],
-        candidates: &[Vec3],
+        tiers: &[Vec<Vec3>],
         target: f64,
         fill: bool,
         prune: bool,
         progress: &Progress,
     ) -> FillPrune {
         let m = self.len();
-        let words = m.div_ceil(64);
         let target_count = ((target * m as f64).ceil() as usize).min(m);
         let mut cols = self.columns(positions);
         let mut count = vec![0u32; m];
@@ -153,93 +191,145 @@ impl<'r> CoverMatrix<'r> {
             }
         }
         let covered_initial = count.iter().filter(|&&c| c > 0).count();
-        let mut covered = covered_initial;
-
-        let mut added = Vec::new();
-        if fill && covered < target_count && !candidates.is_empty() {
-            let all_holes: Vec<usize> = (0..m).filter(|&i| count[i] == 0).collect();
-            // Candidates are scored on at most MAX_SCORED_HOLES holes, an
-            // even stride through them; each scored hole stands for
-            // `weight` real ones.
-            let stride = all_holes.len().div_ceil(MAX_SCORED_HOLES).max(1);
-            let holes: Vec<usize> = all_holes.iter().copied().step_by(stride).collect();
-            let weight = all_holes.len() as f64 / holes.len().max(1) as f64;
-            let bar = progress.bar("refine: fill", candidates.len() as u64);
-            let cand_cols: Vec<Bits> = candidates
-                .par_iter()
-                .map(|&c| {
-                    let col = self.column(c, &holes);
-                    bar.inc(1);
-                    col
-                })
-                .collect();
-            bar.finish_and_clear();
-            let mut remaining: Bits = vec![0; holes.len().div_ceil(64)];
-            for (i, _) in holes.iter().enumerate() {
-                remaining[i / 64] |= 1 << (i % 64);
-            }
-            let mut estimate = covered as f64;
-            while covered < target_count {
-                let (best, gain) = cand_cols
-                    .iter()
-                    .enumerate()
-                    .map(|(j, c)| (j, popcount_and(c, &remaining)))
-                    .fold((usize::MAX, 0), |acc, x| if x.1 > acc.1 { x } else { acc });
-                if gain == 0 {
-                    break;
-                }
-                for (r, c) in remaining.iter_mut().zip(&cand_cols[best]) {
-                    *r &= !c;
-                }
-                estimate += gain as f64 * weight;
-                covered = estimate as usize;
-                added.push(candidates[best]);
-            }
-            for c in self.columns(&added) {
-                for i in ones(&c) {
-                    count[i] += 1;
-                }
-                cols.push(c);
-            }
-            covered = count.iter().filter(|&&c| c > 0).count();
+        let mut filled = Filled::default();
+        if fill {
+            filled = self.fill(
+                tiers,
+                target_count,
+                MAX_SCORED_HOLES,
+                &mut cols,
+                &mut count,
+                progress,
+            );
         }
-
-        let mut alive = vec![true; cols.len()];
-        if prune {
-            loop {
-                let mut once: Bits = vec![0; words];
-                for (i, &c) in count.iter().enumerate() {
-                    if c == 1 {
-                        once[i / 64] |= 1 << (i % 64);
-                    }
-                }
-                let need = target_count.min(covered);
-                let pick = (0..cols.len())
-                    .filter(|&k| alive[k])
-                    .map(|k| {
-                        (
-                            k,
-                            popcount_and(&cols[k], &once) as usize,
-                            popcount(&cols[k]),
-                        )
-                    })
-                    .filter(|&(_, unique, _)| unique == 0 || covered - unique >= need)
-                    .min_by_key(|&(k, unique, total)| (unique, total, std::cmp::Reverse(k)));
-                let Some((k, unique, _)) = pick else { break };
-                alive[k] = false;
-                covered -= unique;
-                for i in ones(&cols[k]) {
-                    count[i] -= 1;
-                }
-            }
-        }
+        let mut tier_of = vec![0usize; positions.len()];
+        tier_of.extend(&filled.tiers);
+        let covered = count.iter().filter(|&&c| c > 0).count();
+        let (alive, covered) = if prune {
+            prune_greedy(&cols, &mut count, &tier_of, covered, target_count)
+        } else {
+            (vec![true; cols.len()], covered)
+        };
+        let kept: Vec<usize> = (0..cols.len()).filter(|&k| alive[k]).collect();
+        let kept_tiers = kept.iter().map(|&k| tier_of[k]).collect();
         FillPrune {
-            kept: (0..cols.len()).filter(|&k| alive[k]).collect(),
-            added,
+            kept,
+            kept_tiers,
+            added: filled.added,
+            rounds: filled.rounds,
             covered_initial,
             covered_final: covered,
             coverable: m,
         }
+    }
+
+    /// Greedy set cover of the holes (coverable samples with `count` 0)
+    /// from the candidate tiers, in order, until `target_count` samples are
+    /// covered; appends the added probes' columns to `cols` and their
+    /// counts to `count`.
+    ///
+    /// A tier's candidates are scored on an even subsample of at most
+    /// `max_scored` of the holes. Each round adds candidates greedily on
+    /// the subsample's uncovered holes (each standing for its share of the
+    /// real ones) until the estimate reaches the target, then recounts the
+    /// holes exactly; the next round goes on from the same scores with the
+    /// share updated, and a fresh subsample of the holes that remain is
+    /// scored only when the old one is used up. A subsample that yields
+    /// nothing gives way to the next disjoint one. A tier gets at most
+    /// [`SUBSAMPLES_PER_TIER`] subsamples of a partial scoring (beyond them
+    /// its candidates see too few of the remaining holes to be worth the
+    /// scoring, and the nearer tiers see them better); a last sweep over
+    /// every tier's candidates has no such limit and ends only when none of
+    /// them sees any remaining hole, every hole having been scored. So
+    /// filling never stops on a subsample: it stops when the target holds
+    /// or no candidate sees a remaining hole.
+    fn fill(
+        &self,
+        tiers: &[Vec<Vec3>],
+        target_count: usize,
+        max_scored: usize,
+        cols: &mut Vec<Bits>,
+        count: &mut [u32],
+        progress: &Progress,
+    ) -> Filled {
+        let mut out = Filled::default();
+        let mut covered = count.iter().filter(|&&c| c > 0).count();
+        let tagged = |t: usize| tiers[t].iter().map(move |&p| (p, t));
+        let mut passes: Vec<(Vec<(Vec3, usize)>, Option<usize>)> = (0..tiers.len())
+            .map(|t| (tagged(t).collect(), Some(SUBSAMPLES_PER_TIER)))
+            .collect();
+        passes.push(((0..tiers.len()).flat_map(tagged).collect(), None));
+        for (pass, (mut live, mut budget)) in passes.into_iter().enumerate() {
+            // Candidates that see none of the holes, all of them scored,
+            // never will: holes only shrink.
+            let mut phase = 0;
+            while covered < target_count && !live.is_empty() {
+                let holes: Vec<usize> = (0..count.len()).filter(|&i| count[i] == 0).collect();
+                let stride = holes.len().div_ceil(max_scored).max(1);
+                if phase >= stride {
+                    break;
+                }
+                if stride > 1 {
+                    match budget.as_mut() {
+                        Some(0) => break,
+                        Some(b) => *b -= 1,
+                        None => {}
+                    }
+                }
+                let sub: Vec<usize> = holes.iter().copied().skip(phase).step_by(stride).collect();
+                let bar = progress.bar("refine: fill", live.len() as u64);
+                let cand_cols: Vec<Bits> = live
+                    .par_iter()
+                    .map(|&(c, _)| {
+                        let col = self.column(c, &sub);
+                        bar.inc(1);
+                        col
+                    })
+                    .collect();
+                bar.finish_and_clear();
+                let mut remaining: Bits = vec![0; sub.len().div_ceil(64)];
+                for i in 0..sub.len() {
+                    remaining[i / 64] |= 1 << (i % 64);
+                }
+                let mut any = false;
+                while covered < target_count {
+                    let holes_now = count.len() - covered;
+                    let weight = holes_now as f64 / popcount(&remaining).max(1) as f64;
+                    let picks = greedy_on(&cand_cols, &mut remaining, covered, weight, target_count);
+                    if picks.is_empty() {
+                        break;
+                    }
+                    any = true;
+                    let positions: Vec<Vec3> = picks.iter().map(|&j| live[j].0).collect();
+                    for c in self.columns(&positions) {
+                        for i in ones(&c) {
+                            count[i] += 1;
+                        }
+                        cols.push(c);
+                    }
+                    covered = count.iter().filter(|&&c| c > 0).count();
+                    out.rounds.push(FillRound {
+                        tier: pass,
+                        holes: holes_now,
+                        scored: sub.len(),
+                        added: picks.len(),
+                        covered,
+                    });
+                    out.tiers.extend(picks.iter().map(|&j| live[j].1));
+                    out.added.extend(positions);
+                }
+                if stride == 1 {
+                    live = live
+                        .iter()
+                        .zip(&cand_cols)
+                        .filter(|(_, c)| c.iter().any(|&w| w != 0))
+                        .map(|(&p, _)| p)
+                        .collect();
+                }
+                phase = if any { 0 } else { phase + 1 };
+            }
+        }
+        out
     }
 
     /// The coverable samples among `subset` (indices into `self.coverable`)
@@ -254,6 +344,92 @@ impl<'r> CoverMatrix<'r> {
         }
         bits
     }
+}
+
+/// Greedy picks among candidates whose columns over a subsample of the
+/// holes are `cand_cols`, on the subsample's holes still in `remaining`
+/// (cleared as they are covered): the candidate that covers the most, each
+/// hole counting `weight` real ones (ties: the earlier candidate), until
+/// `covered` plus the estimate reaches `target_count` or no candidate
+/// covers anything. Returns the picks' indices.
+fn greedy_on(
+    cand_cols: &[Bits],
+    remaining: &mut Bits,
+    covered: usize,
+    weight: f64,
+    target_count: usize,
+) -> Vec<usize> {
+    let mut picks = Vec::new();
+    let mut estimate = covered as f64;
+    while (estimate as usize) < target_count {
+        let (best, gain) = cand_cols
+            .iter()
+            .enumerate()
+            .map(|(j, c)| (j, popcount_and(c, remaining)))
+            .fold((usize::MAX, 0), |acc, x| if x.1 > acc.1 { x } else { acc });
+        if gain == 0 {
+            break;
+        }
+        for (r, c) in remaining.iter_mut().zip(&cand_cols[best]) {
+            *r &= !c;
+        }
+        estimate += gain as f64 * weight;
+        picks.push(best);
+    }
+    picks
+}
+
+/// Reverse greedy pruning (module docs) of the probes whose columns are
+/// `cols` and whose filling tiers are `tier_of`; `count` holds how many
+/// probes see each sample and `covered` how many samples some probe sees.
+/// Among probes that may go, the one that alone sees the fewest samples
+/// goes first, then the one nearest a surface (highest tier), so that a
+/// probe stands close to a surface only where no other serves; ties: the
+/// one that sees fewest overall, then the later one. Returns which probes
+/// are kept and what they cover.
+fn prune_greedy(
+    cols: &[Bits],
+    count: &mut [u32],
+    tier_of: &[usize],
+    mut covered: usize,
+    target_count: usize,
+) -> (Vec<bool>, usize) {
+    let words = count.len().div_ceil(64);
+    let mut alive = vec![true; cols.len()];
+    loop {
+        let mut once: Bits = vec![0; words];
+        for (i, &c) in count.iter().enumerate() {
+            if c == 1 {
+                once[i / 64] |= 1 << (i % 64);
+            }
+        }
+        let need = target_count.min(covered);
+        let pick = (0..cols.len())
+            .filter(|&k| alive[k])
+            .map(|k| {
+                (
+                    k,
+                    popcount_and(&cols[k], &once) as usize,
+                    popcount(&cols[k]),
+                )
+            })
+            .filter(|&(_, unique, _)| unique == 0 || covered - unique >= need)
+            .min_by_key(|&(k, unique, total)| {
+                (
+                    unique,
+                    std::cmp::Reverse(tier_of[k]),
+                    total,
+                    std::cmp::Reverse(k),
+                )
+            });
+        let Some((k, unique, _)) = pick else { break };
+        alive[k] = false;
+        covered -= unique;
+        for i in ones(&cols[k]) {
+            count[i] -= 1;
+        }
+    }
+    (alive, covered)
 }
 
 #[cfg(test)]
@@ -277,7 +453,8 @@ mod tests {
         // Three copies of one probe: two are superfluous; the hole behind
         // the box needs a new probe.
         let positions = [one, one, one];
-        let r = matrix.fill_and_prune(&positions, &reference.references, 0.999, true, true, &p);
+        let tiers = [reference.references.clone()];
+        let r = matrix.fill_and_prune(&positions, &tiers, 0.999, true, true, &p);
         assert!(r.covered_initial < matrix.len());
         assert!(!r.added.is_empty());
         assert!(
@@ -295,8 +472,72 @@ mod tests {
         assert_eq!(matrix.summary(&kept).0, r.covered_final);
         // Without filling or pruning nothing changes.
         let same =
-            matrix.fill_and_prune(&positions, &reference.references, 0.999, false, false, &p);
+            matrix.fill_and_prune(&positions, &tiers, 0.999, false, false, &p);
         assert_eq!(same.kept, vec![0, 1, 2]);
         assert_eq!(same.covered_final, same.covered_initial);
+    }
+
+    /// The case the old single pass got wrong: candidates scored on a
+    /// subsample of the holes, filling stopped once the subsample (or the
+    /// estimate from it) was covered, and the holes between the sampled
+    /// ones were never looked at again. Its first round is that pass.
+    #[test]
+    fn fill_rescores_the_holes_a_subsample_left() {
+        let (scene, bvh, sdf) = room_sdf(0.25, 2);
+        let params = CoverageParams {
+            samples: Count(4000),
+            reference_points: Count(512),
+            max_incidence_deg: Degrees(85.0),
+        };
+        let p = Progress::hidden();
+        let reference = CoverageReference::new(&scene, &bvh, &sdf, &params, 2, &p);
+        let matrix = CoverMatrix::new(&reference, &bvh);
+        let m = matrix.len();
+        // One probe in a corner behind the box: most of the room is a hole.
+        let positions = [Vec3::new(0.4, 0.4, 0.4)];
+        let mut cols = matrix.columns(&positions);
+        let mut count = vec![0u32; m];
+        for i in ones(&cols[0]) {
+            count[i] += 1;
+        }
+        let target = m; // every coverable sample
+        let tiers = [reference.references.clone()];
+        let filled = matrix.fill(&tiers, target, 4, &mut cols, &mut count, &p);
+        assert!(filled.rounds.len() >= 2, "{:?}", filled.rounds);
+        assert!(filled.rounds[0].scored <= 4);
+        assert!(
+            filled.rounds[0].covered < target,
+            "the single pass reached the target: {:?}",
+            filled.rounds
+        );
+        let covered = count.iter().filter(|&&c| c > 0).count();
+        assert_eq!(covered, target, "{:?}", filled.rounds);
+        assert_eq!(filled.rounds.last().unwrap().covered, covered);
+        assert_eq!(filled.added.len(), filled.rounds.iter().map(|r| r.added).sum::<usize>());
+    }
+
+    /// Tiers are used in order, and only for what the tiers before cannot
+    /// see: with an empty first tier, everything comes from the second;
+    /// with the references first, the second tier adds nothing.
+    #[test]
+    fn tiers_fill_only_what_earlier_tiers_cannot_see() {
+        let (scene, bvh, sdf) = room_sdf(0.25, 2);
+        let params = CoverageParams {
+            samples: Count(4000),
+            reference_points: Count(512),
+            max_incidence_deg: Degrees(85.0),
+        };
+        let p = Progress::hidden();
+        let reference = CoverageReference::new(&scene, &bvh, &sdf, &params, 2, &p);
+        let matrix = CoverMatrix::new(&reference, &bvh);
+        let positions = [Vec3::new(3.0, 2.0, 3.0)];
+        let refs = reference.references.clone();
+        let later = matrix.fill_and_prune(&positions, &[vec![], refs.clone()], 1.0, true, true, &p);
+        assert_eq!(later.covered_final, matrix.len());
+        assert!(later.rounds.iter().all(|r| r.tier == 1));
+        let first = matrix.fill_and_prune(&positions, &[refs.clone(), refs], 1.0, true, true, &p);
+        assert_eq!(first.covered_final, matrix.len());
+        assert!(first.rounds.iter().all(|r| r.tier == 0), "{:?}", first.rounds);
+        assert!(first.kept_tiers.iter().all(|&t| t == 0));
     }
 }

@@ -197,12 +197,22 @@ pub struct Report {
     pub probes_outside_scene: usize,
     /// Probes outside the domain box.
     pub probes_outside_domain: usize,
+    /// Probes refinement's filling had to place nearer to a surface than
+    /// the placement's clearance (`refine.probes_below_clearance`; 0
+    /// without refinement).
+    pub probes_below_clearance: usize,
+    /// Mean incidence angle (degrees, 0 head-on) of each covered sample's
+    /// best view by the final probes (`refine.best_view_incidence_deg_final`;
+    /// `null` without refinement).
+    pub best_view_incidence_deg: Option<f64>,
     /// The scene.
     pub scene: SceneRecord,
     /// The probe domain.
     pub domain: BoundsRecord,
     /// The SDF.
     pub sdf: SdfRecord,
+    /// How the SDF's voxel size was chosen.
+    pub resolution: Option<crate::resolution::Resolution>,
     /// Sample counts behind `coverage`.
     pub coverage_detail: Coverage,
     /// What the placement method's steps kept and dropped (see docs/formats.md).
@@ -251,6 +261,8 @@ impl Report {
             probes_in_solid: health.probes_in_solid,
             probes_outside_scene: health.probes_outside_scene,
             probes_outside_domain: health.probes_outside_domain,
+            probes_below_clearance: 0,
+            best_view_incidence_deg: None,
             scene: SceneRecord {
                 path: scene_path.to_string(),
                 triangles: scene.triangles.len(),
@@ -260,6 +272,7 @@ impl Report {
             },
             domain: domain.into(),
             sdf: sdf.into(),
+            resolution: None,
             coverage_detail: coverage,
             placement_stats: probes.stats.clone(),
             placement_params: probes.params.clone(),
