@@ -1,4 +1,4 @@
-//! Regenerates the procedural fixtures in fixtures/ from src/fixtures.rs:
+//! Regenerates the procedural fixtures in fixtures/ from src/fixtures/mod.rs:
 //! `cargo run --example gen_fixtures`. A test checks the committed files match.
 
 fn main() -> std::io::Result<()> {
