@@ -1,6 +1,6 @@
 //! Writes every scene of `probeplace::fixtures::generated::suite()` to a directory:
 //! `cargo run --release --example gen_scenes -- DIR` writes `<kind>-<seed>.obj`,
-//! `.mtl` and a `.ron` config that loads it with its scale and up axis. Each
+//! `.mtl` and a `.ron` stock config that loads it with its scale and up axis. Each
 //! written scene is loaded back and listed with its triangle count and extent.
 
 use probeplace::fixtures::generated::{generate, suite};
@@ -15,14 +15,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     for (kind, seed) in suite() {
         let g = generate(kind, seed);
         let name = &g.fixture.name;
+        g.write(&dir)?;
         let obj = dir.join(format!("{name}.obj"));
-        std::fs::write(&obj, &g.fixture.obj)?;
-        std::fs::write(dir.join(format!("{name}.mtl")), &g.fixture.mtl)?;
-        let config = format!(
-            "(\n    scene: \"{name}.obj\",\n    scale: {:?},\n    up: {:?},\n    placement: SdfSkeleton(()),\n    seed: 1,\n)\n",
-            g.scale, g.up
-        );
-        std::fs::write(dir.join(format!("{name}.ron")), config)?;
         let scene = probeplace::scene::load_obj(&obj, g.scale, g.up)?;
         let size = scene.bounds.size();
         println!(

@@ -23,6 +23,7 @@
 //! | validation renders against the reference | [`render::probes`] | Wang §5.1 |
 //! | competing placements: relocated grid, greedy voxels | [`placement`] | RTXGI; Silvennoinen & Lehtinen 2017 §4.1 |
 //! | comparisons against grids and competitors | [`compare`] | Wang §5, Figs. 8–12, Tables 1–2 |
+//! | stock-config runs on any scene against the grids | [`generality`] | Wang §5, Table 1 |
 //! | outputs, `compare`'s HTML report | [`report`] | — |
 //!
 //! [`pipeline::place`] runs them in order, [`compare::compare`] runs them
@@ -34,6 +35,7 @@ pub mod config;
 pub mod coverage;
 pub mod error;
 pub mod fixtures;
+pub mod generality;
 pub mod gpu;
 pub mod lightfield;
 pub mod pipeline;

@@ -147,6 +147,47 @@ fn same_config_and_seed_give_byte_identical_probes() {
     }
 }
 
+/// The thread count changes nothing: every output of a run on one thread
+/// equals the default pool's byte for byte (report.json up to its
+/// timings). CornellBox-Glossy fills from all three clearance tiers.
+#[test]
+fn one_thread_and_the_default_pool_give_identical_outputs() {
+    shared_scenes();
+    let cfg = root().join("configs/cornell-glossy.ron");
+    let (a, b) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
+    let run = |out: &std::path::Path, threads: Option<&str>| {
+        let mut cmd = std::process::Command::new(env!("CARGO_BIN_EXE_probeplace"));
+        cmd.args(["place", cfg.to_str().unwrap(), "--out", out.to_str().unwrap(), "--quiet"])
+            .current_dir(root());
+        match threads {
+            Some(n) => cmd.env("RAYON_NUM_THREADS", n),
+            None => cmd.env_remove("RAYON_NUM_THREADS"),
+        };
+        let o = cmd.output().unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    };
+    run(a.path(), Some("1"));
+    run(b.path(), None);
+    let ra = read_json(&a.path().join("report.json"));
+    assert!(
+        ra["refine"]["fill_rounds"].as_array().unwrap().len() > 1,
+        "the case should fill in several rounds: {}",
+        ra["refine"]["fill_rounds"]
+    );
+    for f in ["probes.json", "svo.bin", "placement.png", "atlas.png"] {
+        assert_eq!(
+            std::fs::read(a.path().join(f)).unwrap(),
+            std::fs::read(b.path().join(f)).unwrap(),
+            "{f} differs between 1 thread and the default pool"
+        );
+    }
+    let untimed = |mut r: serde_json::Value| {
+        r["timings_ms"] = serde_json::Value::Null;
+        r
+    };
+    assert_eq!(untimed(ra), untimed(read_json(&b.path().join("report.json"))));
+}
+
 #[test]
 fn seed_changes_the_coverage_samples_not_the_validity() {
     let (a, b) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());

@@ -1,0 +1,141 @@
+//! The generality check: a stock-config `place` run on a scene, held
+//! against the uniform grids an engine would use instead.
+//!
+//! Wang et al. 2019 claim full coverage with fewer probes than a uniform
+//! grid (§5, Table 1) on scenes they chose. The claim is only worth making
+//! if it holds on scenes nobody tuned for, so this job runs the default
+//! pipeline with nothing but the scene given (automatic voxel size, default
+//! placement and refinement), then sweeps the uniform grids of
+//! [`crate::placement::cubic_grid_sweep`] (up to [`GRID_SWEEP_CELLS`] cells
+//! along the longest axis) for the smallest one that reaches the same
+//! coverage, by the same coverage measure (same samples, same seed).
+//! `tests/generality.rs` asserts on its rows; `cargo run --release
+//! --example generality` writes them as JSON and as the README's table.
+
+use crate::compare::smallest_grid_reaching;
+use crate::config::Config;
+use crate::coverage::CoverageReference;
+use crate::error::Result;
+use crate::pipeline::{self, PlaceOptions};
+use crate::progress::Progress;
+use serde::Serialize;
+use std::path::Path;
+
+/// Most cells along the domain's longest axis in the grid sweep.
+pub const GRID_SWEEP_CELLS: u32 = 16;
+
+/// One scene's figures.
+#[derive(Debug, Clone, Serialize)]
+pub struct GeneralityRow {
+    /// The scene's name.
+    pub scene: String,
+    /// The placement method as reported (`sdf-skeleton+refine`, …).
+    pub method: String,
+    /// Usable triangles.
+    pub triangles: usize,
+    /// The voxel size used, and whether it was chosen automatically.
+    pub voxel_size: f32,
+    /// `auto` or `config`.
+    pub voxel_source: &'static str,
+    /// Probes placed.
+    pub probes: usize,
+    /// Coverage reached.
+    pub coverage: f64,
+    /// Probes in solid voxels.
+    pub probes_in_solid: usize,
+    /// Probes filling placed below the placement's clearance.
+    pub probes_below_clearance: usize,
+    /// Mean incidence (degrees) of each covered sample's best view.
+    pub best_view_incidence_deg: Option<f64>,
+    /// Warnings of the run.
+    pub warnings: Vec<String>,
+    /// The smallest grid of the sweep reaching `coverage` (`NxMxK`), its
+    /// probe count and its coverage; `None` when no grid of the sweep does.
+    pub smallest_grid: Option<(String, usize, f64)>,
+    /// Wall time of the `place` run (ms).
+    pub place_ms: f64,
+}
+
+impl GeneralityRow {
+    /// Whether ours beats the grids: fewer probes than the smallest grid
+    /// reaching the same coverage, or no grid of the sweep reaching it.
+    pub fn beats_grids(&self) -> bool {
+        self.smallest_grid
+            .as_ref()
+            .is_none_or(|(_, count, _)| self.probes < *count)
+    }
+}
+
+/// Runs `place` with `config` (read from `config_path`; outputs into
+/// `out`), then the grid sweep (module docs).
+///
+/// Contract: the row's coverage is the run's `report.json` coverage; the
+/// grid coverages come from the same coverage reference the run built
+/// (the reference is deterministic in config and seed).
+pub fn run(name: &str, config: Config, config_path: &Path, out: &Path) -> Result<GeneralityRow> {
+    let options = PlaceOptions {
+        out: Some(out.to_path_buf()),
+        ..Default::default()
+    };
+    let outcome = pipeline::place_with(config.clone(), config_path, &options)?;
+    let r = outcome.report;
+    let progress = Progress::hidden();
+    let prepared = pipeline::prepare(&config, config_path, &progress, &mut Default::default())?;
+    let reference = CoverageReference::new(
+        &prepared.scene,
+        &prepared.bvh,
+        &prepared.sdf,
+        &config.coverage,
+        config.seed,
+        &progress,
+    );
+    let smallest_grid =
+        smallest_grid_reaching(&prepared, &reference, r.coverage, GRID_SWEEP_CELLS, &progress).map(
+            |(g, c)| {
+                let n = (g.cells.0 .0 * g.cells.1 .0 * g.cells.2 .0) as usize;
+                (g.dims_text(), n, c)
+            },
+        );
+    Ok(GeneralityRow {
+        scene: name.to_string(),
+        method: r.method.clone(),
+        triangles: r.scene.triangles,
+        voxel_size: r.sdf.voxel_size,
+        voxel_source: r.resolution.map_or("config", |x| x.source),
+        probes: r.probe_count,
+        coverage: r.coverage,
+        probes_in_solid: r.probes_in_solid,
+        probes_below_clearance: r.probes_below_clearance,
+        best_view_incidence_deg: r.best_view_incidence_deg,
+        warnings: r.warnings.clone(),
+        smallest_grid,
+        place_ms: r.timings_ms.get("total").copied().unwrap_or(0.0),
+    })
+}
+
+/// The rows as a Markdown table (the README's).
+pub fn markdown_table(rows: &[GeneralityRow]) -> String {
+    let mut out = String::from(
+        "| scene | method | triangles | voxel | probes | coverage | in solid | below clearance | smallest grid reaching it |\n|---|---|---:|---:|---:|---:|---:|---:|---|\n",
+    );
+    for r in rows {
+        let grid = match &r.smallest_grid {
+            Some((dims, n, c)) => format!("{dims} = {n} ({:.2}%)", 100.0 * c),
+            None => format!("none up to {GRID_SWEEP_CELLS} cells"),
+        };
+        out.push_str(&format!(
+            "| {} | {} | {} | {:.4} ({}) | {} | {:.2}% | {} | {} | {} |\n",
+            r.scene,
+            r.method,
+            r.triangles,
+            r.voxel_size,
+            r.voxel_source,
+            r.probes,
+            100.0 * r.coverage,
+            r.probes_in_solid,
+            r.probes_below_clearance,
+            grid
+        ));
+    }
+    out
+}

@@ -1,0 +1,93 @@
+//! Placement that holds on any scene: the stock config (nothing but the
+//! scene, its scale and up axis) on seeded generated scenes, and every
+//! shipped config with its `voxel_size` removed, each reaching the coverage
+//! target with no probe in solid and fewer probes than the smallest uniform
+//! grid that reaches the same coverage (or no grid of the sweep reaching it).
+//!
+//! `cargo run --release --example generality` writes the same rows as
+//! JSON and the README's table.
+
+mod common;
+use common::*;
+use probeplace::config::{Config, VoxelSize};
+use probeplace::fixtures::generated::{generate, suite};
+use probeplace::generality::{self, GeneralityRow};
+use std::path::Path;
+
+/// The coverage target of the stock config.
+const TARGET: f64 = 0.999;
+
+/// Failures of one row against the bar, as lines.
+fn failures(r: &GeneralityRow) -> Vec<String> {
+    let mut out = Vec::new();
+    if r.coverage < TARGET {
+        out.push(format!("{}: coverage {:.4} under {TARGET}", r.scene, r.coverage));
+    }
+    if r.probes_in_solid > 0 {
+        out.push(format!("{}: {} probes in solid", r.scene, r.probes_in_solid));
+    }
+    if !r.beats_grids() {
+        out.push(format!(
+            "{}: {} probes, but grid {:?} reaches the same coverage",
+            r.scene, r.probes, r.smallest_grid
+        ));
+    }
+    // Scene warnings (degenerate triangles dropped on load) are the asset's;
+    // placement itself must not warn.
+    for w in r.warnings.iter().filter(|w| !w.contains("degenerate")) {
+        out.push(format!("{}: warning: {w}", r.scene));
+    }
+    out
+}
+
+fn check(rows: &[GeneralityRow]) {
+    eprintln!("{}", generality::markdown_table(rows));
+    let bad: Vec<String> = rows.iter().flat_map(failures).collect();
+    assert!(bad.is_empty(), "{}", bad.join("\n"));
+}
+
+fn run(name: &str, config: Config, path: &Path) -> GeneralityRow {
+    let out = tempfile::tempdir().unwrap();
+    generality::run(name, config, path, out.path()).unwrap()
+}
+
+#[test]
+fn generated_scenes_are_covered_by_the_stock_config() {
+    let dir = tempfile::tempdir().unwrap();
+    let suite = suite();
+    assert!(suite.len() >= 20);
+    let rows: Vec<GeneralityRow> = suite
+        .iter()
+        .map(|&(kind, seed)| {
+            let g = generate(kind, seed);
+            let path = g.write(dir.path()).unwrap();
+            let config = Config::load(&path).unwrap();
+            assert_eq!(config.voxel_size, VoxelSize::Auto);
+            run(&g.fixture.name, config, &path)
+        })
+        .collect();
+    assert!(rows.iter().all(|r| r.voxel_source == "auto"));
+    check(&rows);
+}
+
+#[test]
+fn every_shipped_config_holds_without_its_voxel_size() {
+    shared_scenes();
+    let mut configs: Vec<_> = std::fs::read_dir(root().join("configs"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "ron"))
+        .collect();
+    configs.sort();
+    assert!(configs.len() >= 10);
+    let rows: Vec<GeneralityRow> = configs
+        .iter()
+        .map(|path| {
+            let mut config = Config::load(path).unwrap();
+            config.voxel_size = VoxelSize::Auto;
+            let name = path.file_stem().unwrap().to_string_lossy().into_owned();
+            run(&name, config, path)
+        })
+        .collect();
+    check(&rows);
+}
