@@ -103,6 +103,25 @@ fn check_voxel_size_word(text: &str) -> Option<(usize, usize, String)> {
     None
 }
 
+/// A finite number greater than zero, kept in double precision: the scene's
+/// `scale`, which multiplies file coordinates read in f64 (see
+/// [`crate::scene`]), so that a file in millimetres with `scale: 0.001` and
+/// the same file in metres give the same scene.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(try_from = "f64")]
+pub struct Scale(pub f64);
+
+impl TryFrom<f64> for Scale {
+    type Error = String;
+    fn try_from(v: f64) -> Result<Self, String> {
+        if v.is_finite() && v > 0.0 {
+            Ok(Scale(v))
+        } else {
+            Err(format!("must be a finite number greater than 0, got {v}"))
+        }
+    }
+}
+
 /// A number in [0, 1].
 #[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
 #[serde(try_from = "f64")]
@@ -191,25 +210,26 @@ pub enum Domain {
     /// The scene's bounding box.
     #[default]
     Auto,
-    /// An explicit box in world units (after `scale` and `up`).
+    /// An explicit box in world coordinates (after `scale` and `up`).
     Box(BoxDomain),
 }
 
-/// An explicit axis-aligned box, `min < max` on every axis.
+/// An explicit axis-aligned box in world coordinates, `min < max` on every
+/// axis; f64 like every config point ([`Point3`]).
 #[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
 #[serde(try_from = "RawBox")]
 pub struct BoxDomain {
     /// Lower corner.
-    pub min: [f32; 3],
+    pub min: [f64; 3],
     /// Upper corner.
-    pub max: [f32; 3],
+    pub max: [f64; 3],
 }
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct RawBox {
-    min: [f32; 3],
-    max: [f32; 3],
+    min: [f64; 3],
+    max: [f64; 3],
 }
 
 impl TryFrom<RawBox> for BoxDomain {
@@ -629,10 +649,13 @@ impl Default for SvoParams {
     }
 }
 
-/// A finite point in world units (after `scale` and `up`).
+/// A finite point in world coordinates (after `scale` and `up`). Kept in
+/// f64: the stages see it relative to the scene's origin
+/// ([`crate::scene::Scene::to_local`]), and rounding it to f32 first would
+/// lose what that subtraction keeps far from the world origin.
 #[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
 #[serde(try_from = "[f64; 3]")]
-pub struct Point3(pub [f32; 3]);
+pub struct Point3(pub [f64; 3]);
 
 impl TryFrom<[f64; 3]> for Point3 {
     type Error = String;
@@ -640,7 +663,7 @@ impl TryFrom<[f64; 3]> for Point3 {
         if v.iter()
             .all(|c| c.is_finite() && c.abs() <= f32::MAX as f64)
         {
-            Ok(Point3(v.map(|c| c as f32)))
+            Ok(Point3(v))
         } else {
             Err(format!("must be three finite numbers, got {v:?}"))
         }
@@ -802,18 +825,18 @@ fn default_fov() -> f64 {
 impl TryFrom<RawCamera> for CameraParams {
     type Error = String;
     fn try_from(r: RawCamera) -> Result<Self, String> {
-        let view: Vec<f32> = (0..3).map(|i| r.look_at.0[i] - r.position.0[i]).collect();
-        let len = view.iter().map(|c| c * c).sum::<f32>().sqrt();
+        let view: Vec<f64> = (0..3).map(|i| r.look_at.0[i] - r.position.0[i]).collect();
+        let len = view.iter().map(|c| c * c).sum::<f64>().sqrt();
         if len.is_nan() || len <= 0.0 {
             return Err("look_at must differ from position".into());
         }
-        let u = r.up.0;
+        let u = r.up.0.map(f64::from);
         let cross = [
             view[1] * u[2] - view[2] * u[1],
             view[2] * u[0] - view[0] * u[2],
             view[0] * u[1] - view[1] * u[0],
         ];
-        if cross.iter().map(|c| c * c).sum::<f32>().sqrt() < 1e-4 * len {
+        if cross.iter().map(|c| c * c).sum::<f64>().sqrt() < 1e-4 * len {
             return Err("up must not be parallel to the view direction".into());
         }
         if r.fov_degrees.is_nan() || r.fov_degrees <= 0.0 || r.fov_degrees >= 180.0 {
@@ -926,7 +949,7 @@ pub struct Config {
     pub scene: PathBuf,
     /// Multiplies every coordinate of the file; all other lengths are in these scaled units.
     #[serde(default = "unit_scale")]
-    pub scale: Positive,
+    pub scale: Scale,
     /// Which axis of the file points up.
     #[serde(default)]
     pub up: UpAxis,
@@ -972,8 +995,8 @@ pub struct Config {
     pub compare: CompareParams,
 }
 
-fn unit_scale() -> Positive {
-    Positive(1.0)
+fn unit_scale() -> Scale {
+    Scale(1.0)
 }
 
 fn default_output() -> PathBuf {
@@ -1084,7 +1107,7 @@ mod tests {
     #[test]
     fn minimal_config_takes_documented_defaults() {
         let c = parse(MINIMAL).unwrap();
-        assert_eq!(c.scale, Positive(1.0));
+        assert_eq!(c.scale, Scale(1.0));
         assert_eq!(c.up, UpAxis::Y);
         assert_eq!(c.domain, Domain::Auto);
         assert_eq!(c.sdf, SdfParams::default());

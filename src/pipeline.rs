@@ -15,7 +15,7 @@ use crate::scene::raycast::SceneBvh;
 use crate::scene::{self, Bounds, Scene};
 use crate::sdf::{self, Sdf};
 use crate::svo::{self, Svo};
-use glam::Vec3;
+use glam::{DVec3, Vec3};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -181,6 +181,7 @@ pub fn compute_place(
     let scene_name = config.scene.display().to_string();
     let probes_json = report::to_json(&ProbesFile::new(
         &probes,
+        scene,
         sdf,
         &scene_name,
         config.seed,
@@ -367,15 +368,15 @@ fn lap(timings: &mut BTreeMap<String, f64>, name: &str, since: Instant) {
     timings.insert(name.to_string(), since.elapsed().as_secs_f64() * 1e3);
 }
 
-/// The domain box in world space: the scene bounds, or the config's box,
-/// which must overlap the scene.
+/// The domain box in the scene's local coordinates: the scene bounds, or
+/// the config's box (world coordinates), which must overlap the scene.
 pub fn resolve_domain(domain: &Domain, scene: &Scene) -> Result<Bounds> {
     match domain {
         Domain::Auto => Ok(scene.bounds),
         Domain::Box(b) => {
             let d = Bounds {
-                min: Vec3::from_array(b.min),
-                max: Vec3::from_array(b.max),
+                min: scene.to_local(DVec3::from_array(b.min)),
+                max: scene.to_local(DVec3::from_array(b.max)),
             };
             let overlap =
                 d.min.cmplt(scene.bounds.max).all() && d.max.cmpgt(scene.bounds.min).all();
@@ -384,8 +385,8 @@ pub fn resolve_domain(domain: &Domain, scene: &Scene) -> Result<Bounds> {
                     "domain: box {:?}..{:?} does not overlap the scene bounds {:?}..{:?}",
                     b.min,
                     b.max,
-                    scene.bounds.min.to_array(),
-                    scene.bounds.max.to_array()
+                    scene.to_world(scene.bounds.min).to_array(),
+                    scene.to_world(scene.bounds.max).to_array()
                 )));
             }
             Ok(d)
@@ -477,7 +478,7 @@ impl std::fmt::Display for Inspection {
             s.dims.x,
             s.dims.y,
             s.dims.z,
-            s.origin.to_array(),
+            s.world_origin().as_vec3().to_array(),
             s.max_probes,
             s.distinct_lists(),
             s.leaves_without_visible_probe

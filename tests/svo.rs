@@ -4,7 +4,7 @@
 
 mod common;
 use common::*;
-use glam::Vec3;
+use glam::DVec3;
 use probeplace::config::Config;
 use probeplace::pipeline;
 use probeplace::progress::Progress;
@@ -16,7 +16,9 @@ const POINTS: usize = 10_000;
 
 /// What `place` wrote for `config`, checked against an independent look at
 /// the scene; returns the report and the share of random free points whose
-/// first listed probe is unoccluded from them.
+/// first listed probe is unoccluded from them. The files are in world
+/// coordinates, the scene in its local ones: points go through
+/// `Scene::to_world` and `Scene::to_local` as a renderer's would.
 fn place_and_check(config: &str) -> (serde_json::Value, f64) {
     let out = tempfile::tempdir().unwrap();
     let path = root().join(config);
@@ -26,13 +28,14 @@ fn place_and_check(config: &str) -> (serde_json::Value, f64) {
     let progress = Progress::hidden();
     let prepared = pipeline::prepare(&cfg, &path, &progress, &mut BTreeMap::new()).unwrap();
     let svo = Svo::read(&out.path().join("svo.bin")).unwrap();
-    let probes: Vec<Vec3> = read_json(&out.path().join("probes.json"))["probes"]
+    let scene = &prepared.scene;
+    let probes: Vec<DVec3> = read_json(&out.path().join("probes.json"))["probes"]
         .as_array()
         .unwrap()
         .iter()
         .map(|p| {
-            let a: Vec<f32> = serde_json::from_value(p["position"].clone()).unwrap();
-            Vec3::new(a[0], a[1], a[2])
+            let a: [f64; 3] = serde_json::from_value(p["position"].clone()).unwrap();
+            DVec3::from(a)
         })
         .collect();
     assert_eq!(svo.probe_count as usize, probes.len());
@@ -59,9 +62,12 @@ fn place_and_check(config: &str) -> (serde_json::Value, f64) {
     let seen = points
         .iter()
         .filter(|&&p| {
-            svo.probes_at(p)
+            svo.probes_at(scene.to_world(p).as_vec3())
                 .first()
-                .is_some_and(|&k| !prepared.bvh.occluded(p, probes[k as usize], eps))
+                .is_some_and(|&k| {
+                    let probe = scene.to_local(probes[k as usize]);
+                    !prepared.bvh.occluded(p, probe, eps)
+                })
         })
         .count();
     (r, seen as f64 / POINTS as f64)

@@ -10,7 +10,7 @@
 //! | 24 | 4 | irradiance side m |
 //! | 28 | 4 | `max_distance` (f32) |
 //! | 32 | 32 | zero |
-//! | 64 | 12P | probe positions (3 × f32) |
+//! | 64 | 12P | probe positions, world space (3 × f32) |
 //! | … | 6Pn² | radiance (3 × f16) |
 //! | … | 4Pn² | normal (2 × f16, octahedral) |
 //! | … | 2Pn² | radial distance (f16, +∞ = nothing seen) |
@@ -21,11 +21,13 @@
 //!
 //! All little-endian; each section holds the probes one after another and
 //! each map row by row from texel (0, 0). Every value in memory is already
-//! rounded to half precision, so writing and reading lose nothing.
+//! rounded to half precision, so writing and reading lose nothing, except
+//! that positions are written in world coordinates (`frame + position`,
+//! rounded to f32) and read back with `frame` zero.
 
 use super::LightField;
 use crate::svo::format::crc32;
-use glam::Vec3;
+use glam::{DVec3, Vec3};
 use half::f16;
 
 /// File signature.
@@ -66,7 +68,7 @@ pub fn to_bytes(field: &LightField) -> Vec<u8> {
     out.extend_from_slice(&field.max_distance.to_le_bytes());
     out.resize(HEADER_BYTES, 0);
     for q in &field.positions {
-        for c in q.to_array() {
+        for c in (field.frame + q.as_dvec3()).as_vec3().to_array() {
             out.extend_from_slice(&c.to_le_bytes());
         }
     }
@@ -178,6 +180,7 @@ pub fn from_bytes(bytes: &[u8]) -> Result<LightField, String> {
         irradiance_resolution: m,
         max_distance,
         positions,
+        frame: DVec3::ZERO,
         radiance,
         normal,
         distance,
@@ -227,6 +230,18 @@ mod tests {
         let back = from_bytes(&bytes).unwrap();
         assert_eq!(back, field);
         assert_eq!(to_bytes(&back), bytes);
+    }
+
+    #[test]
+    fn positions_are_written_in_world_coordinates() {
+        let mut field = small_field();
+        field.frame = DVec3::new(1e5, 2.5, -3e4);
+        let back = from_bytes(&to_bytes(&field)).unwrap();
+        assert_eq!(back.frame, DVec3::ZERO);
+        for (b, p) in back.positions.iter().zip(&field.positions) {
+            assert_eq!(*b, (field.frame + p.as_dvec3()).as_vec3());
+        }
+        assert_eq!(back.radiance, field.radiance);
     }
 
     #[test]

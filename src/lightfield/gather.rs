@@ -130,6 +130,7 @@ mod tests {
             irradiance: vec![e; texels],
             moments: vec![[wall, wall * wall]; texels],
             positions,
+            frame: glam::DVec3::ZERO,
         }
     }
 

@@ -15,7 +15,7 @@ use crate::error::{Error, Result};
 use crate::progress::Progress;
 use crate::scene::raycast::SceneBvh;
 use crate::scene::Scene;
-use glam::Vec3;
+use glam::{DVec3, Vec3};
 use maps::RadianceFn;
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -33,8 +33,13 @@ pub struct LightField {
     pub irradiance_resolution: u32,
     /// Distance standing in for "nothing seen" in the moments (the domain's diagonal).
     pub max_distance: f32,
-    /// Probe centres, in the order of `probes.json`.
+    /// Probe centres, in the order of `probes.json`, relative to `frame`.
     pub positions: Vec<Vec3>,
+    /// World position of the zero of `positions`' coordinates: the scene's
+    /// [`crate::scene::Scene::origin`] for a bake (the tracer works in the
+    /// scene's local coordinates), zero for a field read from
+    /// `lightfield.bin`, which holds world coordinates.
+    pub frame: DVec3,
     /// Radiance arriving at the probe, RGB.
     pub radiance: Vec<[f32; 3]>,
     /// Octahedral encoding of the seen surface's normal, facing the probe.
@@ -140,6 +145,7 @@ pub fn bake(
             irradiance_resolution: params.irradiance_resolution.0,
             max_distance,
             positions: positions.to_vec(),
+            frame: scene.origin,
             radiance: rad,
             normal: geometry.normal,
             distance: geometry.distance,

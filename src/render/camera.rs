@@ -5,7 +5,8 @@
 //! the image's height; the horizontal one follows from the aspect ratio.
 
 use crate::config::CameraParams;
-use glam::Vec3;
+use crate::scene::Scene;
+use glam::{DVec3, Vec3};
 
 /// A pinhole camera with its image plane set up for one resolution.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -21,14 +22,16 @@ pub struct Camera {
 }
 
 impl Camera {
-    /// The camera `params` producing a `width × height` image.
+    /// The camera `params` (world coordinates, as the config gives them)
+    /// producing a `width × height` image, in `scene`'s local coordinates,
+    /// which its rays are traced in.
     ///
     /// Contract: `params` validated by the config (look-at differs from the
     /// position, up not parallel to the view, fov in (0°, 180°)); `width` and
     /// `height` at least 1.
-    pub fn new(params: &CameraParams, width: u32, height: u32) -> Camera {
-        let position = Vec3::from(params.position.0);
-        let forward = (Vec3::from(params.look_at.0) - position).normalize();
+    pub fn new(params: &CameraParams, scene: &Scene, width: u32, height: u32) -> Camera {
+        let position = scene.to_local(DVec3::from(params.position.0));
+        let forward = (scene.to_local(DVec3::from(params.look_at.0)) - position).normalize();
         let right = forward.cross(Vec3::from(params.up.0)).normalize();
         let up = right.cross(forward);
         let half_h = (0.5 * params.fov_degrees.to_radians()).tan();
@@ -70,7 +73,12 @@ mod tests {
 
     #[test]
     fn centre_looks_at_the_target_and_edges_span_the_field_of_view() {
-        let cam = Camera::new(&params(40.0), 200, 100);
+        let cam = Camera::new(
+            &params(40.0),
+            &crate::scene::testing::room_with_box(),
+            200,
+            100,
+        );
         let (o, d) = cam.ray(100.0, 50.0);
         assert_eq!(o, Vec3::new(0.0, 1.0, 3.0));
         assert!((d - Vec3::NEG_Z).length() < 1e-6);

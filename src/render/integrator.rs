@@ -104,6 +104,11 @@ impl<'a> Renderer<'a> {
         }
     }
 
+    /// The scene it renders.
+    pub fn scene(&self) -> &'a Scene {
+        self.scene
+    }
+
     /// The lights this renderer samples.
     pub fn lights(&self) -> &LightSet {
         &self.lights
@@ -445,11 +450,15 @@ mod tests {
         let bvh = SceneBvh::new(&scene);
         let r = Renderer::new(&scene, &bvh, &[], 0);
         assert_eq!(r.lights().area_light_count(), 2);
-        for floor in [Vec3::new(0.28, 0.0, 0.28), Vec3::new(0.1, 0.0, 0.45)] {
+        for floor in [
+            glam::DVec3::new(0.28, 0.0, 0.28),
+            glam::DVec3::new(0.1, 0.0, 0.45),
+        ] {
+            let floor = scene.to_local(floor);
             let eye = floor + Vec3::new(0.01, 0.2, -0.15);
             let dir = (floor - eye).normalize();
             let v = r.intersect(eye, dir).unwrap();
-            assert!(v.p.y.abs() < 1e-4 && v.n.y > 0.99);
+            assert!(scene.to_world(v.p).y.abs() < 1e-4 && v.n.y > 0.99);
             // The light covers about 1.5% of the floor's cosine-weighted
             // hemisphere: brute force needs far more samples for 1% noise.
             let (n_nee, n_brute) = (100_000u64, 2_000_000u64);

@@ -32,7 +32,7 @@ use crate::config::Light;
 use crate::sampling::{point_in_triangle, Sampler};
 use crate::scene::raycast::SceneBvh;
 use crate::scene::Scene;
-use glam::Vec3;
+use glam::{DVec3, Vec3};
 
 /// Relative luminance of linear RGB (Rec. 709 weights), the measure by which
 /// area lights share the samples.
@@ -109,9 +109,10 @@ pub struct LightSet {
 }
 
 impl LightSet {
-    /// Collects `scene`'s emissive triangles and the config's `lights`.
-    /// Several sky lights add up. Negative or non-finite `Ke` components count
-    /// as 0; triangles of zero luminance are not lights.
+    /// Collects `scene`'s emissive triangles and the config's `lights`,
+    /// whose positions (world coordinates) it takes to the scene's local
+    /// ones. Several sky lights add up. Negative or non-finite `Ke`
+    /// components count as 0; triangles of zero luminance are not lights.
     pub fn new(scene: &Scene, lights: &[Light]) -> LightSet {
         let diagonal = scene.bounds.size().length().max(1e-6);
         let mut area = Vec::new();
@@ -169,7 +170,7 @@ impl LightSet {
                     position,
                     intensity,
                 } => set.points.push(PointLight {
-                    position: Vec3::from(position.0),
+                    position: scene.to_local(DVec3::from(position.0)),
                     intensity: Vec3::from(intensity.0),
                 }),
                 Light::Spot {
@@ -182,7 +183,7 @@ impl LightSet {
                     let outer = cone_degrees.0.to_radians();
                     let inner = (cone_degrees.0 - edge_degrees.0).max(0.0).to_radians();
                     set.spots.push(SpotLight {
-                        position: Vec3::from(position.0),
+                        position: scene.to_local(DVec3::from(position.0)),
                         axis: Vec3::from(direction.0).normalize(),
                         intensity: Vec3::from(intensity.0),
                         outer,

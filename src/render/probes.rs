@@ -85,7 +85,7 @@ pub fn gbuffer(
     seed: u64,
 ) -> GBuffer {
     let share = 1.0 / glossy_rays.max(1) as f32;
-    let cam = Camera::new(camera, width, height);
+    let cam = Camera::new(camera, renderer.scene(), width, height);
     let rows: Vec<Vec<PixelQueries>> = (0..height)
         .into_par_iter()
         .map(|y| {

@@ -141,10 +141,10 @@ pub struct Comparison {
 /// A camera the placements are measured from.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct CameraRecord {
-    /// Eye position.
-    pub position: [f32; 3],
-    /// Point looked at.
-    pub look_at: [f32; 3],
+    /// Eye position, world coordinates as in the config.
+    pub position: [f64; 3],
+    /// Point looked at, world coordinates as in the config.
+    pub look_at: [f64; 3],
     /// Vertical field of view.
     pub fov_degrees: f32,
     /// Mean of the reference's glossy indirect component, per channel.

@@ -2,6 +2,9 @@
 //! (what a person or a script checks), `placement.png` (what an artist looks
 //! at). Formats are specified in docs/formats.md.
 //!
+//! Every coordinate written is a world coordinate in f64, converted from the
+//! stages' scene-local f32 ones by [`Scene::to_world`] here, at the boundary.
+//!
 //! Every file is written atomically (a temporary file in the same directory,
 //! then a rename), and only after every stage has succeeded, so a failed run
 //! never leaves a half-written or stale-looking output behind.
@@ -18,7 +21,7 @@ use crate::coverage::{Coverage, ProbeHealth};
 use crate::error::{Error, Result};
 use crate::placement::ProbeSet;
 use crate::refine::RefineReport;
-use crate::scene::{to_file, Bounds, Scene};
+use crate::scene::{world_to_file, Bounds, Scene};
 use crate::sdf::{Sdf, VoxelClass};
 use crate::svo::SvoReport;
 use serde::Serialize;
@@ -51,7 +54,7 @@ pub struct ProbesFile {
 #[derive(Debug, Serialize)]
 pub struct Space {
     /// Multiplier applied to file coordinates.
-    pub scale: f32,
+    pub scale: f64,
     /// Up axis of the file (world space is always Y-up).
     pub up: UpAxis,
 }
@@ -62,9 +65,9 @@ pub struct ProbeRecord {
     /// Index, stable for a given config and seed.
     pub index: usize,
     /// World-space position (Y up, scaled).
-    pub position: [f32; 3],
+    pub position: [f64; 3],
     /// The same point in the OBJ file's own coordinates.
-    pub position_file: [f32; 3],
+    pub position_file: [f64; 3],
     /// Distance to the nearest surface (SDF value at the probe's voxel; negative inside solids).
     pub clearance: f32,
     /// Class of the voxel holding the probe; `null` outside the grid.
@@ -74,13 +77,14 @@ pub struct ProbeRecord {
 }
 
 impl ProbesFile {
-    /// Builds the file's contents from a placement.
+    /// Builds the file's contents from a placement in `scene`.
     pub fn new(
         probes: &ProbeSet,
+        scene: &Scene,
         sdf: &Sdf,
         scene_path: &str,
         seed: u64,
-        scale: f32,
+        scale: f64,
         up: UpAxis,
     ) -> ProbesFile {
         let records = probes
@@ -89,10 +93,11 @@ impl ProbesFile {
             .enumerate()
             .map(|(index, p)| {
                 let voxel = sdf.voxel_at(p.position);
+                let world = scene.to_world(p.position);
                 ProbeRecord {
                     index,
-                    position: p.position.to_array(),
-                    position_file: to_file(p.position, scale, up).to_array(),
+                    position: world.to_array(),
+                    position_file: world_to_file(world, scale, up).to_array(),
                     clearance: voxel.map_or(f32::NAN, |v| sdf.distance[v]),
                     voxel_class: voxel.map(|v| sdf.class[v]),
                     cluster_size: p.cluster_size,
@@ -111,20 +116,21 @@ impl ProbesFile {
     }
 }
 
-/// Axis-aligned box as written in reports.
+/// Axis-aligned box as written in reports, in world coordinates.
 #[derive(Debug, Serialize)]
 pub struct BoundsRecord {
     /// Lower corner.
-    pub min: [f32; 3],
+    pub min: [f64; 3],
     /// Upper corner.
-    pub max: [f32; 3],
+    pub max: [f64; 3],
 }
 
-impl From<&Bounds> for BoundsRecord {
-    fn from(b: &Bounds) -> Self {
+impl BoundsRecord {
+    /// `b`, in `scene`'s local coordinates, as world coordinates.
+    pub fn world(b: &Bounds, scene: &Scene) -> BoundsRecord {
         BoundsRecord {
-            min: b.min.to_array(),
-            max: b.max.to_array(),
+            min: scene.to_world(b.min).to_array(),
+            max: scene.to_world(b.max).to_array(),
         }
     }
 }
@@ -267,10 +273,10 @@ impl Report {
                 path: scene_path.to_string(),
                 triangles: scene.triangles.len(),
                 dropped_triangles: scene.dropped_triangles,
-                bounds: (&scene.bounds).into(),
+                bounds: BoundsRecord::world(&scene.bounds, scene),
                 area: scene.area(),
             },
-            domain: domain.into(),
+            domain: BoundsRecord::world(domain, scene),
             sdf: sdf.into(),
             resolution: None,
             coverage_detail: coverage,

@@ -1,5 +1,15 @@
-//! Scene loading: an OBJ (+ MTL) file becomes a flat list of world-space
-//! triangles with per-triangle materials, ready for every later stage.
+//! Scene loading: an OBJ (+ MTL) file becomes a flat list of triangles with
+//! per-triangle materials, ready for every later stage.
+//!
+//! Coordinates: the file is read, scaled and turned Y-up in f64, then stored
+//! in f32 *relative to the scene's own origin* ([`Scene::origin`], the lower
+//! corner of its bounding box), not in absolute world coordinates. Every stage
+//! computes in these local coordinates, so that a scene gives the same
+//! result wherever it sits: f32 world coordinates 1 km from the world origin
+//! are only good to 61 µm, 100 km away to 7.8 mm, and the stages' epsilons
+//! (a thousandth of a voxel in occlusion tests) would drown in that rounding.
+//! Config inputs are world coordinates, converted once by
+//! [`Scene::to_local`]; outputs go back through [`Scene::to_world`].
 //!
 //! Real assets are messy (see ../shared/scenes/README.md): quads and
 //! polygons, negative indices, missing normals, hundreds of models per file,
@@ -10,7 +20,7 @@ pub mod raycast;
 
 use crate::config::UpAxis;
 use crate::error::{Error, Result};
-use glam::Vec3;
+use glam::{DVec3, Vec3};
 use std::path::{Path, PathBuf};
 
 /// The subset of an MTL material that the lighting stages use
@@ -91,12 +101,26 @@ impl Bounds {
     }
 }
 
-/// A loaded scene in world space: Y up, coordinates multiplied by the config's scale.
+/// A loaded scene: Y up, coordinates multiplied by the config's scale, stored
+/// relative to [`Scene::origin`] (module docs).
 #[derive(Debug, Clone)]
 pub struct Scene {
     /// The file it came from.
     pub source: PathBuf,
-    /// Triangles, counter-clockwise from the front as written in the file.
+    /// World position of the local coordinates' zero: `world = local + origin`.
+    /// For a loaded file, the lower corner of its triangles' bounding box
+    /// (computed in f64), so that local coordinates are no larger than the
+    /// scene, hence as precise in f32 as its size allows, wherever it sits;
+    /// zero for [`Scene::from_triangles`].
+    ///
+    /// Why the corner rather than the centre, which would gain one bit: the
+    /// corner is the domain's and the SDF's lower corner, which thus stays
+    /// exact in world coordinates (`svo.bin`'s origin, `report.json`'s
+    /// bounds), and a scene modelled from the world origin, as most are, has
+    /// local coordinates equal to its world ones, so its results do not move.
+    pub origin: DVec3,
+    /// Triangles in local coordinates, counter-clockwise from the front as
+    /// written in the file.
     pub triangles: Vec<[Vec3; 3]>,
     /// Unit geometric normal of each triangle, `(b-a)×(c-a)` normalized.
     pub normals: Vec<Vec3>,
@@ -104,7 +128,7 @@ pub struct Scene {
     pub material_ids: Vec<u32>,
     /// Materials; the last one is the fallback for faces without a material.
     pub materials: Vec<Material>,
-    /// Bounds of all triangles.
+    /// Bounds of all triangles, in local coordinates.
     pub bounds: Bounds,
     /// Number of faces dropped as degenerate (zero area) or non-finite.
     pub dropped_triangles: usize,
@@ -113,21 +137,78 @@ pub struct Scene {
 }
 
 impl Scene {
-    /// Builds a scene from triangles given directly (procedural scenes, tests).
-    /// Degenerate and non-finite triangles are dropped as in [`load_obj`].
+    /// Builds a scene from triangles given directly in local coordinates
+    /// (procedural scenes, tests), with [`Scene::origin`] zero, so local and
+    /// world coordinates agree. Degenerate and non-finite triangles are
+    /// dropped as in [`load_obj`].
     pub fn from_triangles(
         source: PathBuf,
         triangles: impl IntoIterator<Item = ([Vec3; 3], u32)>,
         materials: Vec<Material>,
     ) -> Result<Scene> {
+        Scene::assemble(source, DVec3::ZERO, 0, triangles, materials)
+    }
+
+    /// Builds a scene from triangles in world coordinates (f64): the origin
+    /// is the lower corner of the usable triangles' bounding box, and the triangles
+    /// are stored relative to it. Degenerate and non-finite triangles are
+    /// dropped as in [`load_obj`], before the bounds are taken, so that a
+    /// stray face cannot pull the origin away from the scene.
+    pub fn from_world_triangles(
+        source: PathBuf,
+        triangles: impl IntoIterator<Item = ([DVec3; 3], u32)>,
+        materials: Vec<Material>,
+    ) -> Result<Scene> {
+        let mut dropped = 0;
+        let mut kept: Vec<([DVec3; 3], u32)> = Vec::new();
+        for (tri, material) in triangles {
+            if usable(&tri) {
+                kept.push((tri, material));
+            } else {
+                dropped += 1;
+            }
+        }
+        let origin = kept
+            .iter()
+            .flat_map(|(tri, _)| tri)
+            .copied()
+            .reduce(DVec3::min)
+            .unwrap_or(DVec3::ZERO);
+        let local = kept
+            .into_iter()
+            .map(|(tri, material)| (tri.map(|v| (v - origin).as_vec3()), material));
+        Scene::assemble(source, origin, dropped, local, materials)
+    }
+
+    /// The world position of local point `p`, in f64 (for outputs).
+    pub fn to_world(&self, p: Vec3) -> DVec3 {
+        self.origin + p.as_dvec3()
+    }
+
+    /// The local coordinates of world point `p` (for inputs): the
+    /// difference is taken in f64, then rounded once to f32.
+    pub fn to_local(&self, p: DVec3) -> Vec3 {
+        (p - self.origin).as_vec3()
+    }
+
+    /// A scene with `origin` from local `triangles`, `dropped` faces already
+    /// dropped by the caller.
+    fn assemble(
+        source: PathBuf,
+        origin: DVec3,
+        dropped: usize,
+        triangles: impl IntoIterator<Item = ([Vec3; 3], u32)>,
+        materials: Vec<Material>,
+    ) -> Result<Scene> {
         let mut scene = Scene {
             source,
+            origin,
             triangles: Vec::new(),
             normals: Vec::new(),
             material_ids: Vec::new(),
             materials,
             bounds: Bounds::empty(),
-            dropped_triangles: 0,
+            dropped_triangles: dropped,
             warnings: Vec::new(),
         };
         scene.materials.push(Material::fallback());
@@ -194,25 +275,40 @@ impl Scene {
     }
 }
 
-/// Maps a file-space point to world space: scale, then rotate Z-up files to Y-up.
-pub fn to_world(p: Vec3, scale: f32, up: UpAxis) -> Vec3 {
+/// Whether a world-space triangle is finite and not degenerate: the test
+/// of [`Scene::from_triangles`], in f64.
+fn usable(tri: &[DVec3; 3]) -> bool {
+    let (e1, e2) = (tri[1] - tri[0], tri[2] - tri[0]);
+    let cross = e1.cross(e2);
+    let scale = e1.length_squared().max(e2.length_squared());
+    tri.iter().all(|v| v.is_finite())
+        && cross.is_finite()
+        && cross.length_squared() > 1e-12 * scale * scale
+}
+
+/// Maps a point of the OBJ file to world space: scale, then rotate Z-up
+/// files to Y-up. In f64, like the parsed file, so that nothing is lost
+/// before the scene's origin is subtracted.
+pub fn file_to_world(p: DVec3, scale: f64, up: UpAxis) -> DVec3 {
     let p = p * scale;
     match up {
         UpAxis::Y => p,
-        UpAxis::Z => Vec3::new(p.x, p.z, -p.y),
+        UpAxis::Z => DVec3::new(p.x, p.z, -p.y),
     }
 }
 
-/// Inverse of [`to_world`]: world space back to the OBJ file's coordinates.
-pub fn to_file(p: Vec3, scale: f32, up: UpAxis) -> Vec3 {
+/// Inverse of [`file_to_world`]: world space back to the OBJ file's coordinates.
+pub fn world_to_file(p: DVec3, scale: f64, up: UpAxis) -> DVec3 {
     let p = match up {
         UpAxis::Y => p,
-        UpAxis::Z => Vec3::new(p.x, -p.z, p.y),
+        UpAxis::Z => DVec3::new(p.x, -p.z, p.y),
     };
     p / scale
 }
 
-/// Loads an OBJ file into world space.
+/// Loads an OBJ file: world space (file coordinates × `scale`, Y up), stored
+/// relative to the lower corner of the scene's bounding box
+/// ([`Scene::from_world_triangles`]).
 ///
 /// Contract: every stage works with geometric normals (the winding's
 /// `(b-a)×(c-a)`), whether or not the file has normals: placement and
@@ -223,7 +319,7 @@ pub fn to_file(p: Vec3, scale: f32, up: UpAxis) -> Vec3 {
 /// unreadable MTL is a warning and every face gets [`Material::fallback`].
 /// Errors ([`Error::User`], naming the file): unreadable file, malformed OBJ,
 /// no usable triangle.
-pub fn load_obj(path: &Path, scale: f32, up: UpAxis) -> Result<Scene> {
+pub fn load_obj(path: &Path, scale: f64, up: UpAxis) -> Result<Scene> {
     if !path.is_file() {
         return Err(Error::user_file(path, "scene file not found"));
     }
@@ -240,12 +336,17 @@ pub fn load_obj(path: &Path, scale: f32, up: UpAxis) -> Result<Scene> {
     let materials: Vec<Material> = match materials {
         Ok(ms) => ms
             .into_iter()
-            .map(|m| Material {
-                name: m.name,
-                diffuse: m.diffuse.unwrap_or([0.8; 3]),
-                specular: m.specular.unwrap_or([0.0; 3]),
-                shininess: m.shininess.unwrap_or(1.0),
-                emission: m.emissive.unwrap_or([0.0; 3]),
+            .map(|m| {
+                let rgb = |c: Option<[f64; 3]>, default: f32| {
+                    c.map_or([default; 3], |c| c.map(|v| v as f32))
+                };
+                Material {
+                    name: m.name,
+                    diffuse: rgb(m.diffuse, 0.8),
+                    specular: rgb(m.specular, 0.0),
+                    shininess: m.shininess.map_or(1.0, |s| s as f32),
+                    emission: rgb(m.emissive, 0.0),
+                }
             })
             .collect(),
         Err(e) => {
@@ -261,8 +362,8 @@ pub fn load_obj(path: &Path, scale: f32, up: UpAxis) -> Result<Scene> {
         let material = mesh.material_id.map_or(u32::MAX, |m| m as u32);
         let vertex = move |i: u32| {
             let i = i as usize * 3;
-            to_world(
-                Vec3::new(
+            file_to_world(
+                DVec3::new(
                     mesh.positions[i],
                     mesh.positions[i + 1],
                     mesh.positions[i + 2],
@@ -275,7 +376,7 @@ pub fn load_obj(path: &Path, scale: f32, up: UpAxis) -> Result<Scene> {
             .chunks_exact(3)
             .map(move |f| ([vertex(f[0]), vertex(f[1]), vertex(f[2])], material))
     });
-    let mut scene = Scene::from_triangles(path.to_path_buf(), triangles, materials)?;
+    let mut scene = Scene::from_world_triangles(path.to_path_buf(), triangles, materials)?;
     warnings.append(&mut scene.warnings);
     scene.warnings = warnings;
     Ok(scene)
@@ -426,7 +527,11 @@ mod tests {
         );
         let s = load_obj(&p, 2.0, UpAxis::Y).unwrap();
         assert_eq!(s.triangles.len(), 2);
+        // Stored relative to the bounding box's lower corner, here the
+        // world origin: local and world coordinates agree.
+        assert_eq!(s.origin, DVec3::ZERO);
         assert_eq!(s.bounds.max, Vec3::new(2.0, 0.0, 2.0));
+        assert_eq!(s.to_world(s.bounds.max), DVec3::new(2.0, 0.0, 2.0));
         assert!(
             s.warnings.iter().any(|w| w.contains("material")),
             "{:?}",
@@ -453,10 +558,99 @@ mod tests {
 
     #[test]
     fn z_up_files_are_rotated_to_y_up() {
-        let p = Vec3::new(1.0, 2.0, 3.0);
-        let w = to_world(p, 2.0, UpAxis::Z);
-        assert_eq!(w, Vec3::new(2.0, 6.0, -4.0));
-        assert_eq!(to_file(w, 2.0, UpAxis::Z), p);
+        let p = DVec3::new(1.0, 2.0, 3.0);
+        let w = file_to_world(p, 2.0, UpAxis::Z);
+        assert_eq!(w, DVec3::new(2.0, 6.0, -4.0));
+        assert_eq!(world_to_file(w, 2.0, UpAxis::Z), p);
+    }
+
+    /// A tetrahedron with coordinates that f32 cannot hold exactly, its
+    /// corners shifted by `offset`, as OBJ text with enough decimals that
+    /// the file itself is exact to the nanometre.
+    fn tetrahedron_obj(offset: DVec3) -> String {
+        let corners = [
+            DVec3::new(0.0, 0.0, 0.0),
+            DVec3::new(1.234567, 0.0, 0.1),
+            DVec3::new(0.3, 0.987654, -0.2),
+            DVec3::new(0.4, 0.3, 1.111111),
+        ];
+        let mut text = String::new();
+        for c in corners {
+            let v = c + offset;
+            text += &format!("v {:.9} {:.9} {:.9}\n", v.x, v.y, v.z);
+        }
+        text + "f 1 3 2\nf 1 2 4\nf 2 3 4\nf 1 4 3\n"
+    }
+
+    #[test]
+    fn scenes_far_from_the_origin_keep_their_shape() {
+        let dir = tempfile::tempdir().unwrap();
+        let offset = DVec3::new(1e5, -2e5, 3e5);
+        let near = load_obj(
+            &write(dir.path(), "near.obj", &tetrahedron_obj(DVec3::ZERO)),
+            1.0,
+            UpAxis::Y,
+        )
+        .unwrap();
+        let far = load_obj(
+            &write(dir.path(), "far.obj", &tetrahedron_obj(offset)),
+            1.0,
+            UpAxis::Y,
+        )
+        .unwrap();
+        assert_eq!(far.triangles.len(), 4);
+        assert!((far.origin - near.origin - offset).abs().max_element() < 1e-9);
+        for (a, b) in near.triangles.iter().zip(&far.triangles) {
+            for (i, j) in [(0, 1), (0, 2), (1, 2)] {
+                let (ea, eb) = (a[j] - a[i], b[j] - b[i]);
+                assert!((ea - eb).abs().max_element() < 1e-6, "{ea} against {eb}");
+            }
+            // Local coordinates are the same; world ones are the file's.
+            for (va, vb) in a.iter().zip(b) {
+                assert!((*va - *vb).abs().max_element() < 1e-6);
+                let back = far.to_world(*vb) - offset;
+                assert!((back - near.to_world(*va)).abs().max_element() < 1e-6);
+            }
+        }
+        for (a, b) in near.normals.iter().zip(&far.normals) {
+            assert!((*a - *b).abs().max_element() < 1e-6, "{a} against {b}");
+        }
+        assert!((near.area() - far.area()).abs() < 1e-6 * near.area());
+    }
+
+    #[test]
+    fn local_and_world_coordinates_convert_both_ways() {
+        let dir = tempfile::tempdir().unwrap();
+        let offset = DVec3::new(1e6, 3e5, -7e5);
+        let s = load_obj(
+            &write(dir.path(), "t.obj", &tetrahedron_obj(offset)),
+            1.0,
+            UpAxis::Y,
+        )
+        .unwrap();
+        // The origin is the bounding box's lower corner, exact in world
+        // coordinates.
+        assert_eq!(s.bounds.min, Vec3::ZERO);
+        assert!(
+            (s.origin - offset - DVec3::new(0.0, 0.0, -0.2))
+                .abs()
+                .max_element()
+                < 1e-9
+        );
+        assert_eq!(s.to_world(s.bounds.min), s.origin);
+        let world = DVec3::new(1e6 + 0.5, 3e5 + 0.25, -7e5 - 0.125);
+        let local = s.to_local(world);
+        assert!((s.to_world(local) - world).abs().max_element() < 1e-7);
+        // Local points round-trip exactly: to_world is exact in f64.
+        for p in [Vec3::ZERO, Vec3::new(0.3, -0.7, 1e-3), s.bounds.max] {
+            assert_eq!(s.to_local(s.to_world(p)), p);
+        }
+        let procedural = testing::room_with_box();
+        assert_eq!(procedural.origin, DVec3::ZERO);
+        assert_eq!(
+            procedural.to_world(Vec3::new(1.0, 2.0, 3.0)),
+            DVec3::new(1.0, 2.0, 3.0)
+        );
     }
 
     #[test]

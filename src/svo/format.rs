@@ -5,7 +5,7 @@
 //! |---|---|---|
 //! | 0 | 8 | magic `PROBESVO` |
 //! | 8 | 4 | version (u32, [`VERSION`]) |
-//! | 12 | 12 | origin: lower corner of leaf (0,0,0), f32 × 3 |
+//! | 12 | 12 | origin: world-space lower corner of leaf (0,0,0), f32 × 3 |
 //! | 24 | 4 | leaf size, f32 |
 //! | 28 | 4 | depth (u32): the root cube is 2^depth leaves along an edge |
 //! | 32 | 12 | leaves along x, y, z over the domain, u32 × 3 |
@@ -27,7 +27,7 @@
 
 use super::octree::{CHILD_MASK_BITS, LEAF_BIT, PAYLOAD_OFFSET_BITS};
 use super::Svo;
-use glam::{UVec3, Vec3};
+use glam::{DVec3, UVec3, Vec3};
 
 /// The file's first eight bytes.
 pub const MAGIC: &[u8; 8] = b"PROBESVO";
@@ -66,15 +66,18 @@ pub fn crc32(bytes: &[u8]) -> u32 {
     !crc
 }
 
-/// The bytes of `svo.bin` for `svo`.
+/// The bytes of `svo.bin` for `svo`, its origin in world coordinates
+/// ([`Svo::world_origin`] rounded to f32: exact to about 6e-8 of its distance
+/// from the world origin, docs/formats.md).
 pub fn to_bytes(svo: &Svo) -> Vec<u8> {
     let mut out = Vec::with_capacity(svo.bytes() as usize);
     out.extend_from_slice(MAGIC);
+    let origin = svo.world_origin().as_vec3();
     let words = [
         VERSION,
-        svo.origin.x.to_bits(),
-        svo.origin.y.to_bits(),
-        svo.origin.z.to_bits(),
+        origin.x.to_bits(),
+        origin.y.to_bits(),
+        origin.z.to_bits(),
         svo.leaf_size.to_bits(),
         svo.depth,
         svo.dims.x,
@@ -94,7 +97,7 @@ pub fn to_bytes(svo: &Svo) -> Vec<u8> {
     out
 }
 
-/// Reads `svo.bin` from `bytes`.
+/// Reads `svo.bin` from `bytes`: a tree in world coordinates (`frame` zero).
 ///
 /// Contract: never panics and never reads out of bounds, whatever the
 /// bytes; any file this build did not write intact is an `Err` with a
@@ -141,6 +144,7 @@ pub fn from_bytes(bytes: &[u8]) -> Result<Svo, String> {
     let payload_at = nodes_at + 4 * node_count as usize;
     let svo = Svo {
         origin: Vec3::new(f(12), f(16), f(20)),
+        frame: DVec3::ZERO,
         leaf_size: f(24),
         depth: word(28),
         dims: UVec3::new(word(32), word(36), word(40)),

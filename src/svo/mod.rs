@@ -27,7 +27,7 @@ use crate::error::{Error, Result};
 use crate::placement::{PlacementInput, ProbeSet};
 use crate::sampling::{hash2, unit_f32};
 use crate::sdf;
-use glam::{UVec3, Vec3};
+use glam::{DVec3, UVec3, Vec3};
 use octree::{Builder, CHILD_MASK_BITS, LEAF_BIT, PAYLOAD_OFFSET_BITS};
 use rank::LeafRanker;
 use serde::Serialize;
@@ -40,10 +40,19 @@ pub const CHECK_POINTS: usize = 10_000;
 ///
 /// Built only by [`bake`] or read by [`Svo::read`] / [`format::from_bytes`],
 /// both of which guarantee the node array is well formed.
+///
+/// Coordinates: `origin` and the points [`Svo::probes_at`] takes are
+/// relative to [`Svo::frame`]. A tree just baked is in the scene's local
+/// coordinates, as every stage is ([`crate::scene`]); `svo.bin` is in world
+/// coordinates, so a tree read from it has `frame` zero and takes world
+/// points, as a renderer's would.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Svo {
-    /// Lower corner of leaf (0, 0, 0): the domain's lower corner.
+    /// Lower corner of leaf (0, 0, 0): the domain's lower corner, relative to `frame`.
     pub origin: Vec3,
+    /// World position of the zero of `origin`'s coordinates: the scene's
+    /// [`crate::scene::Scene::origin`] for a baked tree, zero for a read one.
+    pub frame: DVec3,
     /// Edge of a leaf.
     pub leaf_size: f32,
     /// The root cube is 2^depth leaves along an edge.
@@ -61,8 +70,9 @@ pub struct Svo {
 }
 
 impl Svo {
-    /// The probes listed for `point`, best first: empty outside the domain
-    /// and in solid or outside-the-scene space.
+    /// The probes listed for `point` (relative to [`Svo::frame`]: world
+    /// coordinates for a tree read from `svo.bin`), best first: empty outside
+    /// the domain and in solid or outside-the-scene space.
     ///
     /// Contract: O(depth) word reads, no allocation; every index is below
     /// [`Svo::probe_count`] and the slice has at most [`Svo::max_probes`] entries.
@@ -96,6 +106,12 @@ impl Svo {
                 None => return &[],
             }
         }
+    }
+
+    /// World position of the lower corner of leaf (0, 0, 0), in f64; what
+    /// `svo.bin` stores, rounded to f32.
+    pub fn world_origin(&self) -> DVec3 {
+        self.frame + self.origin.as_dvec3()
     }
 
     /// The node words and the payload words, as `svo.bin` stores them
@@ -237,6 +253,7 @@ pub fn bake(params: &SvoParams, probes: &ProbeSet, input: &PlacementInput) -> Re
     let (nodes, payload) = octree::encode(&root, params.max_probes.0 as usize)?;
     let svo = Svo {
         origin: input.domain.min,
+        frame: input.scene.origin,
         leaf_size,
         depth,
         dims,
@@ -441,6 +458,33 @@ mod tests {
                 unit_f32(hash2(h, 3)) * 4.4 - 0.2,
             );
             assert_eq!(read.probes_at(p), a.svo.probes_at(p));
+        }
+    }
+
+    /// A tree baked in a scene's local coordinates is written in world
+    /// coordinates, and the tree read back answers world points as the
+    /// baked one answers the same points in local coordinates.
+    #[test]
+    fn files_are_in_world_coordinates() {
+        let (mut baked, ..) = bake_room(&SvoParams::default());
+        baked.svo.frame = DVec3::new(1000.0, -250.0, 64.0);
+        let read = format::from_bytes(&baked.svo.to_bytes()).unwrap();
+        assert_eq!(read.frame, DVec3::ZERO);
+        assert_eq!(read.origin, baked.svo.world_origin().as_vec3());
+        let svo = &baked.svo;
+        for i in 0..2000u64 {
+            let h = hash2(11, i);
+            // Leaf centres, where f32 rounding of the world point cannot
+            // move the query to another leaf.
+            let cell = UVec3::new(
+                (unit_f32(hash2(h, 1)) * svo.dims.x as f32) as u32,
+                (unit_f32(hash2(h, 2)) * svo.dims.y as f32) as u32,
+                (unit_f32(hash2(h, 3)) * svo.dims.z as f32) as u32,
+            )
+            .min(svo.dims - 1);
+            let local = svo.origin + (cell.as_vec3() + 0.5) * svo.leaf_size;
+            let world = (svo.frame + local.as_dvec3()).as_vec3();
+            assert_eq!(read.probes_at(world), svo.probes_at(local), "{local}");
         }
     }
 
