@@ -33,7 +33,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     for path in configs {
         let mut config = Config::load(&path)?;
         config.voxel_size = VoxelSize::Auto;
-        let name = path.file_stem().unwrap_or_default().to_string_lossy().into_owned();
+        let name = path
+            .file_stem()
+            .unwrap_or_default()
+            .to_string_lossy()
+            .into_owned();
         inputs.push((name, config, path));
     }
     let mut rows = Vec::new();
@@ -45,12 +49,18 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let mut config = config.clone();
             config.placement = method;
             let out = dir.join(format!("{name}-{}", method.name()));
-            let row = generality::run(&name, config, &path, &out)?;
-            eprintln!("{name} {}: {} probes, coverage {:.4}", row.method, row.probes, row.coverage);
+            let row = generality::run(&name, config, &path, &out, true)?;
+            eprintln!(
+                "{name} {}: {} probes, coverage {:.4}",
+                row.method, row.probes, row.coverage
+            );
             rows.push(row);
         }
     }
-    std::fs::write(dir.join("generality.json"), serde_json::to_vec_pretty(&rows)?)?;
+    std::fs::write(
+        dir.join("generality.json"),
+        serde_json::to_vec_pretty(&rows)?,
+    )?;
     print!("{}", generality::markdown_table(&rows));
     Ok(())
 }

@@ -291,25 +291,31 @@ pub fn compare(config_path: &Path, options: &CompareOptions) -> Result<CompareOu
 ///
 /// Contract: at least one grid; a bad entry is a user error naming it.
 /// The first grid of [`placement::cubic_grid_sweep`] (up to `max_cells`
-/// cells along the domain's longest axis, by probe count) whose coverage,
-/// by `reference`, reaches `coverage`, with that coverage; `None` when no
-/// grid of the sweep does. The "smallest grid at the same coverage" that
+/// cells along the domain's longest axis, by probe count, and at most
+/// `max_probes` probes when given) whose coverage, by `reference`, reaches
+/// `coverage`, with that coverage; `None` when no grid of the sweep does. The "smallest grid at the same coverage" that
 /// our placements must beat (Wang et al. 2019 §5, Table 1).
 pub fn smallest_grid_reaching(
     prepared: &Prepared,
     reference: &CoverageReference,
     coverage: f64,
     max_cells: u32,
+    max_probes: Option<usize>,
     progress: &Progress,
 ) -> Option<(GridParams, f64)> {
     placement::cubic_grid_sweep(prepared.domain.size(), max_cells)
         .into_iter()
+        .take_while(|g| {
+            max_probes.is_none_or(|n| (g.cells.0 .0 * g.cells.1 .0 * g.cells.2 .0) as usize <= n)
+        })
         .find_map(|g| {
             let positions: Vec<glam::Vec3> = placement::grid(&g, &prepared.domain)
                 .iter()
                 .map(|p| p.position)
                 .collect();
-            let c = reference.evaluate(&prepared.bvh, &positions, progress).coverage;
+            let c = reference
+                .evaluate(&prepared.bvh, &positions, progress)
+                .coverage;
             (c >= coverage).then_some((g, c))
         })
 }

@@ -53,7 +53,9 @@ impl<'de> Deserialize<'de> for VoxelSize {
                 Ok(VoxelSize::Auto)
             }
             fn visit_f64<E: serde::de::Error>(self, v: f64) -> Result<VoxelSize, E> {
-                Positive::try_from(v).map(VoxelSize::Fixed).map_err(E::custom)
+                Positive::try_from(v)
+                    .map(VoxelSize::Fixed)
+                    .map_err(E::custom)
             }
             fn visit_u64<E: serde::de::Error>(self, v: u64) -> Result<VoxelSize, E> {
                 self.visit_f64(v as f64)
@@ -1121,10 +1123,22 @@ mod tests {
 
     #[test]
     fn voxel_size_takes_auto_or_a_length() {
-        let with = |v: &str| parse(&MINIMAL.replace("voxel_size: 0.1", &format!("voxel_size: {v}")));
+        let with =
+            |v: &str| parse(&MINIMAL.replace("voxel_size: 0.1", &format!("voxel_size: {v}")));
         assert_eq!(with("Auto").unwrap().voxel_size, VoxelSize::Auto);
-        assert_eq!(with("2").unwrap().voxel_size, VoxelSize::Fixed(Positive(2.0)));
-        for bad in ["Automatic", "0", "-0.5", "\"0.1\"", "Auto(0.1)", "inf", "(0.1)"] {
+        assert_eq!(
+            with("2").unwrap().voxel_size,
+            VoxelSize::Fixed(Positive(2.0))
+        );
+        for bad in [
+            "Automatic",
+            "0",
+            "-0.5",
+            "\"0.1\"",
+            "Auto(0.1)",
+            "inf",
+            "(0.1)",
+        ] {
             let m = user_message(with(bad));
             assert!(m.starts_with("c.ron:3:"), "{bad}: {m}");
             assert!(m.contains("voxel_size"), "{bad}: {m}");

@@ -14,7 +14,6 @@
 
 use crate::compare::smallest_grid_reaching;
 use crate::config::Config;
-use crate::coverage::CoverageReference;
 use crate::error::Result;
 use crate::pipeline::{self, PlaceOptions};
 use crate::progress::Progress;
@@ -50,8 +49,13 @@ pub struct GeneralityRow {
     /// Warnings of the run.
     pub warnings: Vec<String>,
     /// The smallest grid of the sweep reaching `coverage` (`NxMxK`), its
-    /// probe count and its coverage; `None` when no grid of the sweep does.
+    /// probe count and its coverage; `None` when no grid of the sweep (of
+    /// at most `grid_probe_limit` probes) does.
     pub smallest_grid: Option<(String, usize, f64)>,
+    /// The sweep stopped at grids of this many probes (`null`: the whole
+    /// sweep): enough to tell whether ours wins, without scoring the
+    /// large grids.
+    pub grid_probe_limit: Option<usize>,
     /// Wall time of the `place` run (ms).
     pub place_ms: f64,
 }
@@ -67,35 +71,41 @@ impl GeneralityRow {
 }
 
 /// Runs `place` with `config` (read from `config_path`; outputs into
-/// `out`), then the grid sweep (module docs).
+/// `out`), then the grid sweep (module docs), over the whole sweep or, when
+/// `whole_sweep` is false, over the grids of at most our probe count (which
+/// decides [`GeneralityRow::beats_grids`] at a fraction of the cost).
 ///
 /// Contract: the row's coverage is the run's `report.json` coverage; the
-/// grid coverages come from the same coverage reference the run built
-/// (the reference is deterministic in config and seed).
-pub fn run(name: &str, config: Config, config_path: &Path, out: &Path) -> Result<GeneralityRow> {
+/// grid coverages come from the coverage reference the run was scored by.
+pub fn run(
+    name: &str,
+    config: Config,
+    config_path: &Path,
+    out: &Path,
+    whole_sweep: bool,
+) -> Result<GeneralityRow> {
     let options = PlaceOptions {
         out: Some(out.to_path_buf()),
         ..Default::default()
     };
-    let outcome = pipeline::place_with(config.clone(), config_path, &options)?;
-    let r = outcome.report;
+    let mut run = pipeline::compute_place(config, config_path, &options)?;
+    run.finish_timings();
+    run.write_files()?;
+    let r = &run.report;
     let progress = Progress::hidden();
-    let prepared = pipeline::prepare(&config, config_path, &progress, &mut Default::default())?;
-    let reference = CoverageReference::new(
-        &prepared.scene,
-        &prepared.bvh,
-        &prepared.sdf,
-        &config.coverage,
-        config.seed,
+    let grid_probe_limit = (!whole_sweep).then_some(r.probe_count);
+    let smallest_grid = smallest_grid_reaching(
+        &run.prepared,
+        &run.reference,
+        r.coverage,
+        GRID_SWEEP_CELLS,
+        grid_probe_limit,
         &progress,
-    );
-    let smallest_grid =
-        smallest_grid_reaching(&prepared, &reference, r.coverage, GRID_SWEEP_CELLS, &progress).map(
-            |(g, c)| {
-                let n = (g.cells.0 .0 * g.cells.1 .0 * g.cells.2 .0) as usize;
-                (g.dims_text(), n, c)
-            },
-        );
+    )
+    .map(|(g, c)| {
+        let n = (g.cells.0 .0 * g.cells.1 .0 * g.cells.2 .0) as usize;
+        (g.dims_text(), n, c)
+    });
     Ok(GeneralityRow {
         scene: name.to_string(),
         method: r.method.clone(),
@@ -109,6 +119,7 @@ pub fn run(name: &str, config: Config, config_path: &Path, out: &Path) -> Result
         best_view_incidence_deg: r.best_view_incidence_deg,
         warnings: r.warnings.clone(),
         smallest_grid,
+        grid_probe_limit,
         place_ms: r.timings_ms.get("total").copied().unwrap_or(0.0),
     })
 }
@@ -121,7 +132,10 @@ pub fn markdown_table(rows: &[GeneralityRow]) -> String {
     for r in rows {
         let grid = match &r.smallest_grid {
             Some((dims, n, c)) => format!("{dims} = {n} ({:.2}%)", 100.0 * c),
-            None => format!("none up to {GRID_SWEEP_CELLS} cells"),
+            None => match r.grid_probe_limit {
+                Some(n) => format!("none of at most {n} probes"),
+                None => format!("none up to {GRID_SWEEP_CELLS} cells"),
+            },
         };
         out.push_str(&format!(
             "| {} | {} | {} | {:.4} ({}) | {} | {:.2}% | {} | {} | {} |\n",

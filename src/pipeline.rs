@@ -9,8 +9,8 @@ use crate::error::{Error, Result};
 use crate::placement::{self, PlacementInput, ProbeSet};
 use crate::progress::Progress;
 use crate::refine;
-use crate::resolution::{self, Resolution};
 use crate::report::{self, preview, ProbesFile, Report};
+use crate::resolution::{self, Resolution};
 use crate::scene::raycast::SceneBvh;
 use crate::scene::{self, Bounds, Scene};
 use crate::sdf::{self, Sdf};
@@ -78,6 +78,8 @@ pub struct PlaceRun {
     pub out_dir: PathBuf,
     /// Scene, domain, BVH and SDF.
     pub prepared: Prepared,
+    /// The coverage measure's reference the run was scored by.
+    pub reference: CoverageReference,
     /// The probes placed.
     pub probes: ProbeSet,
     /// The octree of probe indices.
@@ -103,6 +105,15 @@ impl PlaceRun {
 
     /// Writes every file atomically, `report.json` last, and removes stale ones.
     pub fn write(self) -> Result<PlaceOutcome> {
+        self.write_files()?;
+        Ok(PlaceOutcome {
+            out_dir: self.out_dir,
+            report: self.report,
+        })
+    }
+
+    /// [`PlaceRun::write`], keeping the run for the caller's later stages.
+    pub fn write_files(&self) -> Result<()> {
         let report_json = report::to_json(&self.report)?;
         report::prepare_output_dir(&self.out_dir)?;
         for (name, bytes) in &self.files {
@@ -114,11 +125,7 @@ impl PlaceRun {
                 std::fs::remove_file(&path).map_err(|e| Error::io(&path, e))?;
             }
         }
-        report::write_atomic(&self.out_dir.join("report.json"), &report_json)?;
-        Ok(PlaceOutcome {
-            out_dir: self.out_dir,
-            report: self.report,
-        })
+        report::write_atomic(&self.out_dir.join("report.json"), &report_json)
     }
 }
 
@@ -240,6 +247,7 @@ pub fn compute_place(
         config,
         out_dir,
         prepared,
+        reference,
         probes,
         svo: baked.svo,
         report,

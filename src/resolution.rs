@@ -193,11 +193,8 @@ mod tests {
         let quad = |a: Vec3, b: Vec3, c: Vec3, d: Vec3| [([a, b, c], 0), ([a, c, d], 0)];
         // Two large parallel plates 0.2 apart facing each other, in a room
         // of 4 x 2 x 4 (the room's own walls face inward).
-        let mut tris: Vec<([Vec3; 3], u32)> = room_with_box()
-            .triangles
-            .iter()
-            .map(|t| (*t, 0))
-            .collect();
+        let mut tris: Vec<([Vec3; 3], u32)> =
+            room_with_box().triangles.iter().map(|t| (*t, 0)).collect();
         let (lo, hi) = (1.5, 1.7);
         tris.extend(quad(
             Vec3::new(0.0, lo, 0.0),

@@ -21,10 +21,16 @@ const TARGET: f64 = 0.999;
 fn failures(r: &GeneralityRow) -> Vec<String> {
     let mut out = Vec::new();
     if r.coverage < TARGET {
-        out.push(format!("{}: coverage {:.4} under {TARGET}", r.scene, r.coverage));
+        out.push(format!(
+            "{}: coverage {:.4} under {TARGET}",
+            r.scene, r.coverage
+        ));
     }
     if r.probes_in_solid > 0 {
-        out.push(format!("{}: {} probes in solid", r.scene, r.probes_in_solid));
+        out.push(format!(
+            "{}: {} probes in solid",
+            r.scene, r.probes_in_solid
+        ));
     }
     if !r.beats_grids() {
         out.push(format!(
@@ -48,7 +54,7 @@ fn check(rows: &[GeneralityRow]) {
 
 fn run(name: &str, config: Config, path: &Path) -> GeneralityRow {
     let out = tempfile::tempdir().unwrap();
-    generality::run(name, config, path, out.path()).unwrap()
+    generality::run(name, config, path, out.path(), false).unwrap()
 }
 
 #[test]

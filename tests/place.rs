@@ -157,8 +157,14 @@ fn one_thread_and_the_default_pool_give_identical_outputs() {
     let (a, b) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
     let run = |out: &std::path::Path, threads: Option<&str>| {
         let mut cmd = std::process::Command::new(env!("CARGO_BIN_EXE_probeplace"));
-        cmd.args(["place", cfg.to_str().unwrap(), "--out", out.to_str().unwrap(), "--quiet"])
-            .current_dir(root());
+        cmd.args([
+            "place",
+            cfg.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--quiet",
+        ])
+        .current_dir(root());
         match threads {
             Some(n) => cmd.env("RAYON_NUM_THREADS", n),
             None => cmd.env_remove("RAYON_NUM_THREADS"),
@@ -185,7 +191,10 @@ fn one_thread_and_the_default_pool_give_identical_outputs() {
         r["timings_ms"] = serde_json::Value::Null;
         r
     };
-    assert_eq!(untimed(ra), untimed(read_json(&b.path().join("report.json"))));
+    assert_eq!(
+        untimed(ra),
+        untimed(read_json(&b.path().join("report.json")))
+    );
 }
 
 #[test]

@@ -52,9 +52,15 @@ fn compare_with_grids(config: &str, target: f32) -> (u64, Option<([u32; 3], f64)
         cfg.seed,
         &progress,
     );
-    let smallest =
-        probeplace::compare::smallest_grid_reaching(&prepared, &reference, target as f64, SWEEP_STEPS, &progress)
-            .map(|(g, cov)| ([g.cells.0 .0, g.cells.1 .0, g.cells.2 .0], cov));
+    let smallest = probeplace::compare::smallest_grid_reaching(
+        &prepared,
+        &reference,
+        target as f64,
+        SWEEP_STEPS,
+        None,
+        &progress,
+    )
+    .map(|(g, cov)| ([g.cells.0 .0, g.cells.1 .0, g.cells.2 .0], cov));
     let grid = match smallest {
         Some((g, cov)) => format!(
             "{}x{}x{} = {} probes, coverage {cov:.4}",

@@ -38,6 +38,13 @@ type Bits = Vec<u64>;
 /// far from the target, and an even subsample ranks candidates as well.
 pub const MAX_SCORED_HOLES: usize = 2048;
 
+/// Nearest live probes each probe is tried with for a merge (see
+/// [`CoverMatrix::merge_pairs`]).
+pub const MERGE_NEIGHBOURS: usize = 3;
+
+/// Candidates nearest a pair's midpoint scored as its replacement.
+pub const MERGE_CANDIDATES: usize = 256;
+
 /// Partial scorings (on a subsample of the holes) one tier of candidates
 /// gets before filling moves on to the next (see [`CoverMatrix::fill`]).
 pub const SUBSAMPLES_PER_TIER: usize = 2;
@@ -205,11 +212,43 @@ impl<'r> CoverMatrix<'r> {
         let mut tier_of = vec![0usize; positions.len()];
         tier_of.extend(&filled.tiers);
         let covered = count.iter().filter(|&&c| c > 0).count();
-        let (alive, covered) = if prune {
-            prune_greedy(&cols, &mut count, &tier_of, covered, target_count)
-        } else {
-            (vec![true; cols.len()], covered)
-        };
+        let mut alive = vec![true; cols.len()];
+        let mut covered = covered;
+        if prune {
+            covered = prune_greedy(
+                &cols,
+                &mut count,
+                &tier_of,
+                &mut alive,
+                covered,
+                target_count,
+            );
+            let mut all: Vec<Vec3> = positions.to_vec();
+            all.extend(&filled.added);
+            let merged = self.merge_pairs(
+                tiers,
+                &mut all,
+                &mut cols,
+                &mut count,
+                &mut alive,
+                &mut tier_of,
+                covered,
+                target_count,
+            );
+            if merged > 0 {
+                filled.added = all[positions.len()..].to_vec();
+                filled.tiers = tier_of[positions.len()..].to_vec();
+                covered = count.iter().filter(|&&c| c > 0).count();
+                covered = prune_greedy(
+                    &cols,
+                    &mut count,
+                    &tier_of,
+                    &mut alive,
+                    covered,
+                    target_count,
+                );
+            }
+        }
         let kept: Vec<usize> = (0..cols.len()).filter(|&k| alive[k]).collect();
         let kept_tiers = kept.iter().map(|&k| tier_of[k]).collect();
         FillPrune {
@@ -295,7 +334,8 @@ impl<'r> CoverMatrix<'r> {
                 while covered < target_count {
                     let holes_now = count.len() - covered;
                     let weight = holes_now as f64 / popcount(&remaining).max(1) as f64;
-                    let picks = greedy_on(&cand_cols, &mut remaining, covered, weight, target_count);
+                    let picks =
+                        greedy_on(&cand_cols, &mut remaining, covered, weight, target_count);
                     if picks.is_empty() {
                         break;
                     }
@@ -330,6 +370,108 @@ impl<'r> CoverMatrix<'r> {
             }
         }
         out
+    }
+
+    /// Merges pairs of neighbouring probes into one (a local search after
+    /// pruning, which only ever drops one probe at a time): for each live
+    /// probe and each of its [`MERGE_NEIGHBOURS`] nearest live probes, the
+    /// samples only the two of them see are scored against the
+    /// [`MERGE_CANDIDATES`] candidates (of every tier) nearest the pair's
+    /// midpoint; when one candidate sees enough of them to keep the target,
+    /// it replaces the pair (the nearest tier first, then the most seen;
+    /// ties: the earlier candidate). Repeats until no pair merges. Appends
+    /// the new probes to `all`, `cols` and `tier_of`; returns how many pairs
+    /// were merged.
+    #[allow(clippy::too_many_arguments)]
+    fn merge_pairs(
+        &self,
+        tiers: &[Vec<Vec3>],
+        all: &mut Vec<Vec3>,
+        cols: &mut Vec<Bits>,
+        count: &mut [u32],
+        alive: &mut Vec<bool>,
+        tier_of: &mut Vec<usize>,
+        mut covered: usize,
+        target_count: usize,
+    ) -> usize {
+        let pool: Vec<(Vec3, usize)> = tiers
+            .iter()
+            .enumerate()
+            .flat_map(|(t, c)| c.iter().map(move |&p| (p, t)))
+            .collect();
+        let mut merged = 0;
+        let mut tried = std::collections::BTreeSet::new();
+        'restart: loop {
+            let live: Vec<usize> = (0..all.len()).filter(|&k| alive[k]).collect();
+            for &i in &live {
+                let mut near: Vec<(f32, usize)> = live
+                    .iter()
+                    .filter(|&&j| j != i)
+                    .map(|&j| (all[i].distance_squared(all[j]), j))
+                    .collect();
+                near.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+                for &(_, j) in near.iter().take(MERGE_NEIGHBOURS) {
+                    if !tried.insert((i.min(j), i.max(j))) {
+                        continue;
+                    }
+                    // Samples only i and j see, and how many of them a
+                    // replacement must see to keep the target.
+                    let only: Vec<usize> = (0..count.len())
+                        .filter(|&s| {
+                            let mine = (cols[i][s / 64] >> (s % 64) & 1)
+                                + (cols[j][s / 64] >> (s % 64) & 1);
+                            count[s] > 0 && count[s] as u64 == mine
+                        })
+                        .collect();
+                    let need = only
+                        .len()
+                        .saturating_sub(covered - target_count.min(covered));
+                    let mid = 0.5 * (all[i] + all[j]);
+                    let mut cands: Vec<(f32, usize)> = pool
+                        .iter()
+                        .enumerate()
+                        .map(|(k, (p, _))| (p.distance_squared(mid), k))
+                        .collect();
+                    let k = MERGE_CANDIDATES.min(cands.len());
+                    if k == 0 {
+                        return merged;
+                    }
+                    cands.select_nth_unstable_by(k - 1, |a, b| {
+                        a.0.total_cmp(&b.0).then(a.1.cmp(&b.1))
+                    });
+                    cands.truncate(k);
+                    cands.sort_by_key(|&(_, c)| c);
+                    let scores: Vec<u32> = cands
+                        .par_iter()
+                        .map(|&(_, c)| popcount(&self.column(pool[c].0, &only)))
+                        .collect();
+                    let best = cands
+                        .iter()
+                        .zip(&scores)
+                        .filter(|(_, &g)| g as usize >= need)
+                        .min_by_key(|((_, c), &g)| (pool[*c].1, std::cmp::Reverse(g), *c));
+                    let Some((&(_, c), _)) = best else { continue };
+                    for k in [i, j] {
+                        alive[k] = false;
+                        for s in ones(&cols[k]) {
+                            count[s] -= 1;
+                        }
+                    }
+                    let col = self.columns(&[pool[c].0]).remove(0);
+                    for s in ones(&col) {
+                        count[s] += 1;
+                    }
+                    cols.push(col);
+                    all.push(pool[c].0);
+                    tier_of.push(pool[c].1);
+                    alive.push(true);
+                    covered = count.iter().filter(|&&c| c > 0).count();
+                    merged += 1;
+                    continue 'restart;
+                }
+            }
+            return merged;
+        }
     }
 
     /// The coverable samples among `subset` (indices into `self.coverable`)
@@ -385,17 +527,18 @@ fn greedy_on(
 /// Among probes that may go, the one that alone sees the fewest samples
 /// goes first, then the one nearest a surface (highest tier), so that a
 /// probe stands close to a surface only where no other serves; ties: the
-/// one that sees fewest overall, then the later one. Returns which probes
-/// are kept and what they cover.
+/// one that sees fewest overall, then the later one. Clears `alive` for the
+/// probes dropped (only live ones are considered) and returns what the
+/// rest cover.
 fn prune_greedy(
     cols: &[Bits],
     count: &mut [u32],
     tier_of: &[usize],
+    alive: &mut [bool],
     mut covered: usize,
     target_count: usize,
-) -> (Vec<bool>, usize) {
+) -> usize {
     let words = count.len().div_ceil(64);
-    let mut alive = vec![true; cols.len()];
     loop {
         let mut once: Bits = vec![0; words];
         for (i, &c) in count.iter().enumerate() {
@@ -429,7 +572,7 @@ fn prune_greedy(
             count[i] -= 1;
         }
     }
-    (alive, covered)
+    covered
 }
 
 #[cfg(test)]
@@ -471,8 +614,7 @@ mod tests {
         assert_eq!(cov.covered_samples, r.covered_final);
         assert_eq!(matrix.summary(&kept).0, r.covered_final);
         // Without filling or pruning nothing changes.
-        let same =
-            matrix.fill_and_prune(&positions, &tiers, 0.999, false, false, &p);
+        let same = matrix.fill_and_prune(&positions, &tiers, 0.999, false, false, &p);
         assert_eq!(same.kept, vec![0, 1, 2]);
         assert_eq!(same.covered_final, same.covered_initial);
     }
@@ -513,7 +655,10 @@ mod tests {
         let covered = count.iter().filter(|&&c| c > 0).count();
         assert_eq!(covered, target, "{:?}", filled.rounds);
         assert_eq!(filled.rounds.last().unwrap().covered, covered);
-        assert_eq!(filled.added.len(), filled.rounds.iter().map(|r| r.added).sum::<usize>());
+        assert_eq!(
+            filled.added.len(),
+            filled.rounds.iter().map(|r| r.added).sum::<usize>()
+        );
     }
 
     /// Tiers are used in order, and only for what the tiers before cannot
@@ -537,7 +682,82 @@ mod tests {
         assert!(later.rounds.iter().all(|r| r.tier == 1));
         let first = matrix.fill_and_prune(&positions, &[refs.clone(), refs], 1.0, true, true, &p);
         assert_eq!(first.covered_final, matrix.len());
-        assert!(first.rounds.iter().all(|r| r.tier == 0), "{:?}", first.rounds);
+        assert!(
+            first.rounds.iter().all(|r| r.tier == 0),
+            "{:?}",
+            first.rounds
+        );
         assert!(first.kept_tiers.iter().all(|&t| t == 0));
+    }
+
+    /// Pruning drops one probe at a time; merging replaces two by one.
+    /// Pruning alone keeps more of eight low probes than pruning with
+    /// merges, and both keep the target.
+    #[test]
+    fn merging_pairs_needs_fewer_probes_than_pruning_alone() {
+        let (scene, bvh, sdf) = room_sdf(0.25, 2);
+        let params = CoverageParams {
+            samples: Count(4000),
+            reference_points: Count(512),
+            max_incidence_deg: Degrees(85.0),
+        };
+        let p = Progress::hidden();
+        let reference = CoverageReference::new(&scene, &bvh, &sdf, &params, 2, &p);
+        let matrix = CoverMatrix::new(&reference, &bvh);
+        let m = matrix.len();
+        // Eight low probes around the walls: each sees the room from a
+        // poor angle, so several are needed where one higher up would do.
+        let positions: Vec<Vec3> = [
+            (0.4, 0.4),
+            (2.0, 0.4),
+            (3.6, 0.4),
+            (3.6, 2.0),
+            (3.6, 3.6),
+            (2.0, 3.6),
+            (0.4, 3.6),
+            (0.4, 2.0),
+        ]
+        .iter()
+        .map(|&(x, z)| Vec3::new(x, 0.4, z))
+        .collect();
+        let target = 0.9;
+        let target_count = (target * m as f64).ceil() as usize;
+        let cols = matrix.columns(&positions);
+        let mut count = vec![0u32; m];
+        for c in &cols {
+            for i in ones(c) {
+                count[i] += 1;
+            }
+        }
+        let covered = count.iter().filter(|&&c| c > 0).count();
+        assert!(
+            covered >= target_count,
+            "the eight probes should cover the room"
+        );
+        let mut alive = vec![true; 8];
+        prune_greedy(
+            &cols,
+            &mut count,
+            &[0; 8],
+            &mut alive,
+            covered,
+            target_count,
+        );
+        let pruned = alive.iter().filter(|&&a| a).count();
+        let tiers = [reference.references.clone()];
+        let r = matrix.fill_and_prune(&positions, &tiers, target, true, true, &p);
+        assert!(r.covered_final >= target_count, "{r:?}");
+        assert!(
+            r.kept.len() < pruned,
+            "merged {} against pruned {pruned}",
+            r.kept.len()
+        );
+        let mut all = positions.clone();
+        all.extend(&r.added);
+        let kept: Vec<Vec3> = r.kept.iter().map(|&k| all[k]).collect();
+        assert_eq!(
+            reference.evaluate(&bvh, &kept, &p).covered_samples,
+            r.covered_final
+        );
     }
 }
