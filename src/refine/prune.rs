@@ -581,16 +581,22 @@ mod tests {
     use crate::config::{Count, CoverageParams, Degrees};
     use crate::scene::testing::room_sdf;
 
-    #[test]
-    fn fill_reaches_the_target_and_prune_drops_duplicates() {
+    /// The test room's BVH and a small coverage reference over it.
+    fn room_reference() -> (SceneBvh, CoverageReference) {
         let (scene, bvh, sdf) = room_sdf(0.25, 2);
         let params = CoverageParams {
             samples: Count(4000),
             reference_points: Count(512),
             max_incidence_deg: Degrees(85.0),
         };
+        let reference = CoverageReference::new(&scene, &bvh, &sdf, &params, 2, &Progress::hidden());
+        (bvh, reference)
+    }
+
+    #[test]
+    fn fill_reaches_the_target_and_prune_drops_duplicates() {
+        let (bvh, reference) = room_reference();
         let p = Progress::hidden();
-        let reference = CoverageReference::new(&scene, &bvh, &sdf, &params, 2, &p);
         let matrix = CoverMatrix::new(&reference, &bvh);
         let one = Vec3::new(3.0, 2.0, 3.0);
         // Three copies of one probe: two are superfluous; the hole behind
@@ -625,14 +631,8 @@ mod tests {
     /// ones were never looked at again. Its first round is that pass.
     #[test]
     fn fill_rescores_the_holes_a_subsample_left() {
-        let (scene, bvh, sdf) = room_sdf(0.25, 2);
-        let params = CoverageParams {
-            samples: Count(4000),
-            reference_points: Count(512),
-            max_incidence_deg: Degrees(85.0),
-        };
+        let (bvh, reference) = room_reference();
         let p = Progress::hidden();
-        let reference = CoverageReference::new(&scene, &bvh, &sdf, &params, 2, &p);
         let matrix = CoverMatrix::new(&reference, &bvh);
         let m = matrix.len();
         // One probe in a corner behind the box: most of the room is a hole.
@@ -666,14 +666,8 @@ mod tests {
     /// with the references first, the second tier adds nothing.
     #[test]
     fn tiers_fill_only_what_earlier_tiers_cannot_see() {
-        let (scene, bvh, sdf) = room_sdf(0.25, 2);
-        let params = CoverageParams {
-            samples: Count(4000),
-            reference_points: Count(512),
-            max_incidence_deg: Degrees(85.0),
-        };
+        let (bvh, reference) = room_reference();
         let p = Progress::hidden();
-        let reference = CoverageReference::new(&scene, &bvh, &sdf, &params, 2, &p);
         let matrix = CoverMatrix::new(&reference, &bvh);
         let positions = [Vec3::new(3.0, 2.0, 3.0)];
         let refs = reference.references.clone();
@@ -695,14 +689,8 @@ mod tests {
     /// merges, and both keep the target.
     #[test]
     fn merging_pairs_needs_fewer_probes_than_pruning_alone() {
-        let (scene, bvh, sdf) = room_sdf(0.25, 2);
-        let params = CoverageParams {
-            samples: Count(4000),
-            reference_points: Count(512),
-            max_incidence_deg: Degrees(85.0),
-        };
+        let (bvh, reference) = room_reference();
         let p = Progress::hidden();
-        let reference = CoverageReference::new(&scene, &bvh, &sdf, &params, 2, &p);
         let matrix = CoverMatrix::new(&reference, &bvh);
         let m = matrix.len();
         // Eight low probes around the walls: each sees the room from a

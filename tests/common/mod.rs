@@ -69,7 +69,7 @@ pub fn assert_svo_sound(r: &serde_json::Value, scene: &str) {
     let bytes = s["bytes"].as_u64().unwrap();
     let dense = s["dense_bytes"].as_u64().unwrap();
     assert!(
-        bytes * 20 <= dense,
+        bytes * 16 <= dense,
         "{scene}: svo {bytes} bytes against {dense} dense"
     );
     assert!(s["nodes"].as_u64().unwrap() >= 1, "{scene}");
