@@ -199,6 +199,7 @@ impl CoverageReference {
 
     /// Whether `viewer` sees `sample` (module docs): the one rule behind
     /// every coverage figure.
+    #[inline]
     pub fn sees(&self, bvh: &SceneBvh, viewer: Vec3, sample: &SurfaceSample) -> bool {
         let to_viewer = viewer - sample.position;
         let len = to_viewer.length();

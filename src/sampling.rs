@@ -7,6 +7,7 @@ use std::f32::consts::PI;
 
 /// SplitMix64 finalizer: a good 64-bit mix of `seed` and `index`, used to give
 /// every work item its own random stream independent of execution order.
+#[inline]
 pub fn hash2(seed: u64, index: u64) -> u64 {
     let mut z = seed ^ index.wrapping_mul(0x9E37_79B9_7F4A_7C15);
     z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
@@ -16,6 +17,7 @@ pub fn hash2(seed: u64, index: u64) -> u64 {
 }
 
 /// A uniform number in [0, 1) from the top 24 bits of `h`.
+#[inline]
 pub fn unit_f32(h: u64) -> f32 {
     (h >> 40) as f32 * (1.0 / (1u64 << 24) as f32)
 }
@@ -57,6 +59,7 @@ pub fn random_rotation(h: u64) -> Mat3 {
 }
 
 /// A point uniformly distributed over triangle `t` from two uniforms in [0,1).
+#[inline]
 pub fn point_in_triangle(t: &[Vec3; 3], u: f32, v: f32) -> Vec3 {
     let su = u.sqrt();
     let b0 = 1.0 - su;
