@@ -7,7 +7,7 @@
 //! | stage | module | paper |
 //! |---|---|---|
 //! | load the scene | [`scene`] | — |
-//! | ray casting | [`scene::raycast`] | — |
+//! | ray casting, watertight ray/triangle test | [`scene::raycast`], [`scene::watertight`] | Woop, Benthin & Wald 2013 |
 //! | voxel size chosen from the scene | [`resolution`] | — |
 //! | signed distance field | [`sdf`] | Wang §3.1 |
 //! | skeletons (SDF, medial axis) and clustering | [`skeleton`] | Wang §3.1, Figs. 2–3; Ma et al. 2012 |

@@ -17,6 +17,7 @@
 //! so in warnings; it refuses only files with no usable triangle.
 
 pub mod raycast;
+pub mod watertight;
 
 use crate::config::UpAxis;
 use crate::error::{Error, Result};

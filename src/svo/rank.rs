@@ -169,13 +169,12 @@ pub fn is_free(sdf: &Sdf, bvh: &SceneBvh, p: Vec3) -> bool {
     // Short of the shadow rays' tolerance: a point a hair behind a wall
     // must not pass for free.
     let eps = 1e-5 * sdf.voxel_size;
-    // Off the centre by a small odd offset: a segment between points of a
-    // regular grid can run exactly along the diagonal seam of an
-    // axis-aligned quad, where a non-watertight triangle test misses both halves.
-    let jitter = Vec3::new(0.0123, -0.0071, 0.0093) * sdf.voxel_size;
+    // Exactly the centres: a segment between points of the grid may run
+    // along the diagonal seam of an axis-aligned quad, which the watertight
+    // ray/triangle test does not let it slip through.
     near.iter()
         .take(FREE_NEIGHBOURS_TRIED)
-        .any(|&(_, j)| !bvh.occluded(p, sdf.center(j) + jitter, eps))
+        .any(|&(_, j)| !bvh.occluded(p, sdf.center(j), eps))
 }
 
 /// How a leaf got its list.
@@ -425,6 +424,28 @@ mod tests {
         assert_eq!(b.intersect(&a), r);
         let none = a.intersect(&Ranked::single(9));
         assert!(none.is_empty());
+    }
+
+    #[test]
+    fn a_point_behind_a_quads_seam_is_not_free() {
+        // The box of the test room spans [1, 2] × [0, 1] × [1, 2]; its −x
+        // face is a quad split along the diagonal from (1, 0, 1) to
+        // (1, 1, 2), in the plane z − y = 1, which holds a row of voxel
+        // centres (0.1 m voxels from 0). From a point a hair inside the
+        // box on that plane, the segments to those of its nearest free
+        // centres that lie on the plane too cross the face exactly on the
+        // seam (along −x, where y is a centre's).
+        let (_, bvh, sdf) = crate::scene::testing::room_sdf(0.1, 1);
+        let mut n = 0;
+        for k in 1..40 {
+            let y = k as f32 * 0.025;
+            for (x, free) in [(1.0 + 1e-3, false), (1.0 + 1e-2, false), (1.0 - 1e-2, true)] {
+                let p = Vec3::new(x, y, 1.0 + y);
+                assert_eq!(is_free(&sdf, &bvh, p), free, "{p}");
+                n += 1;
+            }
+        }
+        assert_eq!(n, 39 * 3);
     }
 
     #[test]
