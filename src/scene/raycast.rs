@@ -315,19 +315,29 @@ mod tests {
         assert_eq!(h.t, t);
         // Closest, not first found: from the floor's back the ceiling is farther.
         let below = Vec3::new(-0.5, -1.0, 0.5);
-        assert_eq!(bvh.closest_hit(below, Vec3::Y, 0.0, 5.0).unwrap().triangle, 0);
-        assert_eq!(bvh.closest_hit(below, Vec3::Y, 1.5, 5.0).unwrap().triangle, 1);
+        assert_eq!(
+            bvh.closest_hit(below, Vec3::Y, 0.0, 5.0).unwrap().triangle,
+            0
+        );
+        assert_eq!(
+            bvh.closest_hit(below, Vec3::Y, 1.5, 5.0).unwrap().triangle,
+            1
+        );
         // Segments ending short of a surface are not blocked by it.
         assert!(!bvh.occluded(o, o + d * (t * 0.99), 1e-4));
         assert!(bvh.occluded(o, o + d * (t * 1.01), 1e-4));
     }
 
-    /// Every ray aimed at `targets` (points of the mesh's interior edges
-    /// and vertices, so that a watertight test must hit) from many origins
-    /// hits, in `closest_hit` and in `occluded`. Returns the number of
-    /// rays tried and those that slipped through; `n` is the mesh's unit
-    /// normal (at the targets), `e` a direction along the shared edge.
-    fn slips(bvh: &SceneBvh, targets: &[(Vec3, Vec3, Vec3)], seed: u64) -> (usize, usize) {
+    /// A point to aim at, the mesh's normal there and a direction along
+    /// the shared edge through it.
+    type Target = (Vec3, Vec3, Vec3);
+
+    /// Aims rays at `targets` (points of the mesh's interior edges and
+    /// vertices, where a watertight test must hit) from many origins, and
+    /// returns how many were tried and how many slipped through: no
+    /// `closest_hit` at the target's distance, or an unblocked segment
+    /// through the target in `occluded`.
+    fn slips(bvh: &SceneBvh, targets: &[Target], seed: u64) -> (usize, usize) {
         let (mut tried, mut slipped) = (0, 0);
         for (k, &(p, n, e)) in targets.iter().enumerate() {
             let mut origins = Vec::new();
@@ -374,8 +384,9 @@ mod tests {
     /// directions, so that interior vertices are shared by 6 or 8
     /// triangles), spanned by `u` and `v` from `corner` with vertex
     /// spacing 1/n; and the targets on its interior edges and vertices.
-    fn grid(corner: Vec3, u: Vec3, v: Vec3, n: usize) -> (Vec<[Vec3; 3]>, Vec<(Vec3, Vec3, Vec3)>) {
-        let at = |i: usize, j: usize| corner + u * (i as f32 / n as f32) + v * (j as f32 / n as f32);
+    fn grid(corner: Vec3, u: Vec3, v: Vec3, n: usize) -> (Vec<[Vec3; 3]>, Vec<Target>) {
+        let at =
+            |i: usize, j: usize| corner + u * (i as f32 / n as f32) + v * (j as f32 / n as f32);
         let normal = u.cross(v).normalize();
         let mut tris = Vec::new();
         let mut targets = Vec::new();
@@ -430,7 +441,10 @@ mod tests {
             .collect();
         let (tried, slipped) = slips(&bvh, &targets, 3);
         assert!(tried > 1000);
-        assert_eq!(slipped, 0, "{slipped} of {tried} rays slipped through the seam");
+        assert_eq!(
+            slipped, 0,
+            "{slipped} of {tried} rays slipped through the seam"
+        );
         // Segments between the points of a regular grid straddling the
         // quad, through the seam and along it (what `svo::rank::is_free`
         // casts between voxel centres).
@@ -462,28 +476,52 @@ mod tests {
         // Axis-aligned and tilted grids, and a fan of 11 triangles round
         // one vertex.
         for (corner, u, v) in [
-            (Vec3::new(-0.35, 0.3, -0.45), Vec3::new(1.3, 0.0, 0.0), Vec3::new(0.0, 0.0, 1.1)),
-            (Vec3::new(0.2, -0.6, -0.1), Vec3::new(0.0, 1.7, 0.0), Vec3::new(0.0, 0.0, 0.9)),
-            (Vec3::new(-0.3, -0.2, 0.1), Vec3::new(1.1, 0.3, -0.2), Vec3::new(-0.1, 0.4, 0.9)),
+            (
+                Vec3::new(-0.35, 0.3, -0.45),
+                Vec3::new(1.3, 0.0, 0.0),
+                Vec3::new(0.0, 0.0, 1.1),
+            ),
+            (
+                Vec3::new(0.2, -0.6, -0.1),
+                Vec3::new(0.0, 1.7, 0.0),
+                Vec3::new(0.0, 0.0, 0.9),
+            ),
+            (
+                Vec3::new(-0.3, -0.2, 0.1),
+                Vec3::new(1.1, 0.3, -0.2),
+                Vec3::new(-0.1, 0.4, 0.9),
+            ),
         ] {
             let (tris, targets) = grid(corner, u, v, 6);
             let bvh = SceneBvh::new(&scene_of(&tris));
             let (tried, slipped) = slips(&bvh, &targets, 5);
             assert!(tried > 5000, "{tried}");
-            assert_eq!(slipped, 0, "{slipped} of {tried} rays slipped through the grid {u} {v}");
+            assert_eq!(
+                slipped, 0,
+                "{slipped} of {tried} rays slipped through the grid {u} {v}"
+            );
         }
         // A fan: 11 triangles of irregular angles round a centre.
         let centre = Vec3::new(0.13, 0.41, -0.27);
-        let (e1, e2) = (Vec3::new(0.9, 0.1, 0.3).normalize(), Vec3::new(-0.2, 0.3, 0.8));
+        let (e1, e2) = (
+            Vec3::new(0.9, 0.1, 0.3).normalize(),
+            Vec3::new(-0.2, 0.3, 0.8),
+        );
         let e2 = (e2 - e1 * e1.dot(e2)).normalize();
         let n = e1.cross(e2);
-        let mut angles: Vec<f32> = (0..11).map(|k| k as f32 + 0.6 * rand_unit(hash2(9, k))).collect();
-        angles.iter_mut().for_each(|a| *a *= std::f32::consts::TAU / 11.0);
+        let mut angles: Vec<f32> = (0..11)
+            .map(|k| k as f32 + 0.6 * rand_unit(hash2(9, k)))
+            .collect();
+        angles
+            .iter_mut()
+            .for_each(|a| *a *= std::f32::consts::TAU / 11.0);
         let rim: Vec<Vec3> = angles
             .iter()
             .map(|a| centre + (e1 * a.cos() + e2 * a.sin()) * 0.8)
             .collect();
-        let tris: Vec<[Vec3; 3]> = (0..11).map(|k| [centre, rim[k], rim[(k + 1) % 11]]).collect();
+        let tris: Vec<[Vec3; 3]> = (0..11)
+            .map(|k| [centre, rim[k], rim[(k + 1) % 11]])
+            .collect();
         let bvh = SceneBvh::new(&scene_of(&tris));
         let mut targets = vec![(centre, n, e1), (centre, n, e2)];
         for r in &rim {
@@ -493,7 +531,10 @@ mod tests {
         }
         let (tried, slipped) = slips(&bvh, &targets, 7);
         assert!(tried > 500);
-        assert_eq!(slipped, 0, "{slipped} of {tried} rays slipped through the fan");
+        assert_eq!(
+            slipped, 0,
+            "{slipped} of {tried} rays slipped through the fan"
+        );
     }
 
     #[test]
@@ -528,7 +569,11 @@ mod tests {
             let n = s.normals[0];
             for i in 0..4000u64 {
                 let h = hash2(31 + k as u64, i);
-                let p = crate::sampling::point_in_triangle(&tri, rand_unit(hash2(h, 1)), rand_unit(hash2(h, 2)));
+                let p = crate::sampling::point_in_triangle(
+                    &tri,
+                    rand_unit(hash2(h, 1)),
+                    rand_unit(hash2(h, 2)),
+                );
                 let d = rand_dir(hash2(h, 3));
                 if d.dot(n).abs() < 0.05 {
                     continue;
@@ -542,7 +587,10 @@ mod tests {
             }
         }
         assert!(tried > 7000, "{tried}");
-        assert_eq!(blocked, 0, "{blocked} of {tried} points on slivers occluded themselves");
+        assert_eq!(
+            blocked, 0,
+            "{blocked} of {tried} points on slivers occluded themselves"
+        );
     }
 
     /// The 12 triangles of the box `min..max`, facing outward.
@@ -577,7 +625,11 @@ mod tests {
         let tris = closed_box(min, max);
         let s = scene_of(&tris);
         let centre = (min + max) * 0.5;
-        assert!(s.normals.iter().zip(&tris).all(|(n, t)| n.dot(t[0] - centre) > 0.0));
+        assert!(s
+            .normals
+            .iter()
+            .zip(&tris)
+            .all(|(n, t)| n.dot(t[0] - centre) > 0.0));
         let bvh = SceneBvh::new(&s);
         let size = max - min;
         let corners: Vec<Vec3> = tris.iter().flatten().copied().collect();
@@ -626,8 +678,11 @@ mod tests {
         let tris: Vec<[Vec3; 3]> = (0..300u64)
             .map(|i| {
                 let h = hash2(21, i);
-                let c = Vec3::new(rand_unit(hash2(h, 1)), rand_unit(hash2(h, 2)), rand_unit(hash2(h, 3)))
-                    * 2.0
+                let c = Vec3::new(
+                    rand_unit(hash2(h, 1)),
+                    rand_unit(hash2(h, 2)),
+                    rand_unit(hash2(h, 3)),
+                ) * 2.0
                     - 1.0;
                 [0, 1, 2].map(|k| c + rand_dir(hash2(h, 10 + k)) * 0.3)
             })
@@ -665,7 +720,11 @@ mod tests {
                     assert_eq!(g.triangle as usize, k, "ray {i}");
                     // Relative, but no finer than the rounding of
                     // coordinates ~1 (both tests err by a few ulps there).
-                    assert!((g.t - t).abs() <= 1e-5 * t.max(0.1), "ray {i}: {} vs {t}", g.t);
+                    assert!(
+                        (g.t - t).abs() <= 1e-5 * t.max(0.1),
+                        "ray {i}: {} vs {t}",
+                        g.t
+                    );
                     assert_eq!(g.backface, s.normals[k].dot(d) > 0.0, "ray {i}");
                     hits += 1;
                 }

@@ -15,8 +15,8 @@
 //!    largest |dir| component, `kx`, `ky` the next two cyclically, swapped
 //!    when `dir[kz] < 0` to keep the triangles' winding; the shear
 //!    constants are `Sx = dir[kx]/dir[kz]`, `Sy = dir[ky]/dir[kz]` (the
-//!    paper's third, `Sz = 1/dir[kz]`, scales the distance of its step 4,
-//!    which is taken otherwise here).
+//!    paper's third, `Sz = 1/dir[kz]`, only scales its distance, which
+//!    step 4 takes otherwise).
 //! 2. **Per triangle** ([`WatertightRay::intersect`]): the vertices are
 //!    translated by the origin and sheared (`x = A[kx] − Sx·A[kz]`,
 //!    `y = A[ky] − Sy·A[kz]`), and the edge functions
@@ -151,7 +151,10 @@ impl WatertightRay {
         // The sign test comes before the fallback and again at its end,
         // the faster order a comment of the paper's listing points out:
         // most triangles are rejected here.
-        let (neg, pos) = (uvw.cmplt(Vec3A::ZERO).bitmask(), uvw.cmpgt(Vec3A::ZERO).bitmask());
+        let (neg, pos) = (
+            uvw.cmplt(Vec3A::ZERO).bitmask(),
+            uvw.cmpgt(Vec3A::ZERO).bitmask(),
+        );
         if neg != 0 && pos != 0 {
             return f32::INFINITY;
         }
@@ -221,10 +224,10 @@ mod tests {
             p[2][v] = 1.0;
             let t = tri(p);
             let targets = [
-                Vec3A::ZERO,             // vertex
-                p[1] * 0.5,              // edge on an axis
-                (p[1] + p[2]) * 0.5,     // hypotenuse
-                (p[1] + p[2]) * 0.25,    // interior
+                Vec3A::ZERO,          // vertex
+                p[1] * 0.5,           // edge on an axis
+                (p[1] + p[2]) * 0.5,  // hypotenuse
+                (p[1] + p[2]) * 0.25, // interior
             ];
             for target in targets {
                 for s in [1.0f32, -1.0] {
@@ -289,7 +292,10 @@ mod tests {
             let b1 = unit_f32(hash2(h, 4)) * 1.4 - 0.2;
             let b2 = unit_f32(hash2(h, 5)) * 1.4 - 0.2;
             let b0 = 1.0 - b1 - b2;
-            if [b0, b1, b2].iter().any(|b| b.abs() < 0.02 || (b - 1.0).abs() < 0.02) {
+            if [b0, b1, b2]
+                .iter()
+                .any(|b| b.abs() < 0.02 || (b - 1.0).abs() < 0.02)
+            {
                 continue;
             }
             let target = v[0] * b0 + v[1] * b1 + v[2] * b2;
@@ -323,8 +329,16 @@ mod tests {
         // Shared edge from (0,0,0) to (1,1,0) between two triangles: a ray
         // straight down through a point of that edge has an edge function
         // exactly 0 (the double-precision fallback runs) and hits both.
-        let a = tri([Vec3A::ZERO, Vec3A::new(1.0, 0.0, 0.0), Vec3A::new(1.0, 1.0, 0.0)]);
-        let b = tri([Vec3A::ZERO, Vec3A::new(1.0, 1.0, 0.0), Vec3A::new(0.0, 1.0, 0.0)]);
+        let a = tri([
+            Vec3A::ZERO,
+            Vec3A::new(1.0, 0.0, 0.0),
+            Vec3A::new(1.0, 1.0, 0.0),
+        ]);
+        let b = tri([
+            Vec3A::ZERO,
+            Vec3A::new(1.0, 1.0, 0.0),
+            Vec3A::new(0.0, 1.0, 0.0),
+        ]);
         for k in 1..100 {
             let s = k as f32 / 100.0;
             let r = WatertightRay::new(Vec3A::new(s, s, 1.0), -Vec3A::Z);
