@@ -211,9 +211,8 @@ impl<'r> CoverMatrix<'r> {
         }
         let mut tier_of = vec![0usize; positions.len()];
         tier_of.extend(&filled.tiers);
-        let covered = count.iter().filter(|&&c| c > 0).count();
+        let mut covered = count.iter().filter(|&&c| c > 0).count();
         let mut alive = vec![true; cols.len()];
-        let mut covered = covered;
         if prune {
             covered = prune_greedy(
                 &cols,
