@@ -121,9 +121,9 @@ struct Resolved {
     initial_step: f32,
     min_step: f32,
     beta: f64,
-    min_clearance: f32,
-    /// Clearances of the fill tiers, from `min_clearance` down to the least
-    /// clearance any probe may have.
+    /// Clearances of the fill tiers, never empty: the first is the one
+    /// probes move at (the placement's, or the pinned minimum if larger),
+    /// the last the least clearance any probe may have.
     tiers: Vec<f32>,
     diagonal: f32,
 }
@@ -153,10 +153,14 @@ impl Resolved {
             beta: params
                 .acceptance_exponent
                 .map_or(probes.probes.len().max(1) as f64, |b| b.0 as f64),
-            min_clearance: start,
             tiers: clearance_tiers(start, floor),
             diagonal: input.domain.size().length(),
         }
+    }
+
+    /// The clearance probes move at, and filling starts from.
+    fn min_clearance(&self) -> f32 {
+        self.tiers[0]
     }
 
     fn report(&self, params: &RefineParams, texels: usize) -> BTreeMap<&'static str, f64> {
@@ -167,10 +171,10 @@ impl Resolved {
             ("initial_step", self.initial_step as f64),
             ("min_step", self.min_step as f64),
             ("acceptance_exponent", self.beta),
-            ("min_clearance", self.min_clearance as f64),
+            ("min_clearance", self.min_clearance() as f64),
             (
                 "min_fill_clearance",
-                self.tiers.last().copied().unwrap_or(self.min_clearance) as f64,
+                self.tiers[self.tiers.len() - 1] as f64,
             ),
             ("coverage_target", params.coverage_target.0 as f64),
             ("w_orientation", params.w_orientation.0 as f64),
@@ -233,7 +237,7 @@ pub fn refine(
 
     let eps = 1e-3 * input.sdf.voxel_size;
     let legal_move = |a: Vec3, b: Vec3| -> bool {
-        may_stand(input.sdf, input.domain, r.min_clearance, b) && !input.bvh.occluded(a, b, eps)
+        may_stand(input.sdf, input.domain, r.min_clearance(), b) && !input.bvh.occluded(a, b, eps)
     };
     let sweeps = gibbs::Sweeps {
         viewer: &viewer,
@@ -318,7 +322,7 @@ pub fn refine(
                 .kept_tiers
                 .iter()
                 .map(|&t| r.tiers[t])
-                .fold(r.min_clearance, f32::min),
+                .fold(r.min_clearance(), f32::min),
         },
         report,
         atlas_image: side_by_side(&before, &after),
