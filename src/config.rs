@@ -1056,7 +1056,15 @@ impl Config {
     pub fn load(file: &Path) -> Result<Config> {
         let text = std::fs::read_to_string(file)
             .map_err(|e| Error::user_file(file, format!("cannot read config: {e}")))?;
-        let mut config = Config::parse(&text, file)?;
+        Config::from_text(&text, file)
+    }
+
+    /// [`Config::parse`] of `text` as the contents of `file`, with the
+    /// relative paths resolved against `file`'s directory as
+    /// [`Config::load`] does (used to rebuild a run's config from its
+    /// provenance).
+    pub fn from_text(text: &str, file: &Path) -> Result<Config> {
+        let mut config = Config::parse(text, file)?;
         let dir = file.parent().unwrap_or(Path::new(""));
         config.scene = normalize(&dir.join(&config.scene));
         config.output = normalize(&dir.join(&config.output));

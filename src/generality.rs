@@ -12,10 +12,10 @@
 //! `tests/generality.rs` asserts on its rows; `cargo run --release
 //! --example generality` writes them as JSON and as the README's table.
 
-use crate::compare::smallest_grid_reaching;
 use crate::config::Config;
+use crate::jobs::compare::smallest_grid_reaching;
 use crate::error::Result;
-use crate::pipeline::{self, PlaceOptions};
+use crate::jobs::{self, RunOptions};
 use crate::progress::Progress;
 use serde::Serialize;
 use std::path::Path;
@@ -84,13 +84,14 @@ pub fn run(
     out: &Path,
     whole_sweep: bool,
 ) -> Result<GeneralityRow> {
-    let options = PlaceOptions {
+    let options = RunOptions {
+        config: Some(config_path.to_path_buf()),
+        loaded: Some(config),
         out: Some(out.to_path_buf()),
         ..Default::default()
     };
-    let mut run = pipeline::compute_place(config, config_path, &options)?;
-    run.finish_timings();
-    run.write_files()?;
+    let run = jobs::place::compute(&options)?;
+    let place_ms = run.job.watch.elapsed_ms();
     let r = &run.report;
     let progress = Progress::hidden();
     let grid_probe_limit = (!whole_sweep).then_some(r.probe_count);
@@ -106,7 +107,7 @@ pub fn run(
         let n = (g.cells.0 .0 * g.cells.1 .0 * g.cells.2 .0) as usize;
         (g.dims_text(), n, c)
     });
-    Ok(GeneralityRow {
+    let row = GeneralityRow {
         scene: name.to_string(),
         method: r.method.clone(),
         triangles: r.scene.triangles,
@@ -120,8 +121,10 @@ pub fn run(
         warnings: r.warnings.clone(),
         smallest_grid,
         grid_probe_limit,
-        place_ms: r.timings_ms.get("total").copied().unwrap_or(0.0),
-    })
+        place_ms,
+    };
+    run.commit()?;
+    Ok(row)
 }
 
 /// The rows as a Markdown table (the README's).

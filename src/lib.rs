@@ -22,25 +22,25 @@
 //! | light-field ray tracing on the GPU (wgpu): bi-level and Hi-Z | [`gpu`] | McGuire §4, §5.2; Wang §4.2 |
 //! | validation renders against the reference | [`render::probes`] | Wang §5.1 |
 //! | competing placements: relocated grid, greedy voxels | [`placement`] | RTXGI; Silvennoinen & Lehtinen 2017 §4.1 |
-//! | comparisons against grids and competitors | [`compare`] | Wang §5, Figs. 8–12, Tables 1–2 |
+//! | comparisons against grids and competitors | [`jobs::compare`] | Wang §5, Figs. 8–12, Tables 1–2 |
 //! | stock-config runs on any scene against the grids | [`generality`] | Wang §5, Table 1 |
 //! | outputs, `compare`'s HTML report | [`report`] | — |
 //!
-//! [`pipeline::place`] runs them in order, [`compare::compare`] runs them
-//! for every placement compared; the `probeplace` binary is a thin shell
-//! over both.
+//! [`stages`] composes them into typed products; [`jobs`] composes the
+//! stages into what the command line runs; the `probeplace` binary is a
+//! thin shell over the jobs.
 
-pub mod compare;
 pub mod config;
 pub mod coverage;
 pub mod error;
 pub mod fixtures;
 pub mod generality;
 pub mod gpu;
+pub mod jobs;
 pub mod lightfield;
-pub mod pipeline;
 pub mod placement;
 pub mod progress;
+pub mod provenance;
 pub mod refine;
 pub mod render;
 pub mod report;
@@ -49,6 +49,7 @@ pub mod sampling;
 pub mod scene;
 pub mod sdf;
 pub mod skeleton;
+pub mod stages;
 pub mod svo;
 pub mod trace;
 

@@ -1,7 +1,9 @@
 //! The `probeplace` command line: parses arguments and calls the library.
 
-use clap::{Args, Parser, Subcommand, ValueEnum};
-use probeplace::pipeline::{PlaceOptions, PlaceOutcome, RenderOptions, Variant};
+use clap::{Args, CommandFactory, Parser, Subcommand, ValueEnum};
+use probeplace::jobs::{self, Outcome, RunOptions, Variant};
+use probeplace::progress::Progress;
+use probeplace::provenance::Overrides;
 use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -14,7 +16,7 @@ use std::process::ExitCode;
 )]
 struct Cli {
     #[command(subcommand)]
-    command: Command,
+    command: Option<Command>,
 }
 
 /// `render --variant`.
@@ -28,39 +30,57 @@ enum Variants {
     Both,
 }
 
-/// What `place`, `bake` and `render` share: the config and the overrides of its fields.
+/// What every job shares: the config, the earlier run, the overrides.
 #[derive(Args)]
 struct RunArgs {
-    /// The run's RON config file.
-    config: PathBuf,
-    /// Output directory (default: the config's `output`).
+    /// The run's RON config file (optional with --from: the earlier run's).
+    config: Option<PathBuf>,
+    /// Output directory (default: the --from directory, else the config's `output`).
     #[arg(long)]
     out: Option<PathBuf>,
     /// Placement method: `sdf-skeleton`, `medial-axis`, `grid:NxMxK`, `relocated:NxMxK` or
     /// `greedy:SPACING` (default: the config's).
     #[arg(long)]
     method: Option<String>,
+    /// Score the probes of FILE.json (a probes.json, or an array of [x, y, z]) instead of placing.
+    #[arg(long, value_name = "FILE.json")]
+    probes: Option<PathBuf>,
     /// Random seed (default: the config's).
     #[arg(long)]
     seed: Option<u64>,
-    /// No progress bars and no summary.
-    #[arg(long)]
+    /// No progress, no stage lines and no summary.
+    #[arg(short, long)]
     quiet: bool,
     /// Skip refinement, filling and pruning (the config's `refine.enabled: false`).
     #[arg(long)]
     no_refine: bool,
 }
 
+/// `--from`, for the jobs that can reuse an earlier run.
+#[derive(Args)]
+struct FromArg {
+    /// Reuse what an earlier run wrote in DIR (probes, SVO, light field, reference) instead of recomputing it.
+    #[arg(long, value_name = "DIR")]
+    from: Option<PathBuf>,
+}
+
 #[derive(Subcommand)]
 enum Command {
     /// Place probes as the config says; write probes.json, svo.bin, report.json and placement.png.
     Place(RunArgs),
-    /// Place probes as `place` does, then bake their light-field maps and the path-traced reference image.
-    Bake(RunArgs),
-    /// Place and bake as `bake` does, then render the reference's view through the probes on the GPU (bi-level and Hi-Z) and measure it against the reference.
+    /// Place probes (or reuse --from), then bake their light-field maps and the path-traced reference image.
+    Bake {
+        #[command(flatten)]
+        run: RunArgs,
+        #[command(flatten)]
+        from: FromArg,
+    },
+    /// Place and bake (or reuse --from), then render the reference's view through the probes (bi-level and Hi-Z) and measure it against the reference.
     Render {
         #[command(flatten)]
         run: RunArgs,
+        #[command(flatten)]
+        from: FromArg,
         /// Which tracer to render with.
         #[arg(long, value_enum, default_value = "both")]
         variant: Variants,
@@ -68,32 +88,25 @@ enum Command {
         #[arg(long)]
         cpu: bool,
     },
-    /// Compare our placements (sdf-skeleton and medial-axis, refined) with a sweep of uniform grids, a relocated grid (RTXGI) and greedy voxel placement (Silvennoinen & Lehtinen 2017) at equal count, quality and performance; write compare.json, compare.csv and report.html.
+    /// Compare our placements with a sweep of uniform grids, a relocated grid (RTXGI) and greedy voxel placement (Silvennoinen & Lehtinen 2017) at equal count, quality and performance; write compare.json, compare.csv and report.html.
     Compare {
-        /// The run's RON config file (it needs `reference.camera`).
-        config: PathBuf,
-        /// Output directory (default: the config's `output`).
-        #[arg(long)]
-        out: Option<PathBuf>,
+        #[command(flatten)]
+        run: RunArgs,
+        #[command(flatten)]
+        from: FromArg,
         /// Grids to compare with, e.g. `2x2x2,4x2x4` (default: the config's `compare.grids`, else a sweep around our probe count).
         #[arg(long)]
         grids: Option<String>,
-        /// Random seed (default: the config's).
-        #[arg(long)]
-        seed: Option<u64>,
         /// Trace on the CPU twin even where a GPU adapter exists.
         #[arg(long)]
         cpu: bool,
-        /// No progress bars and no summary.
-        #[arg(long)]
-        quiet: bool,
     },
-    /// Summarize an svo.bin (or the one in an output directory, with its lightfield.bin) after checking it.
+    /// Summarize an svo.bin (or the one in an output directory, with its lightfield.bin) after checking that the directory holds one run.
     Inspect {
         /// An output directory of `place` or `bake`, or an svo.bin file.
         path: PathBuf,
         /// Check only: print nothing, answer with the exit status.
-        #[arg(long)]
+        #[arg(short, long)]
         quiet: bool,
     },
 }
@@ -103,123 +116,45 @@ fn main() -> ExitCode {
         Ok(cli) => cli,
         Err(e) => return usage_error(e),
     };
-    match cli.command {
-        Command::Place(args) => run(args, probeplace::pipeline::place, |r| {
-            format!(
-                "{}: {} probes, coverage {:.2}% ± {:.2}%, {} in solid, {} near surfaces; voxel {:.4} ({})",
-                r.method,
-                r.probe_count,
-                100.0 * r.coverage,
-                100.0 * r.coverage_ci95,
-                r.probes_in_solid,
-                r.probes_below_clearance,
-                r.sdf.voxel_size,
-                r.resolution.map_or("config", |x| x.source)
-            )
-        }),
-        Command::Bake(args) => run(args, probeplace::pipeline::bake, |r| {
-            match &r.bake {
-            Some(b) => format!(
-                "{}: {} probes baked at {}² ({:.1} MB), tracer agrees with ray casts on {:.2}% of seen hits",
-                r.method,
-                b.probes,
-                b.resolution,
-                b.bytes as f64 / 1e6,
-                100.0 * b.tracer.rate()
-            ),
-            None => format!("{}: {} probes", r.method, r.probe_count),
-        }
-        }),
+    let Some(command) = cli.command else {
+        // A bare `probeplace` is a usage mistake: help on stderr, status 2.
+        let _ = Cli::command().write_help(&mut std::io::stderr());
+        return ExitCode::from(2);
+    };
+    match command {
+        Command::Place(run) => job(run, None, |o| jobs::place(&o)),
+        Command::Bake { run, from } => job(run, from.from, |o| jobs::bake(&o)),
         Command::Render {
-            run: args,
+            run,
+            from,
             variant,
             cpu,
-        } => {
-            let render = RenderOptions {
-                variants: match variant {
-                    Variants::Hiz => vec![Variant::HiZ],
-                    Variants::Bilevel => vec![Variant::BiLevel],
-                    Variants::Both => vec![Variant::BiLevel, Variant::HiZ],
-                },
-                cpu,
+        } => job(run, from.from, |mut o| {
+            o.cpu = cpu;
+            o.variants = match variant {
+                Variants::Hiz => vec![Variant::HiZ],
+                Variants::Bilevel => vec![Variant::BiLevel],
+                Variants::Both => vec![Variant::BiLevel, Variant::HiZ],
             };
-            run(
-                args,
-                |path, options| probeplace::pipeline::render(path, options, &render),
-                |r| match &r.render {
-                    Some(x) => {
-                        let parts: Vec<String> = x
-                            .variants
-                            .iter()
-                            .map(|(name, v)| {
-                                format!(
-                                    "{name} mse_glossy {:.3e}, {:.1} texel fetches/ray{}",
-                                    v.mse_glossy,
-                                    v.texel_fetches_per_ray,
-                                    v.gpu_ms.map_or(String::new(), |ms| format!(", {ms:.1} ms"))
-                                )
-                            })
-                            .collect();
-                        format!(
-                            "{}: {}×{} on {}: {}",
-                            r.method,
-                            x.width,
-                            x.height,
-                            x.adapter,
-                            parts.join("; ")
-                        )
-                    }
-                    None => format!("{}: {} probes", r.method, r.probe_count),
-                },
-            )
-        }
+            jobs::render(&o)
+        }),
         Command::Compare {
-            config,
-            out,
+            run,
+            from,
             grids,
-            seed,
             cpu,
-            quiet,
         } => {
-            let grids = match grids.as_deref().map(probeplace::compare::parse_grids) {
+            let grids = match grids.as_deref().map(jobs::compare::parse_grids) {
                 Some(Err(e)) => return fail(e),
-                Some(Ok(g)) => Some(g),
-                None => None,
+                other => other.map(|g| g.expect("checked")),
             };
-            let options = probeplace::compare::CompareOptions {
-                out,
-                seed,
-                grids,
-                cpu,
-                progress: !quiet && std::io::stderr().is_terminal(),
-            };
-            match probeplace::compare::compare(&config, &options) {
-                Ok(outcome) => {
-                    for w in &outcome.report.warnings {
-                        eprintln!("warning: {w}");
-                    }
-                    if !quiet {
-                        for line in probeplace::report::compare::summary(&outcome.report) {
-                            println!("{line}");
-                        }
-                        println!(
-                            "wrote {} in {:.1} s",
-                            outcome.out_dir.join("report.html").display(),
-                            outcome
-                                .report
-                                .timings_ms
-                                .get("total")
-                                .copied()
-                                .unwrap_or(0.0)
-                                / 1e3
-                        );
-                    }
-                    ExitCode::SUCCESS
-                }
-                Err(e) => fail(e),
-            }
+            job(run, from.from, |mut o| {
+                o.cpu = cpu;
+                o.grids = grids.clone();
+                jobs::compare(&o)
+            })
         }
-        Command::Inspect { path, quiet } => match probeplace::pipeline::inspect(&path) {
+        Command::Inspect { path, quiet } => match jobs::inspect(&path) {
             Ok(inspection) => {
                 if !quiet {
                     println!("{inspection}");
@@ -231,33 +166,40 @@ fn main() -> ExitCode {
     }
 }
 
-/// Runs a job (`place` or `bake`) with the command line's overrides, prints
-/// its warnings and, unless quiet, `summary` of its report with where it
-/// wrote and how long it took.
-fn run(
+/// Runs `run` with the command line's options; prints the warnings and,
+/// unless quiet, the summary with where it wrote and how long it took.
+fn job(
     args: RunArgs,
-    job: impl Fn(&std::path::Path, &PlaceOptions) -> probeplace::Result<PlaceOutcome>,
-    summary: impl Fn(&probeplace::report::Report) -> String,
+    from: Option<PathBuf>,
+    run: impl FnOnce(RunOptions) -> probeplace::Result<Outcome>,
 ) -> ExitCode {
-    let options = PlaceOptions {
+    let terminal = std::io::stderr().is_terminal();
+    let options = RunOptions {
+        config: args.config,
+        from,
         out: args.out,
-        method: args.method,
-        seed: args.seed,
-        progress: !args.quiet && std::io::stderr().is_terminal(),
-        no_refine: args.no_refine,
+        overrides: Overrides {
+            method: args.method,
+            seed: args.seed,
+            no_refine: args.no_refine,
+            probes: args.probes,
+        },
+        progress: Progress::new(!args.quiet && terminal).with_lines(!args.quiet && !terminal),
+        ..RunOptions::default()
     };
-    match job(&args.config, &options) {
+    match run(options) {
         Ok(outcome) => {
-            for w in &outcome.report.warnings {
+            for w in outcome.warnings() {
                 eprintln!("warning: {w}");
             }
             if !args.quiet {
-                let r = &outcome.report;
+                for line in &outcome.summary {
+                    println!("{line}");
+                }
                 println!(
-                    "{}; wrote {} in {:.1} s",
-                    summary(r),
+                    "wrote {} in {:.1} s",
                     outcome.out_dir.display(),
-                    r.timings_ms.get("total").copied().unwrap_or(0.0) / 1e3
+                    outcome.seconds()
                 );
             }
             ExitCode::SUCCESS
@@ -272,25 +214,34 @@ fn fail(e: probeplace::Error) -> ExitCode {
     ExitCode::from(e.exit_code() as u8)
 }
 
-/// Help and version go out as clap renders them; a usage mistake becomes one
-/// line (clap's message, folded) and exit status 2, like every user error.
+/// Help and version go out as clap renders them; a usage mistake becomes
+/// clap's message folded into one line, clap's `tip:` lines kept after it,
+/// and exit status 2, like every user error.
 fn usage_error(e: clap::Error) -> ExitCode {
     use clap::error::ErrorKind;
-    if matches!(
-        e.kind(),
-        ErrorKind::DisplayHelp
-            | ErrorKind::DisplayVersion
-            | ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand
-    ) {
+    if matches!(e.kind(), ErrorKind::DisplayHelp | ErrorKind::DisplayVersion) {
         let _ = e.print();
         return ExitCode::SUCCESS;
     }
+    if e.kind() == ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand {
+        let _ = e.print();
+        return ExitCode::from(2);
+    }
     let rendered = e.render().to_string();
-    let message: Vec<&str> = rendered
-        .lines()
-        .take_while(|l| !l.trim().is_empty())
-        .map(str::trim)
-        .collect();
+    let mut message = Vec::new();
+    let mut tips = Vec::new();
+    for line in rendered.lines().map(str::trim).filter(|l| !l.is_empty()) {
+        if line.starts_with("tip:") {
+            tips.push(line);
+        } else if line.starts_with("Usage:") || line.starts_with("For more information") {
+            continue;
+        } else {
+            message.push(line);
+        }
+    }
     eprintln!("{} (see probeplace --help)", message.join(" "));
+    for tip in tips {
+        eprintln!("  {tip}");
+    }
     ExitCode::from(2)
 }

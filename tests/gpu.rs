@@ -9,7 +9,7 @@ use common::*;
 use glam::Vec3;
 use probeplace::gpu::{kind, twin, ProbeTracer, Query, Record, SelectionKind};
 use probeplace::lightfield::LightField;
-use probeplace::pipeline::PlaceRun;
+use probeplace::jobs::place::PlaceRun;
 use probeplace::sampling::uniform_direction;
 use probeplace::svo;
 use probeplace::trace::check::padded_bounds;
@@ -29,7 +29,8 @@ fn scene(config: &str, method: Option<&str>) -> (PlaceRun, LightField) {
 /// Random rays from free points, each to the padded bounds.
 fn rays(run: &PlaceRun) -> Vec<Query> {
     let p = &run.prepared;
-    let input = p.placement_input(1, &run.progress);
+    let progress = probeplace::progress::Progress::hidden();
+    let input = p.placement_input(1, &progress);
     let bounds = padded_bounds(&p.scene.bounds);
     svo::random_free_points(&input, RAYS, 0x6EF0)
         .into_iter()

@@ -30,7 +30,8 @@ fn check_scene(config: &str, method: Option<&str>) -> check::Agreement {
         (positions.len() as u64) * 2 * (n * n) as u64 * field.pyramid.len() as u64
     );
 
-    let input = p.placement_input(run.config.seed, &run.progress);
+    let progress = probeplace::progress::Progress::hidden();
+    let input = p.placement_input(run.config().seed, &progress);
     let origins = svo::random_free_points(&input, RAYS, 0x5EED_0F0A);
     let lattice;
     let selection = match method {

@@ -7,7 +7,7 @@ use common::*;
 use probeplace::config::{Config, MedialAxisParams, Placement, Positive};
 use probeplace::placement;
 use probeplace::progress::Progress;
-use probeplace::{pipeline, sdf};
+use probeplace::{sdf, stages};
 
 /// Probe counts of `medial-axis` on `config` for each pre-clustering radius
 /// (in voxels), everything else at its defaults; the SDF is built once.
@@ -15,7 +15,7 @@ fn counts_by_precluster_radius(config: &str, radii_voxels: &[f32]) -> Vec<usize>
     let path = root().join(config);
     let config = Config::load(&path).unwrap();
     let progress = Progress::hidden();
-    let prepared = pipeline::prepare(&config, &path, &progress, &mut Default::default()).unwrap();
+    let prepared = stages::prepare(&config, &path, &progress).unwrap();
     let (input, sdf) = (
         prepared.placement_input(config.seed, &progress),
         &prepared.sdf,

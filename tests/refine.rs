@@ -9,8 +9,7 @@
 mod common;
 use common::*;
 use probeplace::config::Config;
-use probeplace::coverage::CoverageReference;
-use probeplace::pipeline::{self, PlaceOptions};
+use probeplace::jobs::{self, RunOptions};
 use probeplace::progress::Progress;
 
 /// Largest number of cells along the domain's longest axis in the sweep.
@@ -24,12 +23,14 @@ fn compare_with_grids(config: &str, target: f32) -> (u64, Option<([u32; 3], f64)
     let mut cfg = Config::load(&path).unwrap();
     cfg.refine.coverage_target = probeplace::config::Fraction(target);
     let out = tempfile::tempdir().unwrap();
-    let options = PlaceOptions {
+    let options = RunOptions {
+        config: Some(path.clone()),
+        loaded: Some(cfg.clone()),
         out: Some(out.path().to_path_buf()),
         ..Default::default()
     };
-    let outcome = pipeline::place_with(cfg.clone(), &path, &options).unwrap();
-    let r = outcome.report;
+    let run = jobs::place::compute(&options).unwrap();
+    let r = &run.report;
     assert_eq!(r.probes_in_solid, 0, "{config}");
     assert_eq!(r.probes_outside_scene, 0, "{config}");
     assert!(
@@ -39,22 +40,12 @@ fn compare_with_grids(config: &str, target: f32) -> (u64, Option<([u32; 3], f64)
     );
     let refine = r.refine.as_ref().expect("refinement ran");
     assert_eq!(refine.coverage_final, r.coverage, "{config}");
-    assert!(out.path().join("atlas.png").is_file());
 
-    // The grids, scored by the same coverage measure (same seed, same samples).
+    // The grids, scored by the run's own coverage measure.
     let progress = Progress::hidden();
-    let prepared = pipeline::prepare(&cfg, &path, &progress, &mut Default::default()).unwrap();
-    let reference = CoverageReference::new(
-        &prepared.scene,
-        &prepared.bvh,
-        &prepared.sdf,
-        &cfg.coverage,
-        cfg.seed,
-        &progress,
-    );
-    let smallest = probeplace::compare::smallest_grid_reaching(
-        &prepared,
-        &reference,
+    let smallest = probeplace::jobs::compare::smallest_grid_reaching(
+        &run.prepared,
+        &run.reference,
         target as f64,
         SWEEP_STEPS,
         None,
@@ -76,6 +67,8 @@ fn compare_with_grids(config: &str, target: f32) -> (u64, Option<([u32; 3], f64)
         r.probe_count, r.coverage, refine.probes_initial
     );
     let ours = r.probe_count as u64;
+    run.commit().unwrap();
+    assert!(out.path().join("atlas.png").is_file());
     if let Some((g, _)) = smallest {
         let count = (g[0] * g[1] * g[2]) as u64;
         assert!(

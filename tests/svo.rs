@@ -6,10 +6,9 @@ mod common;
 use common::*;
 use glam::DVec3;
 use probeplace::config::Config;
-use probeplace::pipeline;
+use probeplace::stages;
 use probeplace::progress::Progress;
 use probeplace::svo::{self, Svo};
-use std::collections::BTreeMap;
 
 /// Free points checked per scene.
 const POINTS: usize = 10_000;
@@ -26,7 +25,7 @@ fn place_and_check(config: &str) -> (serde_json::Value, f64) {
 
     let cfg = Config::load(&path).unwrap();
     let progress = Progress::hidden();
-    let prepared = pipeline::prepare(&cfg, &path, &progress, &mut BTreeMap::new()).unwrap();
+    let prepared = stages::prepare(&cfg, &path, &progress).unwrap();
     let svo = Svo::read(&out.path().join("svo.bin")).unwrap();
     let scene = &prepared.scene;
     let probes: Vec<DVec3> = read_json(&out.path().join("probes.json"))["probes"]

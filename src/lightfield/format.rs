@@ -9,7 +9,7 @@
 //! | 20 | 4 | pyramid levels L (log2 n + 1) |
 //! | 24 | 4 | irradiance side m |
 //! | 28 | 4 | `max_distance` (f32) |
-//! | 32 | 32 | zero |
+//! | 32 | 32 | provenance: config hash, scene hash, seed, tool hash (u64 × 4, [`crate::provenance`]); zero in files of older builds |
 //! | 64 | 12P | probe positions, world space (3 × f32) |
 //! | … | 6Pn² | radiance (3 × f16) |
 //! | … | 4Pn² | normal (2 × f16, octahedral) |
@@ -66,7 +66,7 @@ pub fn to_bytes(field: &LightField) -> Vec<u8> {
         out.extend_from_slice(&w.to_le_bytes());
     }
     out.extend_from_slice(&field.max_distance.to_le_bytes());
-    out.resize(HEADER_BYTES, 0);
+    out.extend_from_slice(&field.provenance);
     for q in &field.positions {
         for c in (field.frame + q.as_dvec3()).as_vec3().to_array() {
             out.extend_from_slice(&c.to_le_bytes());
@@ -187,6 +187,7 @@ pub fn from_bytes(bytes: &[u8]) -> Result<LightField, String> {
         pyramid,
         irradiance,
         moments,
+        provenance: bytes[32..64].try_into().expect("32 bytes"),
     })
 }
 

@@ -131,6 +131,7 @@ mod tests {
             moments: vec![[wall, wall * wall]; texels],
             positions,
             frame: glam::DVec3::ZERO,
+            provenance: [0; 32],
         }
     }
 

@@ -52,6 +52,9 @@ pub struct LightField {
     pub irradiance: Vec<[f32; 3]>,
     /// Filtered distance moments (E\[r\], E\[r²\]).
     pub moments: Vec<[f32; 2]>,
+    /// The run's provenance ([`crate::provenance`]), in the header's
+    /// reserved bytes; zero until the job that writes the field sets it.
+    pub provenance: crate::provenance::ProvenanceBytes,
 }
 
 impl LightField {
@@ -152,6 +155,7 @@ pub fn bake(
             pyramid,
             irradiance: irr.irradiance,
             moments: irr.moments,
+            provenance: [0; 32],
         },
         timings_ms,
     }

@@ -43,25 +43,8 @@ impl Family {
     }
 }
 
-/// One placement seen from one camera.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct CameraRow {
-    /// Glossy-indirect MSE against the reference (Wang et al. 2019 §5.1).
-    pub mse_glossy: f64,
-    /// The same after a 7×7 box filter of both images, which removes most
-    /// sampling noise and keeps what placement changes: missing and wrong
-    /// reflections (Wang's Fig. 8 compares filtered glossy components).
-    pub mse_glossy_filtered: f64,
-    /// MSE of the whole image against the reference.
-    pub mse_full: f64,
-    /// Pyramid texels the Hi-Z march visits per glossy ray.
-    pub texel_fetches_per_ray: f64,
-    /// Glossy rays no probe resolved (unknown or no probe), as a fraction.
-    pub unresolved_fraction: f64,
-    /// GPU time of the trace and the gather (timestamps); absent on the
-    /// CPU twin or without timestamp queries.
-    pub gpu_ms: Option<f64>,
-}
+/// One placement seen from one camera: the validation's figures.
+pub type CameraRow = crate::stages::validate::Metrics;
 
 /// One placement, measured.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -158,6 +141,8 @@ pub struct CompareReport {
     pub format: &'static str,
     /// Format version.
     pub version: u32,
+    /// What ties the report to the run's other outputs.
+    pub provenance: crate::provenance::Provenance,
     /// The config file.
     pub config: String,
     /// The scene file.

@@ -85,6 +85,75 @@ pub fn encode_rgb(width: u32, height: u32, pixels: &[[f32; 3]]) -> Vec<u8> {
     out
 }
 
+/// Reads back a file [`encode_rgb`] wrote: `(width, height, pixels)`, bit
+/// for bit. `--from DIR` reuses a reference image this way.
+///
+/// Contract: never panics; anything but an intact file of this writer (other
+/// compression, channels or layout, a truncated or edited file) is an
+/// `Err` with a one-line reason.
+pub fn decode_rgb(bytes: &[u8]) -> Result<(u32, u32, Vec<[f32; 3]>), String> {
+    let word = |at: usize| -> Option<u32> {
+        Some(u32::from_le_bytes(bytes.get(at..at + 4)?.try_into().ok()?))
+    };
+    if word(0) != Some(MAGIC) || word(4) != Some(VERSION) {
+        return Err("not a scan-line OpenEXR file of probeplace".into());
+    }
+    let mut at = 8;
+    let mut window = None;
+    loop {
+        let name_end = bytes
+            .get(at..)
+            .ok_or("truncated header")?
+            .iter()
+            .position(|&b| b == 0)
+            .ok_or("truncated header")?;
+        if name_end == 0 {
+            break;
+        }
+        let name = &bytes[at..at + name_end];
+        let kind_end = bytes
+            .get(at + name_end + 1..)
+            .ok_or("truncated header")?
+            .iter()
+            .position(|&b| b == 0)
+            .ok_or("truncated header")?;
+        let size_at = at + name_end + 1 + kind_end + 1;
+        let size = word(size_at).ok_or("truncated header")? as usize;
+        let value = bytes
+            .get(size_at + 4..size_at + 4 + size)
+            .ok_or("truncated header")?;
+        if name == b"dataWindow" && size == 16 {
+            let v = |i: usize| i32::from_le_bytes(value[i..i + 4].try_into().expect("4 bytes"));
+            window = Some((v(8) as i64 - v(0) as i64 + 1, v(12) as i64 - v(4) as i64 + 1));
+        }
+        at = size_at + 4 + size;
+    }
+    let (w, h) = window.ok_or("no dataWindow")?;
+    if !(1..=1 << 16).contains(&w) || !(1..=1 << 16).contains(&h) {
+        return Err(format!("image size {w}×{h} out of range"));
+    }
+    let (w, h) = (w as usize, h as usize);
+    let first_block = at + 1 + 8 * h;
+    let row_bytes = 12 * w;
+    if bytes.len() != first_block + h * (8 + row_bytes) {
+        return Err("truncated or not written by probeplace".into());
+    }
+    let mut pixels = vec![[0f32; 3]; w * h];
+    for (y, row) in pixels.chunks_exact_mut(w).enumerate() {
+        let data = first_block + y * (8 + row_bytes) + 8;
+        for (k, c) in [2, 1, 0].into_iter().enumerate() {
+            for (x, p) in row.iter_mut().enumerate() {
+                let i = data + 4 * (k * w + x);
+                p[c] = f32::from_le_bytes(bytes[i..i + 4].try_into().expect("4 bytes"));
+            }
+        }
+    }
+    if encode_rgb(w as u32, h as u32, &pixels) != bytes {
+        return Err("not laid out as probeplace writes it".into());
+    }
+    Ok((w as u32, h as u32, pixels))
+}
+
 /// Appends one header attribute: name, type name, size, value.
 fn attribute(out: &mut Vec<u8>, name: &str, kind: &str, value: &[u8]) {
     out.extend_from_slice(name.as_bytes());
@@ -130,6 +199,20 @@ mod tests {
     use super::*;
     use ::exr::prelude::*;
     use std::io::Cursor;
+
+    #[test]
+    fn decoding_gives_back_every_bit_and_refuses_edits() {
+        let mut px = test_image(5, 3);
+        px[4] = [f32::NAN, f32::INFINITY, -0.0];
+        let bytes = encode_rgb(5, 3, &px);
+        let (w, h, back) = decode_rgb(&bytes).unwrap();
+        assert_eq!((w, h), (5, 3));
+        let bits = |v: &[[f32; 3]]| v.iter().flatten().map(|f| f.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&back), bits(&px));
+        assert!(decode_rgb(&bytes[..bytes.len() - 1]).is_err());
+        assert!(decode_rgb(&bytes[..20]).is_err());
+        assert!(decode_rgb(b"").is_err());
+    }
 
     fn test_image(w: u32, h: u32) -> Vec<[f32; 3]> {
         (0..w * h)

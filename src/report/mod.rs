@@ -5,11 +5,12 @@
 //! Every coordinate written is a world coordinate in f64, converted from the
 //! stages' scene-local f32 ones by [`Scene::to_world`] here, at the boundary.
 //!
-//! Every file is written atomically (a temporary file in the same directory,
-//! then a rename), and only after every stage has succeeded, so a failed run
-//! never leaves a half-written or stale-looking output behind.
+//! Jobs gather every file of a run in an [`commit::OutputSet`] and commit
+//! it as one unit after every stage has succeeded, so a failed run never
+//! leaves a half-written, stale or mixed output behind.
 
 pub mod bake;
+pub mod commit;
 pub mod compare;
 pub mod exr;
 pub mod html;
@@ -17,7 +18,8 @@ pub mod preview;
 pub mod render;
 
 use crate::config::UpAxis;
-use crate::coverage::{Coverage, ProbeHealth};
+use crate::coverage::Coverage;
+use crate::provenance::Provenance;
 use crate::error::{Error, Result};
 use crate::placement::ProbeSet;
 use crate::refine::RefineReport;
@@ -26,7 +28,6 @@ use crate::sdf::{Sdf, VoxelClass};
 use crate::svo::SvoReport;
 use serde::Serialize;
 use std::collections::BTreeMap;
-use std::path::Path;
 
 /// Version of the `probes.json` and `report.json` schemas.
 pub const FORMAT_VERSION: u32 = 1;
@@ -38,6 +39,8 @@ pub struct ProbesFile {
     pub format: &'static str,
     /// [`FORMAT_VERSION`].
     pub version: u32,
+    /// What ties the file to the run's other outputs.
+    pub provenance: Provenance,
     /// Placement method.
     pub method: String,
     /// Seed of the run.
@@ -83,10 +86,10 @@ impl ProbesFile {
         scene: &Scene,
         sdf: &Sdf,
         scene_path: &str,
-        seed: u64,
-        scale: f64,
-        up: UpAxis,
+        config: &crate::config::Config,
+        provenance: &Provenance,
     ) -> ProbesFile {
+        let (seed, scale, up) = (config.seed, config.scale.0, config.up);
         let records = probes
             .probes
             .iter()
@@ -107,6 +110,7 @@ impl ProbesFile {
         ProbesFile {
             format: "probeplace.probes",
             version: FORMAT_VERSION,
+            provenance: provenance.clone(),
             method: probes.method.clone(),
             seed,
             scene: scene_path.to_string(),
@@ -185,6 +189,8 @@ pub struct Report {
     pub format: &'static str,
     /// [`FORMAT_VERSION`].
     pub version: u32,
+    /// What ties the report to the run's other outputs.
+    pub provenance: Provenance,
     /// Placement method.
     pub method: String,
     /// Seed of the run.
@@ -240,56 +246,129 @@ pub struct Report {
 }
 
 impl Report {
-    /// Assembles the report from the stages' outputs.
-    #[allow(clippy::too_many_arguments)]
-    pub fn new(
-        config: &str,
-        scene_path: &str,
-        scene: &Scene,
-        domain: &Bounds,
-        sdf: &Sdf,
-        probes: &ProbeSet,
-        seed: u64,
-        coverage: Coverage,
-        health: ProbeHealth,
-        timings_ms: BTreeMap<String, f64>,
-        warnings: Vec<String>,
+    /// Assembles the place job's report from the stages' products.
+    pub(crate) fn new(
+        job: &crate::jobs::Job,
+        prepared: &crate::stages::Prepared,
+        placed: &crate::stages::Placed,
+        svo: SvoReport,
     ) -> Report {
+        let (config, scene, sdf) = (&job.config, &prepared.scene, &prepared.sdf);
+        let (coverage, health, probes) = (&placed.coverage, &placed.health, &placed.probes);
+        let mut warnings = scene.warnings.clone();
+        if health.probes_in_solid > 0 {
+            warnings.push(format!(
+                "{} probe(s) stand in solid space",
+                health.probes_in_solid
+            ));
+        }
+        let refine = placed.refined.as_ref().map(|(r, _)| r.clone());
+        if let Some(r) = &refine {
+            let target = config.refine.coverage_target.0 as f64;
+            if config.refine.fill && r.coverage_final < target {
+                warnings.push(format!(
+                    "refine: coverage {:.2}% is short of the target {:.2}%: no position at least {:.3} from every surface sees the rest; lower refine.min_clearance (or remove it) to reach it",
+                    100.0 * r.coverage_final,
+                    100.0 * target,
+                    r.params["min_fill_clearance"]
+                ));
+            }
+        }
         Report {
             format: "probeplace.report",
             version: FORMAT_VERSION,
+            provenance: job.provenance.clone(),
             method: probes.method.clone(),
-            seed,
-            config: config.to_string(),
+            seed: config.seed,
+            config: job.config_path.display().to_string(),
             probe_count: probes.probes.len(),
             coverage: coverage.coverage,
             coverage_ci95: coverage.ci95,
             probes_in_solid: health.probes_in_solid,
             probes_outside_scene: health.probes_outside_scene,
             probes_outside_domain: health.probes_outside_domain,
-            probes_below_clearance: 0,
-            best_view_incidence_deg: None,
+            probes_below_clearance: refine.as_ref().map_or(0, |r| r.probes_below_clearance),
+            best_view_incidence_deg: refine.as_ref().and_then(|r| r.best_view_incidence_deg_final),
             scene: SceneRecord {
-                path: scene_path.to_string(),
+                path: config.scene.display().to_string(),
                 triangles: scene.triangles.len(),
                 dropped_triangles: scene.dropped_triangles,
                 bounds: BoundsRecord::world(&scene.bounds, scene),
                 area: scene.area(),
             },
-            domain: BoundsRecord::world(domain, scene),
+            domain: BoundsRecord::world(&prepared.domain, scene),
             sdf: sdf.into(),
-            resolution: None,
-            coverage_detail: coverage,
+            resolution: Some(prepared.resolution),
+            coverage_detail: coverage.clone(),
             placement_stats: probes.stats.clone(),
             placement_params: probes.params.clone(),
-            refine: None,
-            svo: None,
+            refine,
+            svo: Some(svo),
             bake: None,
             render: None,
-            timings_ms,
+            timings_ms: job.watch.to_map(),
             warnings,
         }
     }
+}
+
+/// Pixel size of each of the two views in `placement.png`.
+pub const PREVIEW_VIEW_SIZE: u32 = 512;
+
+/// The top and side views of `probes` in `scene` over `domain`, surface
+/// samples in `holes` marked, each view `view_size` pixels wide
+/// ([`preview::render_preview`]).
+pub fn placement_views(
+    scene: &Scene,
+    domain: &Bounds,
+    probes: &[glam::Vec3],
+    holes: &[glam::Vec3],
+    view_size: u32,
+) -> image::RgbImage {
+    let colors: Vec<[f32; 3]> = scene
+        .material_ids
+        .iter()
+        .map(|&m| scene.materials[m as usize].diffuse)
+        .collect();
+    preview::render_preview(
+        &preview::PreviewInput {
+            triangles: &scene.triangles,
+            colors: &colors,
+            probes,
+            holes,
+            bounds_min: domain.min,
+            bounds_max: domain.max,
+        },
+        view_size,
+    )
+}
+
+/// PNG bytes of `image`, which will be written as `name`.
+pub fn encode_png(image: &image::RgbImage, name: &str) -> Result<Vec<u8>> {
+    let mut bytes = Vec::new();
+    image
+        .write_to(
+            &mut std::io::Cursor::new(&mut bytes),
+            image::ImageFormat::Png,
+        )
+        .map_err(|e| Error::Internal(format!("encoding {name}: {e}")))?;
+    Ok(bytes)
+}
+
+/// Adds `<stem>.exr` (linear) and `<stem>.png` (at `exposure`) of the
+/// `width`×`height` image `pixels` to `set`.
+pub fn add_image(
+    set: &mut commit::OutputSet,
+    stem: &str,
+    (width, height): (u32, u32),
+    pixels: &[[f32; 3]],
+    exposure: f32,
+) -> Result<()> {
+    let png = format!("{stem}.png");
+    let image = exr::tonemap(pixels, width, height, exposure);
+    set.add(format!("{stem}.exr"), exr::encode_rgb(width, height, pixels));
+    set.add(png.clone(), encode_png(&image, &png)?);
+    Ok(())
 }
 
 /// Serializes `value` as pretty JSON with a trailing newline.
@@ -298,73 +377,4 @@ pub fn to_json<T: Serialize>(value: &T) -> Result<Vec<u8>> {
         .map_err(|e| Error::Internal(format!("serializing JSON: {e}")))?;
     bytes.push(b'\n');
     Ok(bytes)
-}
-
-/// Writes `bytes` to `path` atomically: a temporary file beside it, then a
-/// rename. On failure the temporary file is removed and `path` is untouched.
-pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
-    let name = path
-        .file_name()
-        .ok_or_else(|| Error::Internal(format!("{}: not a file path", path.display())))?;
-    let tmp = path.with_file_name(format!(".{}.tmp", name.to_string_lossy()));
-    let result = std::fs::write(&tmp, bytes).and_then(|_| std::fs::rename(&tmp, path));
-    if let Err(e) = result {
-        let _ = std::fs::remove_file(&tmp);
-        return Err(Error::io(path, e));
-    }
-    Ok(())
-}
-
-/// Refuses an output path that exists and is not a directory.
-pub fn check_output_dir(dir: &Path) -> Result<()> {
-    if dir.exists() && !dir.is_dir() {
-        return Err(Error::user_file(
-            dir,
-            "output path exists and is not a directory",
-        ));
-    }
-    Ok(())
-}
-
-/// Creates the output directory, or explains in one line why it cannot.
-pub fn prepare_output_dir(dir: &Path) -> Result<()> {
-    check_output_dir(dir)?;
-    std::fs::create_dir_all(dir)
-        .map_err(|e| Error::user_file(dir, format!("cannot create output directory: {e}")))
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn atomic_write_replaces_and_leaves_no_temporary() {
-        let dir = tempfile::tempdir().unwrap();
-        let p = dir.path().join("a.json");
-        write_atomic(&p, b"one").unwrap();
-        write_atomic(&p, b"two").unwrap();
-        assert_eq!(std::fs::read(&p).unwrap(), b"two");
-        let names: Vec<_> = std::fs::read_dir(dir.path())
-            .unwrap()
-            .map(|e| e.unwrap().file_name())
-            .collect();
-        assert_eq!(names.len(), 1, "{names:?}");
-    }
-
-    #[test]
-    fn failed_write_leaves_target_untouched() {
-        let dir = tempfile::tempdir().unwrap();
-        let p = dir.path().join("missing-subdir").join("a.json");
-        assert!(write_atomic(&p, b"x").is_err());
-        assert!(!p.exists());
-    }
-
-    #[test]
-    fn output_dir_that_is_a_file_is_a_user_error() {
-        let dir = tempfile::tempdir().unwrap();
-        let f = dir.path().join("f");
-        std::fs::write(&f, b"").unwrap();
-        assert!(matches!(prepare_output_dir(&f), Err(Error::User(_))));
-        assert!(prepare_output_dir(&dir.path().join("new/deeper")).is_ok());
-    }
 }

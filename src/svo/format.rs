@@ -14,9 +14,14 @@
 //! | 52 | 4 | leaves without a visible probe (u32) |
 //! | 56 | 4 | node count N (u32, ≥ 1) |
 //! | 60 | 4 | payload count M (u32) |
-//! | 64 | 4N | nodes (u32 each; node 0 is the root) |
-//! | 64+4N | 4M | payload: probe indices (u32 each) |
-//! | 64+4N+4M | 4 | CRC-32 (IEEE, as zlib's `crc32`) of every byte before it |
+//! | 64 | 24 | origin again, f64 × 3: exact, for readers that need it |
+//! | 88 | 32 | provenance: config hash, scene hash, seed, tool hash (u64 × 4, [`crate::provenance`]) |
+//! | 120 | 4N | nodes (u32 each; node 0 is the root) |
+//! | 120+4N | 4M | payload: probe indices (u32 each) |
+//! | 120+4N+4M | 4 | CRC-32 (IEEE, as zlib's `crc32`) of every byte before it |
+//!
+//! Version 2 added the f64 origin and the provenance (bytes 64–119);
+//! everything before them is where version 1 had it.
 //!
 //! A node word with bit 31 set is a leaf: bits 28–30 hold the list length
 //! minus one and bits 0–27 the offset of the list in the payload. Otherwise
@@ -32,38 +37,15 @@ use glam::{DVec3, UVec3, Vec3};
 /// The file's first eight bytes.
 pub const MAGIC: &[u8; 8] = b"PROBESVO";
 /// The version this build writes and reads.
-pub const VERSION: u32 = 1;
+pub const VERSION: u32 = 2;
 /// Bytes before the node array.
-pub const HEADER_BYTES: usize = 64;
+pub const HEADER_BYTES: usize = 120;
 /// Bytes of the trailing checksum.
 pub const CHECKSUM_BYTES: usize = 4;
 
-/// CRC-32 (IEEE 802.3, reflected, polynomial 0xEDB88320) of `bytes`.
+/// CRC-32 (IEEE 802.3, as zlib's `crc32`) of `bytes`, by the `crc32fast` crate.
 pub fn crc32(bytes: &[u8]) -> u32 {
-    const TABLE: [u32; 256] = {
-        let mut table = [0u32; 256];
-        let mut i = 0;
-        while i < 256 {
-            let mut c = i as u32;
-            let mut k = 0;
-            while k < 8 {
-                c = if c & 1 != 0 {
-                    0xEDB8_8320 ^ (c >> 1)
-                } else {
-                    c >> 1
-                };
-                k += 1;
-            }
-            table[i] = c;
-            i += 1;
-        }
-        table
-    };
-    let mut crc = !0u32;
-    for &b in bytes {
-        crc = TABLE[((crc ^ b as u32) & 0xFF) as usize] ^ (crc >> 8);
-    }
-    !crc
+    crc32fast::hash(bytes)
 }
 
 /// The bytes of `svo.bin` for `svo`, its origin in world coordinates
@@ -89,7 +71,14 @@ pub fn to_bytes(svo: &Svo) -> Vec<u8> {
         svo.nodes.len() as u32,
         svo.payload.len() as u32,
     ];
-    for w in words.iter().chain(&svo.nodes).chain(&svo.payload) {
+    for w in &words {
+        out.extend_from_slice(&w.to_le_bytes());
+    }
+    for c in svo.world_origin().to_array() {
+        out.extend_from_slice(&c.to_le_bytes());
+    }
+    out.extend_from_slice(&svo.provenance);
+    for w in svo.nodes.iter().chain(&svo.payload) {
         out.extend_from_slice(&w.to_le_bytes());
     }
     let crc = crc32(&out);
@@ -151,6 +140,7 @@ pub fn from_bytes(bytes: &[u8]) -> Result<Svo, String> {
         probe_count: word(44),
         max_probes: word(48),
         leaves_without_visible_probe: word(52),
+        provenance: bytes[88..120].try_into().expect("32 bytes"),
         nodes: (0..node_count as usize)
             .map(|i| word(nodes_at + 4 * i))
             .collect(),
@@ -160,6 +150,13 @@ pub fn from_bytes(bytes: &[u8]) -> Result<Svo, String> {
     };
     validate(&svo)?;
     Ok(svo)
+}
+
+/// The exact world origin of a `svo.bin` that [`from_bytes`] accepted
+/// (bytes 64–87), for a reader that moves the tree into its own frame.
+pub fn exact_origin(bytes: &[u8]) -> DVec3 {
+    let f = |i: usize| f64::from_le_bytes(bytes[i..i + 8].try_into().expect("8 bytes"));
+    DVec3::new(f(64), f(72), f(80))
 }
 
 /// Checks every invariant [`Svo::probes_at`] relies on.

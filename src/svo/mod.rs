@@ -65,6 +65,9 @@ pub struct Svo {
     pub max_probes: u32,
     /// Leaves (at leaf size) that no probe sees; they list the nearest probe.
     pub leaves_without_visible_probe: u32,
+    /// The run's provenance ([`crate::provenance`]), written in the header;
+    /// zero until the job that writes the tree sets it.
+    pub provenance: crate::provenance::ProvenanceBytes,
     nodes: Vec<u32>,
     payload: Vec<u32>,
 }
@@ -260,6 +263,7 @@ pub fn bake(params: &SvoParams, probes: &ProbeSet, input: &PlacementInput) -> Re
         probe_count: positions.len() as u32,
         max_probes: params.max_probes.0,
         leaves_without_visible_probe: tally.blind.min(u32::MAX as u64) as u32,
+        provenance: [0; 32],
         nodes,
         payload,
     };
@@ -504,11 +508,11 @@ mod tests {
         assert!(err(&flipped).contains("checksum"));
         // A newer version, checksum and all, is named as such.
         let mut newer = bytes.clone();
-        newer[8..12].copy_from_slice(&2u32.to_le_bytes());
+        newer[8..12].copy_from_slice(&3u32.to_le_bytes());
         let end = newer.len() - 4;
         let crc = format::crc32(&newer[..end]);
         newer[end..].copy_from_slice(&crc.to_le_bytes());
-        assert!(err(&newer).starts_with("unsupported version 2"));
+        assert!(err(&newer).starts_with("unsupported version 3"));
     }
 
     #[test]

@@ -106,18 +106,23 @@ pub fn place_and_bake(
     method: Option<&str>,
     radiance: &probeplace::lightfield::maps::RadianceFn,
 ) -> (
-    probeplace::pipeline::PlaceRun,
+    probeplace::jobs::place::PlaceRun,
     probeplace::lightfield::LightField,
 ) {
-    use probeplace::pipeline::{self, PlaceOptions};
+    use probeplace::jobs::{self, RunOptions};
+    use probeplace::provenance::Overrides;
     let path = root().join(config);
     let cfg = probeplace::config::Config::load(&path).unwrap();
-    let options = PlaceOptions {
-        method: method.map(String::from),
-        no_refine: method.is_some(),
-        ..PlaceOptions::default()
+    let options = RunOptions {
+        config: Some(path.clone()),
+        overrides: Overrides {
+            method: method.map(String::from),
+            no_refine: method.is_some(),
+            ..Overrides::default()
+        },
+        ..RunOptions::default()
     };
-    let run = pipeline::compute_place(cfg.clone(), &path, &options).unwrap();
+    let run = jobs::place::compute(&options).unwrap();
     let p = &run.prepared;
     let field = probeplace::lightfield::bake(
         &cfg.bake,

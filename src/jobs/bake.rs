@@ -1,0 +1,176 @@
+//! The `bake` job: the placement (computed or reused), then the light-field
+//! bake (McGuire et al. 2017 §3, §5.2), the check of the tracer against ray
+//! casts, and the path-traced reference when the config has a camera.
+
+use super::{place, push_warnings, Job, Outcome, RunOptions};
+use crate::error::{Error, Result};
+use crate::lightfield::LightField;
+use crate::render::Reference;
+use crate::report::bake::{atlas, distance_preview, normal_preview, BakeReport, ReferenceReport};
+use crate::report::{self, exr};
+use crate::stages::{self, validate, Prepared};
+use serde_json::Value;
+
+/// The files of a bake, carried together when reused.
+pub(crate) const FILES: [&str; 7] = [
+    "radiance.exr",
+    "radiance.png",
+    "irradiance.exr",
+    "irradiance.png",
+    "distance.png",
+    "normal.png",
+    "lightfield.bin",
+];
+
+/// The reference's files.
+pub(crate) const REFERENCE_FILES: [&str; 4] = [
+    "reference.exr",
+    "reference.png",
+    "reference-glossy.exr",
+    "reference-glossy.png",
+];
+
+/// Runs `probeplace bake`.
+///
+/// Contract: on success the output directory holds `place`'s files plus
+/// `lightfield.bin`, the probe-map previews (`radiance.exr`/`.png`,
+/// `irradiance.exr`/`.png`, `distance.png`, `normal.png`) and, with a
+/// camera, `reference.exr`/`.png` and `reference-glossy.exr`/`.png`;
+/// `report.json` has a `bake` section. With `--from DIR` the placement
+/// (and a bake already there) is reused. On error nothing changes.
+pub fn bake(options: &RunOptions) -> Result<Outcome> {
+    let mut job = Job::new(options)?;
+    let prepared = job.prepare()?;
+    let mut placement = place::placement(&mut job, &prepared)?;
+    bake_stage(&mut job, &prepared, &mut placement)?;
+    job.finish("report.json", placement.report)
+}
+
+/// What the bake hands on to the validation render.
+pub(crate) struct Bake {
+    /// The probes' maps, in the scene's frame.
+    pub field: LightField,
+    /// The reference of the config's camera; `None` without one.
+    pub reference: Option<Reference>,
+}
+
+/// The bake of `placement`: reused from `--from DIR` when it holds one,
+/// else computed; adds its files to the set and `bake` to the report.
+pub(crate) fn bake_stage(job: &mut Job, prepared: &Prepared, placement: &mut place::Placement) -> Result<Bake> {
+    if let Some(b) = load(job, prepared, placement)? {
+        return Ok(b);
+    }
+    let config = &job.config;
+    let mut watch = job.progress.stopwatch();
+    let positions = placement.probes.positions();
+    let baked = stages::bake(config, prepared, &positions, &job.progress);
+    watch.absorb(&baked.timings);
+    let mut field = baked.field;
+    field.provenance = job.provenance.to_bytes();
+    let tracer = watch.time("tracer_check", || {
+        stages::bake::check_tracer(config, prepared, &field, &placement.svo, &job.progress)
+    });
+    let mut warnings = baked.warnings;
+    let reference = match &config.reference.camera {
+        Some(camera) => Some(watch.time("reference", || validate::reference(config, prepared, camera, 0))),
+        None => {
+            warnings.push("bake: no reference.camera in the config; the reference image is skipped".into());
+            None
+        }
+    };
+    add_files(job, &field, reference.as_ref())?;
+    let timings = watch.to_map_with_total();
+    job.watch.record("bake", timings["total"]);
+    let r = &job.config.reference;
+    let report = BakeReport {
+        resolution: field.resolution,
+        irradiance_resolution: field.irradiance_resolution,
+        probes: positions.len(),
+        samples: job.config.bake.samples.0,
+        bounces: job.config.bake.bounces.0,
+        bytes: field.bytes(),
+        area_lights: baked.area_lights,
+        config_lights: job.config.lights.len(),
+        tracer,
+        reference: reference.as_ref().map(|image| ReferenceReport {
+            width: image.width,
+            height: image.height,
+            samples_per_pixel: r.samples_per_pixel.0,
+            bounces: r.bounces.0,
+            mean: image.mean(),
+            glossy_indirect_mean: image.glossy_mean(),
+        }),
+        timings_ms: timings,
+    };
+    placement.report["bake"] = serde_json::to_value(&report).map_err(|e| Error::Internal(e.to_string()))?;
+    push_warnings(&mut placement.report, &warnings);
+    Ok(Bake { field, reference })
+}
+
+/// Adds `lightfield.bin`, the map previews and the reference's images.
+fn add_files(job: &mut Job, field: &LightField, reference: Option<&Reference>) -> Result<()> {
+    let set = &mut job.set;
+    set.add("lightfield.bin", field.to_bytes());
+    let probes = field.positions.len();
+    let (w, h, rad) = atlas(field.resolution, probes, |i| field.radiance[i]);
+    report::add_image(set, "radiance", (w, h), &rad, validate::auto_exposure(&rad))?;
+    let (w, h, irr) = atlas(field.irradiance_resolution, probes, |i| field.irradiance[i]);
+    report::add_image(set, "irradiance", (w, h), &irr, validate::auto_exposure(&irr))?;
+    set.add("distance.png", report::encode_png(&distance_preview(field), "distance.png")?);
+    set.add("normal.png", report::encode_png(&normal_preview(field), "normal.png")?);
+    if let Some(image) = reference {
+        let exposure = validate::auto_exposure(&image.full);
+        let size = (image.width, image.height);
+        report::add_image(set, "reference", size, &image.full, exposure)?;
+        report::add_image(set, "reference-glossy", size, &image.glossy_indirect, exposure)?;
+    }
+    Ok(())
+}
+
+/// The bake `--from DIR` holds for `placement`, when the placement came
+/// from there too and the directory has a bake (and the reference the
+/// config's camera needs).
+pub(crate) fn load(job: &mut Job, prepared: &Prepared, placement: &place::Placement) -> Result<Option<Bake>> {
+    let Some(e) = &job.earlier else {
+        return Ok(None);
+    };
+    let has_camera = job.config.reference.camera.is_some();
+    let placed_there = job.reused.iter().any(|r| r == "probes.json");
+    let baked_there = matches!(placement.report.get("bake"), Some(Value::Object(_)));
+    if !placed_there || !baked_there || !e.has("lightfield.bin") || (has_camera && !e.has("reference.exr")) {
+        return Ok(None);
+    }
+    let path = e.path("lightfield.bin");
+    let mut field = LightField::read(&path)?;
+    if field.provenance != job.provenance.to_bytes() || field.positions.len() != placement.probes.probes.len() {
+        return Err(place::mixed(&path));
+    }
+    // The file holds world positions in f32; the probes' own positions are
+    // the exact ones the bake used.
+    field.positions = placement.probes.positions();
+    field.frame = prepared.scene.origin;
+    let reference = if has_camera { Some(read_reference(e)?) } else { None };
+    job.carry(&FILES);
+    job.carry(&REFERENCE_FILES);
+    Ok(Some(Bake { field, reference }))
+}
+
+/// The reference images of an earlier run.
+pub(crate) fn read_reference(e: &super::Earlier) -> Result<Reference> {
+    let read = |name: &str| {
+        let path = e.path(name);
+        let bytes = std::fs::read(&path).map_err(|x| Error::user_file(&path, x))?;
+        exr::decode_rgb(&bytes).map_err(|m| Error::user_file(&path, m))
+    };
+    let (width, height, full) = read("reference.exr")?;
+    let (w, h, glossy_indirect) = read("reference-glossy.exr")?;
+    if (w, h) != (width, height) {
+        return Err(place::mixed(&e.path("reference-glossy.exr")));
+    }
+    Ok(Reference {
+        width,
+        height,
+        full,
+        glossy_indirect,
+    })
+}

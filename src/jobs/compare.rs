@@ -1,0 +1,628 @@
+//! The `compare` job: our placements against what engines use today, on one
+//! scene and camera set, measured alike (Wang et al. 2019 §5, Figs. 8–12,
+//! Tables 1–2).
+//!
+//! The placements:
+//! - **ours**: the SDF skeleton and the ball-shrinking medial axis (§3.1),
+//!   each refined (§3.3);
+//! - **a sweep of uniform grids** (McGuire et al. 2017), from a quarter to
+//!   eight times our probe count, or the grids the user names;
+//! - **a relocated grid** ([`crate::placement::relocate`]): the sweep grid
+//!   nearest our count with RTXGI-style relocation and classification;
+//! - **greedy voxel placement** ([`crate::placement::greedy`], Silvennoinen &
+//!   Lehtinen 2017 §4.1) at our probe count.
+//!
+//! Every placement goes through the same stages as `render`: coverage,
+//! SVO (§4.1), light-field bake (McGuire §3), and the validation render
+//! from each camera, measured against one path-traced reference per camera.
+//! As in the paper's comparisons, each side runs its own tracer: the grids
+//! McGuire's (bi-level march, the cell's eight probes, §4.1 of McGuire et
+//! al.), what engines run today; every other placement Wang's (Hi-Z march,
+//! SVO selection, §4.1–4.2), which non-uniform probes need. The glossy
+//! rays are the same for every placement (common random numbers), so the
+//! differences in error come from the probes, not from sampling noise.
+
+use super::{bake, Job, Outcome, RunOptions};
+use crate::config::{CameraParams, Config, GreedyParams, GridParams, Placement, Positive};
+use crate::coverage::CoverageReference;
+use crate::error::{Error, Result};
+use crate::gpu::{Context, SelectionKind};
+use crate::lightfield::LightField;
+use crate::placement::{self, ProbeSet};
+use crate::progress::Progress;
+use crate::report::compare::{
+    comparisons, performance_metric, to_csv, CameraRecord, CameraRow, CompareReport, Family,
+    PlacementRow,
+};
+use crate::report::html::{self, Figures, PlacementFigures};
+use crate::report::{self, exr};
+use crate::stages::validate::{self, Tracer, View};
+use crate::stages::{self, Placed, Prepared};
+use crate::svo::Svo;
+use crate::trace::{single::March, Lattice};
+use glam::Vec3;
+use std::collections::BTreeMap;
+
+/// Pixel size of each of the two placement views in the report.
+const VIEW_SIZE: u32 = 320;
+
+/// Our methods, in report order.
+const OURS: [&str; 2] = ["sdf-skeleton", "medial-axis"];
+
+/// Runs `probeplace compare`.
+///
+/// Contract: a config without any camera (`reference.camera` or
+/// `compare.cameras`) is a user error before any work. On success the
+/// output directory holds `compare.json`, `compare.csv` and `report.html`
+/// (and, with `--from DIR`, the files reused from there), committed as one
+/// set; on error nothing changes. The same config and seed give the same
+/// files, timings (and `gpu_ms` on a GPU) aside.
+pub fn compare(options: &RunOptions) -> Result<Outcome> {
+    let mut job = Job::new(options)?;
+    let cameras: Vec<CameraParams> = job
+        .config
+        .reference
+        .camera
+        .iter()
+        .chain(&job.config.compare.cameras)
+        .copied()
+        .collect();
+    if cameras.is_empty() {
+        return Err(Error::user_file(
+            &job.config_path,
+            "reference.camera: compare needs a camera (placements are rendered from it and measured against the reference)",
+        ));
+    }
+    let prepared = job.prepare()?;
+    let mut warnings = prepared.scene.warnings.clone();
+    let views = views(&mut job, &prepared, &cameras)?;
+    let context = if job.cpu {
+        None
+    } else {
+        Context::new()
+            .map_err(|e| warnings.push(format!("compare: {e}; traced on the CPU twin")))
+            .ok()
+    };
+    let coverage = CoverageReference::new(
+        &prepared.scene,
+        &prepared.bvh,
+        &prepared.sdf,
+        &job.config.coverage,
+        job.config.seed,
+        &job.progress,
+    );
+    let mut bench = Bench {
+        config: job.config.clone(),
+        prepared: &prepared,
+        coverage: &coverage,
+        views: &views,
+        context: context.as_ref(),
+        progress: job.progress,
+        gpu_used: true,
+        warnings,
+        rows: Vec::new(),
+        figures: Vec::new(),
+    };
+    let ours_count = bench.ours(&mut job)?;
+    let grid_rows = bench.grids(&mut job, options.grids.as_ref(), ours_count)?;
+    bench.competitors(&mut job, &grid_rows, ours_count)?;
+    write(job, bench, &views, context.as_ref())
+}
+
+/// Assembles `compare.json`, `compare.csv` and `report.html` and commits them.
+fn write(mut job: Job, bench: Bench, views: &[View], context: Option<&Context>) -> Result<Outcome> {
+    let adapter = match (context, bench.gpu_used) {
+        (Some(ctx), true) => ctx.adapter.clone(),
+        _ => "cpu twin".to_string(),
+    };
+    let config = &job.config;
+    let rows = bench.rows;
+    let metric = performance_metric(&adapter, &rows);
+    let comparisons = comparisons(&rows, metric);
+    let report = CompareReport {
+        format: "probeplace-compare",
+        version: 1,
+        provenance: job.provenance.clone(),
+        config: job.config_path.display().to_string(),
+        scene: config.scene.display().to_string(),
+        seed: config.seed,
+        adapter,
+        quality_metric: "mse_glossy_filtered",
+        performance_metric: metric,
+        width: config.reference.width.0,
+        height: config.reference.height.0,
+        glossy_rays: config.compare.glossy_rays.0,
+        cameras: views
+            .iter()
+            .map(|v| CameraRecord {
+                position: v.camera.position.0,
+                look_at: v.camera.look_at.0,
+                fov_degrees: v.camera.fov_degrees,
+                reference_glossy_mean: v.reference.glossy_mean(),
+            })
+            .collect(),
+        placements: rows,
+        comparisons,
+        warnings: bench.warnings,
+        timings_ms: job.watch.to_map(),
+    };
+    let figures = Figures {
+        references: views
+            .iter()
+            .map(|v| png(&v.reference.full, v, "reference"))
+            .collect::<Result<_>>()?,
+        placements: bench.figures,
+    };
+    job.set.add("compare.csv", to_csv(&report).into_bytes());
+    job.set.add("report.html", html::page(&report, &figures).into_bytes());
+    let value = serde_json::to_value(&report).map_err(|e| Error::Internal(e.to_string()))?;
+    let summary = crate::report::compare::summary(&report);
+    job.finish_with("compare.json", value, summary)
+}
+
+/// The first grid of [`placement::cubic_grid_sweep`] (up to `max_cells`
+/// cells along the domain's longest axis, by probe count, and at most
+/// `max_probes` probes when given) whose coverage, by `reference`, reaches
+/// `coverage`, with that coverage; `None` when no grid of the sweep does.
+/// The "smallest grid at the same coverage" that our placements must beat
+/// (Wang et al. 2019 §5, Table 1).
+pub fn smallest_grid_reaching(
+    prepared: &Prepared,
+    reference: &CoverageReference,
+    coverage: f64,
+    max_cells: u32,
+    max_probes: Option<usize>,
+    progress: &Progress,
+) -> Option<(GridParams, f64)> {
+    placement::cubic_grid_sweep(prepared.domain.size(), max_cells)
+        .into_iter()
+        .take_while(|g| {
+            max_probes.is_none_or(|n| (g.cells.0 .0 * g.cells.1 .0 * g.cells.2 .0) as usize <= n)
+        })
+        .find_map(|g| {
+            let positions: Vec<glam::Vec3> = placement::grid(&g, &prepared.domain)
+                .iter()
+                .map(|p| p.position)
+                .collect();
+            let c = reference
+                .evaluate(&prepared.bvh, &positions, progress)
+                .coverage;
+            (c >= coverage).then_some((g, c))
+        })
+}
+
+/// Parses `--grids`: comma-separated `NxMxK`, e.g. `2x2x2,4x2x4`.
+///
+/// Contract: at least one grid; a bad entry is a user error naming it.
+pub fn parse_grids(text: &str) -> Result<Vec<GridParams>> {
+    let grids = text
+        .split(',')
+        .map(str::trim)
+        .filter(|g| !g.is_empty())
+        .map(|g| {
+            let bad = |why: String| Error::User(format!("--grids {text}: `{g}`: {why}"));
+            let cells: Vec<u32> = g
+                .split('x')
+                .map(|n| n.parse::<u32>())
+                .collect::<std::result::Result<_, _>>()
+                .map_err(|_| bad("expected NxMxK with whole numbers, e.g. 4x2x4".into()))?;
+            let cells: [u32; 3] = cells
+                .try_into()
+                .map_err(|_| bad("expected three sizes, NxMxK, e.g. 4x2x4".into()))?;
+            GridParams::new(cells).map_err(bad)
+        })
+        .collect::<Result<Vec<_>>>()?;
+    if grids.is_empty() {
+        return Err(Error::User(format!(
+            "--grids {text}: no grid given; expected e.g. 2x2x2,4x2x4"
+        )));
+    }
+    Ok(grids)
+}
+
+/// Uniform grids from a quarter to eight times `count` probes, in steps of
+/// 2× (√2 around `count`, where equal count is matched), each with cells
+/// as near cubic as the domain allows; distinct and by probe count.
+///
+/// Contract: at least one grid; every grid within the config's limits.
+pub fn grid_sweep(domain: &crate::scene::Bounds, count: usize) -> Vec<GridParams> {
+    let size = domain.size().max(Vec3::splat(1e-6));
+    let volume = (size.x * size.y * size.z) as f64;
+    let factors = [
+        0.25,
+        0.5,
+        std::f64::consts::FRAC_1_SQRT_2,
+        1.0,
+        std::f64::consts::SQRT_2,
+        2.0,
+        4.0,
+        8.0,
+    ];
+    let mut out: Vec<(u64, GridParams)> = Vec::new();
+    for f in factors {
+        let n = (count.max(1) as f64 * f).max(1.0);
+        let spacing = (volume / n).cbrt() as f32;
+        let cells = (size / spacing).round().max(Vec3::ONE);
+        let Ok(g) = GridParams::new([cells.x as u32, cells.y as u32, cells.z as u32]) else {
+            continue;
+        };
+        let probes = g.cells.0 .0 as u64 * g.cells.1 .0 as u64 * g.cells.2 .0 as u64;
+        if !out.iter().any(|(_, o)| *o == g) {
+            out.push((probes, g));
+        }
+    }
+    out.sort_by_key(|(n, g)| (*n, g.cells.0 .0, g.cells.1 .0, g.cells.2 .0));
+    out.into_iter().map(|(_, g)| g).collect()
+}
+
+/// The view of every camera; camera 0's reference is the one `bake`
+/// renders (same seed), reused from `--from DIR` when it holds it.
+fn views(job: &mut Job, prepared: &Prepared, cameras: &[CameraParams]) -> Result<Vec<View>> {
+    let earlier_reference = match &job.earlier {
+        Some(e) if e.has("reference.exr") && e.has("reference-glossy.exr") => {
+            Some(bake::read_reference(e)?)
+        }
+        _ => None,
+    };
+    if earlier_reference.is_some() {
+        job.carry(&bake::REFERENCE_FILES);
+    }
+    let config = &job.config;
+    let mut earlier_reference = earlier_reference;
+    let views = job.watch.time("references", || {
+        cameras
+            .iter()
+            .enumerate()
+            .map(|(i, camera)| {
+                let reference = match earlier_reference.take().filter(|_| i == 0) {
+                    Some(r) => r,
+                    None => validate::reference(config, prepared, camera, i),
+                };
+                View::new(config, prepared, camera, i, reference, config.compare.glossy_rays.0)
+            })
+            .collect()
+    });
+    Ok(views)
+}
+
+/// A placement to measure: its probes and what an earlier run already
+/// built for them.
+struct Candidate {
+    probes: ProbeSet,
+    stats: BTreeMap<String, f64>,
+    svo: Option<Svo>,
+    field: Option<LightField>,
+}
+
+/// What every placement is measured with, and the rows so far.
+struct Bench<'a> {
+    config: Config,
+    prepared: &'a Prepared,
+    coverage: &'a CoverageReference,
+    views: &'a [View],
+    context: Option<&'a Context>,
+    progress: Progress,
+    /// Whether every placement so far was traced on the GPU.
+    gpu_used: bool,
+    warnings: Vec<String>,
+    rows: Vec<PlacementRow>,
+    figures: Vec<PlacementFigures>,
+}
+
+impl Bench<'_> {
+    /// Ours, refined whatever the config says (§3.3); returns the probe
+    /// count the others are matched to (the config's method's).
+    fn ours(&mut self, job: &mut Job) -> Result<usize> {
+        let mut ours_count = 0;
+        for method in OURS {
+            let t = std::time::Instant::now();
+            let mut c = self.config.clone();
+            c.placement = Placement::parse_cli(method, &self.config.placement)?;
+            c.refine.enabled = true;
+            let candidate = match reuse(job, method, self.prepared)? {
+                Some(found) => found,
+                None => {
+                    let placed = stages::place(&c, self.prepared, self.coverage, None, &self.progress)
+                        .map_err(|e| e.in_file(&job.config_path))?;
+                    let mut stats = stats_of(&placed.probes);
+                    if let Some((r, _)) = &placed.refined {
+                        stats.insert("refine_coverage_final".into(), r.coverage_final);
+                    }
+                    Candidate {
+                        probes: placed.probes,
+                        stats,
+                        svo: placed.svo.map(|(s, _)| s),
+                        field: None,
+                    }
+                }
+            };
+            if ours_count == 0 || method == self.config.placement.name() {
+                ours_count = candidate.probes.probes.len();
+            }
+            self.measure(method, Family::Ours, candidate)?;
+            job.watch.record(method, t.elapsed().as_secs_f64() * 1e3);
+        }
+        Ok(ours_count)
+    }
+
+    /// The sweep of uniform grids (the given ones, the config's, or a sweep
+    /// around `ours_count`); returns each grid with its probe count.
+    fn grids(
+        &mut self,
+        job: &mut Job,
+        given: Option<&Vec<GridParams>>,
+        ours_count: usize,
+    ) -> Result<Vec<(usize, GridParams)>> {
+        let grids = match (given, self.config.compare.grids.is_empty()) {
+            (Some(g), _) => g.clone(),
+            (None, false) => self.config.compare.grids.clone(),
+            (None, true) => grid_sweep(&self.prepared.domain, ours_count),
+        };
+        let mut out = Vec::new();
+        for g in &grids {
+            let t = std::time::Instant::now();
+            let method = Placement::Grid(*g);
+            let name = method.name();
+            let placed = self.place_plain(method)?;
+            out.push((placed.probes.probes.len(), *g));
+            let mut candidate = candidate_of(placed);
+            candidate.stats.clear();
+            self.measure(&name, Family::Grid, candidate)?;
+            job.watch.record(&name, t.elapsed().as_secs_f64() * 1e3);
+        }
+        Ok(out)
+    }
+
+    /// The competitors: what engines ship (the grid nearest our count,
+    /// relocated and classified), and Silvennoinen & Lehtinen's greedy
+    /// placement with as many probes as ours.
+    fn competitors(&mut self, job: &mut Job, grids: &[(usize, GridParams)], ours_count: usize) -> Result<()> {
+        let mut competitors = Vec::new();
+        if let Some((_, g)) = grids
+            .iter()
+            .min_by_key(|(n, _)| (n.abs_diff(ours_count), usize::MAX - n))
+        {
+            competitors.push((Placement::Relocated(*g), Family::Relocated));
+        }
+        let spacing = placement::greedy::spacing_for_count(&self.prepared.domain, ours_count.max(1));
+        competitors.push((
+            Placement::Greedy(GreedyParams {
+                spacing: Positive(spacing),
+            }),
+            Family::Greedy,
+        ));
+        for (method, family) in competitors {
+            let t = std::time::Instant::now();
+            let name = method.name();
+            match self.place_plain(method) {
+                Ok(placed) => self.measure(&name, family, candidate_of(placed))?,
+                // Every probe switched off, or no candidate voxel: a finding,
+                // not a failure.
+                Err(Error::User(e)) => self.warnings.push(format!("compare: {name}: {e}")),
+                Err(e) => return Err(e),
+            }
+            job.watch.record(&name, t.elapsed().as_secs_f64() * 1e3);
+        }
+        Ok(())
+    }
+
+    /// `method` placed without refinement.
+    fn place_plain(&self, method: Placement) -> Result<Placed> {
+        let mut c = self.config.clone();
+        c.placement = method;
+        c.refine.enabled = false;
+        stages::place(&c, self.prepared, self.coverage, None, &self.progress)
+    }
+
+    /// Coverage, SVO, bake and the render from every camera of a placement.
+    fn measure(
+        &mut self,
+        name: &str,
+        family: Family,
+        candidate: Candidate,
+    ) -> Result<()> {
+        let stats = candidate.stats;
+        let Prepared { scene, domain, bvh, sdf, .. } = self.prepared;
+        let probes = &candidate.probes;
+        let positions = probes.positions();
+        let (cov, holes) = self.coverage.evaluate_with_holes(bvh, &positions, &self.progress);
+        let health = crate::coverage::probe_health(sdf, domain, &positions);
+        let views_png = report::placement_views(scene, domain, &positions, &holes, VIEW_SIZE);
+        let mut tracer_name = "none";
+        let (cameras, renders, errors, probe_bytes, svo_bytes) = match candidate.svo {
+            _ if positions.is_empty() => {
+                self.warnings.push(format!("compare: {name} placed no probes; its renders are black"));
+                let (rows, renders, errors) = self.render_each(|view| Ok(validate::dark(view)))?;
+                (rows, renders, errors, 0, 0)
+            }
+            svo => {
+                let svo = match svo {
+                    Some(s) => s,
+                    None => crate::svo::bake(&self.config.svo, probes, &self.prepared.placement_input(self.config.seed, &self.progress))?.svo,
+                };
+                let field = match candidate.field {
+                    Some(f) => f,
+                    None => stages::bake(&self.config, self.prepared, &positions, &self.progress).field,
+                };
+                // Grids are traced as engines trace them today (McGuire et al.
+                // 2017: bi-level march, the cell's eight probes); the rest with
+                // Wang et al. 2019's Hi-Z march and SVO selection.
+                let lattice = match family {
+                    Family::Grid => Lattice::from_positions(&field.positions),
+                    _ => None,
+                };
+                tracer_name = if lattice.is_some() { "bilevel+grid" } else { "hiz+svo" };
+                let (rows, renders, errors) = self.render(name, &field, &svo, lattice.as_ref())?;
+                (rows, renders, errors, field.bytes() as u64, svo.bytes())
+            }
+        };
+        let mean = |f: fn(&CameraRow) -> f64| cameras.iter().map(f).sum::<f64>() / cameras.len().max(1) as f64;
+        self.rows.push(PlacementRow {
+            name: name.to_string(),
+            family,
+            tracer: tracer_name,
+            probes: positions.len(),
+            coverage: cov.coverage,
+            probes_in_solid: health.probes_in_solid,
+            probe_bytes,
+            svo_bytes,
+            mse_glossy: mean(|c| c.mse_glossy),
+            mse_glossy_filtered: mean(|c| c.mse_glossy_filtered),
+            texel_fetches_per_ray: mean(|c| c.texel_fetches_per_ray),
+            gpu_ms: cameras.iter().map(|c| c.gpu_ms).sum(),
+            cameras,
+            stats,
+        });
+        self.figures.push(PlacementFigures {
+            views: report::encode_png(&views_png, "placement views")?,
+            renders,
+            errors,
+        });
+        Ok(())
+    }
+
+    /// The renders of `field` from every camera, their rows and PNGs.
+    #[allow(clippy::type_complexity)]
+    fn render(
+        &mut self,
+        name: &str,
+        field: &LightField,
+        svo: &Svo,
+        lattice: Option<&Lattice>,
+    ) -> Result<(Vec<CameraRow>, Vec<Vec<u8>>, Vec<Vec<u8>>)> {
+        let (tracer, why) = Tracer::new(self.context, field, Some(svo), lattice);
+        if let Some(e) = why {
+            self.warnings.push(format!("compare: {name}: {e}; traced on the CPU twin"));
+        }
+        if !tracer.on_gpu() {
+            self.gpu_used = false;
+        }
+        let (kind, march) = match lattice {
+            Some(_) => (SelectionKind::Grid, March::BiLevel),
+            None => (SelectionKind::Svo, March::HiZ),
+        };
+        let gpu = |e: Error| Error::Internal(format!("compare {name}: {e}"));
+        self.render_each(|view| {
+            let glossy = tracer.trace(view, march, kind).map_err(gpu)?;
+            let irradiance = tracer.gather(view, kind).map_err(gpu)?;
+            Ok([irradiance, glossy])
+        })
+    }
+
+    /// Validates every view with the answers `answer` gives (irradiance,
+    /// glossy), and encodes its render and heat map.
+    #[allow(clippy::type_complexity)]
+    fn render_each(
+        &self,
+        answer: impl Fn(&View) -> Result<[(Vec<crate::gpu::Record>, Option<f64>); 2]>,
+    ) -> Result<(Vec<CameraRow>, Vec<Vec<u8>>, Vec<Vec<u8>>)> {
+        let (mut rows, mut renders, mut errors) = (Vec::new(), Vec::new(), Vec::new());
+        for view in self.views {
+            let [irradiance, glossy] = answer(view)?;
+            let v = validate::validate(view, &irradiance, &glossy);
+            renders.push(png(&v.image.full, view, "render")?);
+            errors.push(report::encode_png(&view.heat_map(&v.image.glossy_indirect), "error map")?);
+            rows.push(v.metrics);
+        }
+        Ok((rows, renders, errors))
+    }
+}
+
+/// A fresh placement as a candidate.
+fn candidate_of(placed: Placed) -> Candidate {
+    Candidate {
+        stats: stats_of(&placed.probes),
+        probes: placed.probes,
+        svo: placed.svo.map(|(s, _)| s),
+        field: None,
+    }
+}
+
+/// Our `method`'s probes, SVO and light field from `--from DIR`, when that
+/// run placed them refined with this method; its files are carried.
+fn reuse(job: &mut Job, method: &str, prepared: &Prepared) -> Result<Option<Candidate>> {
+    let Some(e) = &job.earlier else { return Ok(None) };
+    let Some(report) = e.report.clone() else { return Ok(None) };
+    if report["method"].as_str() != Some(method) || report["refine"].is_null() {
+        return Ok(None);
+    }
+    let Some(placement) = super::place::load(job, prepared)? else {
+        return Ok(None);
+    };
+    let bake = bake::load(job, prepared, &placement)?;
+    job.carry(&["report.json"]);
+    let mut stats = BTreeMap::new();
+    for key in ["placement_stats", "placement_params"] {
+        if let Some(m) = report[key].as_object() {
+            stats.extend(m.iter().filter_map(|(k, v)| Some((k.clone(), v.as_f64()?))));
+        }
+    }
+    if let Some(f) = report["refine"]["coverage_final"].as_f64() {
+        stats.insert("refine_coverage_final".into(), f);
+    }
+    Ok(Some(Candidate {
+        probes: placement.probes,
+        stats,
+        svo: Some(placement.svo),
+        field: bake.map(|b| b.field),
+    }))
+}
+
+/// `ProbeSet::stats` and `params` as report numbers.
+fn stats_of(probes: &ProbeSet) -> BTreeMap<String, f64> {
+    probes
+        .stats
+        .iter()
+        .map(|(k, v)| (k.to_string(), *v as f64))
+        .chain(probes.params.iter().map(|(k, v)| (k.to_string(), *v)))
+        .collect()
+}
+
+/// `pixels` tone mapped at the view's exposure, as PNG.
+fn png(pixels: &[[f32; 3]], view: &View, what: &str) -> Result<Vec<u8>> {
+    let (w, h) = (view.reference.width, view.reference.height);
+    report::encode_png(&exr::tonemap(pixels, w, h, view.exposure), what)
+}
+
+
+
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::Bounds;
+
+    fn count(g: &GridParams) -> u32 {
+        g.cells.0 .0 * g.cells.1 .0 * g.cells.2 .0
+    }
+
+    #[test]
+    fn sweep_spans_a_quarter_to_eight_times_the_count_in_order() {
+        let domain = Bounds {
+            min: Vec3::ZERO,
+            max: Vec3::new(24.0, 8.0, 14.0),
+        };
+        let sweep = grid_sweep(&domain, 20);
+        let counts: Vec<u32> = sweep.iter().map(count).collect();
+        assert!(counts.windows(2).all(|w| w[0] <= w[1]), "{counts:?}");
+        assert!(counts[0] <= 10, "{counts:?}");
+        assert!(*counts.last().unwrap() >= 100, "{counts:?}");
+        // Rounding cells to whole numbers moves counts, but one grid stays
+        // within a factor of two of the target.
+        assert!(counts.iter().any(|&c| (10..=40).contains(&c)), "{counts:?}");
+        // Cells stay near cubic: the long axis gets the most cells.
+        let last = sweep.last().unwrap();
+        assert!(last.cells.0 .0 > last.cells.1 .0);
+    }
+
+    #[test]
+    fn sweep_of_a_tiny_count_starts_at_one_probe() {
+        let domain = Bounds {
+            min: Vec3::ZERO,
+            max: Vec3::ONE,
+        };
+        let sweep = grid_sweep(&domain, 1);
+        assert_eq!(count(&sweep[0]), 1);
+        assert!(sweep.iter().all(|g| count(g) >= 1));
+    }
+}

@@ -1,0 +1,377 @@
+//! The jobs the command line runs, each a short composition of
+//! [`crate::stages`]:
+//!
+//! | job | stages | writes |
+//! |---|---|---|
+//! | [`place()`] | prepare → place | `probes.json`, `svo.bin`, `placement.png`, `atlas.png`, `report.json` |
+//! | [`bake()`] | … → bake → reference | + `lightfield.bin`, map previews, `reference*` |
+//! | [`render()`] | … → validate per variant | + `render_*`, `error_*` |
+//! | [`compare()`] | prepare → (place → bake → validate per camera) per placement | `compare.json`, `compare.csv`, `report.html` |
+//! | [`inspect()`] | — | nothing: checks an output directory |
+//!
+//! `bake`, `render` and `compare` take `--from DIR`: what an earlier run
+//! wrote there (probes, SVO, light field, reference) is loaded instead of
+//! recomputed, and carried into the new output set unchanged, when its
+//! provenance ([`crate::provenance`]) is the run's; otherwise the run is
+//! refused with one line naming the difference. A job's outputs are
+//! committed as one set ([`crate::report::commit`]): the output directory
+//! holds one run, whole, or the previous one.
+
+pub mod bake;
+pub mod compare;
+pub mod inspect;
+pub mod place;
+pub mod render;
+
+pub use bake::bake;
+pub use compare::compare;
+pub use inspect::{inspect, Inspection};
+pub use place::place;
+pub use render::{render, Variant};
+
+use crate::config::{Config, GridParams, Placement};
+use crate::error::{Error, Result};
+use crate::progress::{Progress, Stopwatch};
+use crate::provenance::{self, Overrides, Provenance};
+use crate::report::commit::{self, OutputSet};
+use crate::stages::{self, Prepared};
+use serde_json::Value;
+use std::path::{Path, PathBuf};
+
+/// What the command line gives a job.
+#[derive(Debug, Clone, Default)]
+pub struct RunOptions {
+    /// The RON config; `None` with `from`: the config the earlier run used.
+    pub config: Option<PathBuf>,
+    /// A config already loaded from `config` and changed by the caller (a
+    /// sweep, a test), run instead of the file's. Its changes enter the
+    /// config hash, so `--from` on its outputs with the file alone is
+    /// refused.
+    pub loaded: Option<Config>,
+    /// An earlier run's output directory to reuse (`--from`).
+    pub from: Option<PathBuf>,
+    /// Output directory instead of the config's `output` (default with
+    /// `from`: that directory).
+    pub out: Option<PathBuf>,
+    /// The command line's changes to the config.
+    pub overrides: Overrides,
+    /// Progress bars and stage lines.
+    pub progress: Progress,
+    /// Trace on the CPU twin even where a GPU adapter exists.
+    pub cpu: bool,
+    /// `render`'s variants, in order (empty: both).
+    pub variants: Vec<Variant>,
+    /// `compare`'s grids instead of the config's (or the sweep).
+    pub grids: Option<Vec<GridParams>>,
+}
+
+impl Default for Progress {
+    fn default() -> Self {
+        Progress::hidden()
+    }
+}
+
+/// What a finished job wrote.
+#[derive(Debug)]
+pub struct Outcome {
+    /// The output directory.
+    pub out_dir: PathBuf,
+    /// The main JSON file as written (`report.json` or `compare.json`).
+    pub report: Value,
+    /// What the command line prints on success: the findings in a line or
+    /// a few.
+    pub summary: Vec<String>,
+}
+
+impl Outcome {
+    /// The report's warnings.
+    pub fn warnings(&self) -> Vec<String> {
+        self.report["warnings"]
+            .as_array()
+            .map(|a| a.iter().filter_map(|w| w.as_str().map(String::from)).collect())
+            .unwrap_or_default()
+    }
+
+    /// The job's wall time in seconds.
+    pub fn seconds(&self) -> f64 {
+        self.report["timings_ms"]["total"].as_f64().unwrap_or(0.0) / 1e3
+    }
+}
+
+/// An earlier run's output directory (`--from`).
+pub(crate) struct Earlier {
+    /// The directory.
+    pub dir: PathBuf,
+    /// Its provenance.
+    pub provenance: Provenance,
+    /// Its `report.json`; `None` when it holds a `compare` run only.
+    pub report: Option<Value>,
+}
+
+impl Earlier {
+    /// Reads the provenance of the run in `dir`.
+    fn open(dir: &Path) -> Result<Earlier> {
+        if !dir.is_dir() {
+            return Err(Error::user_file(dir, "--from: no such output directory"));
+        }
+        let read = |name: &str| -> Option<Value> {
+            serde_json::from_slice(&std::fs::read(dir.join(name)).ok()?).ok()
+        };
+        let report = read("report.json");
+        let main = report.clone().or_else(|| read("compare.json")).ok_or_else(|| {
+            Error::user_file(dir, "--from: holds no report.json or compare.json of probeplace")
+        })?;
+        let provenance = serde_json::from_value(main["provenance"].clone()).map_err(|_| {
+            Error::user_file(
+                dir,
+                "--from: its report has no provenance (written by an older probeplace); run it again",
+            )
+        })?;
+        Ok(Earlier {
+            dir: dir.to_path_buf(),
+            provenance,
+            report,
+        })
+    }
+
+    /// Whether the directory holds `name`.
+    pub fn has(&self, name: &str) -> bool {
+        self.dir.join(name).is_file()
+    }
+
+    /// `name` in the directory.
+    pub fn path(&self, name: &str) -> PathBuf {
+        self.dir.join(name)
+    }
+}
+
+/// A job under way: its config, provenance, destination and output set.
+pub(crate) struct Job {
+    /// The config as run (overrides applied).
+    pub config: Config,
+    /// The config file, for messages and the report.
+    pub config_path: PathBuf,
+    /// What ties the outputs together.
+    pub provenance: Provenance,
+    /// Where the outputs go.
+    pub out_dir: PathBuf,
+    /// Files the run reads, which must not lie in `out_dir`.
+    pub inputs: Vec<PathBuf>,
+    /// The run reused, when `--from` was given.
+    pub earlier: Option<Earlier>,
+    /// Bars and stage lines.
+    pub progress: Progress,
+    /// The job's stage times.
+    pub watch: Stopwatch,
+    /// The files to commit.
+    pub set: OutputSet,
+    /// Names of the files reused from `earlier`.
+    pub reused: Vec<String>,
+    /// Trace on the CPU twin.
+    pub cpu: bool,
+}
+
+impl Job {
+    /// Resolves the config (the given one, or the earlier run's), applies
+    /// the overrides, and checks the destination and the earlier run
+    /// before any expensive stage.
+    pub fn new(options: &RunOptions) -> Result<Job> {
+        let earlier = options.from.as_deref().map(Earlier::open).transpose()?;
+        let (config_path, text, mut overrides) = match (&options.config, &earlier) {
+            (Some(path), _) => {
+                let text = std::fs::read_to_string(path)
+                    .map_err(|e| Error::user_file(path, format!("cannot read config: {e}")))?;
+                (path.clone(), text, Overrides::default())
+            }
+            (None, Some(e)) => (
+                reload_path(&e.provenance),
+                e.provenance.config_text.clone(),
+                e.provenance.overrides.clone(),
+            ),
+            (None, None) => {
+                return Err(Error::User(
+                    "no config given: name a config file, or an earlier run with --from DIR".into(),
+                ))
+            }
+        };
+        merge(&mut overrides, &options.overrides)?;
+        let mut config = match &options.loaded {
+            Some(c) => c.clone(),
+            None => Config::from_text(&text, &config_path)?,
+        };
+        apply(&mut config, &overrides)?;
+        let provenance = Provenance::of(&config, &config_path, &text, &overrides)?;
+        if let Some(e) = &earlier {
+            if let Some(why) = provenance.mismatch(&e.provenance) {
+                return Err(Error::user_file(
+                    &e.dir,
+                    format!("--from: {why}; its outputs cannot be reused by this run"),
+                ));
+            }
+        }
+        let out_dir = match (&options.out, &earlier) {
+            (Some(o), _) => o.clone(),
+            (None, Some(e)) => e.dir.clone(),
+            (None, None) => config.output.clone(),
+        };
+        let mut inputs = vec![config_path.clone()];
+        inputs.extend(provenance::input_files(&config, &overrides));
+        commit::check_destination(&out_dir, &inputs)?;
+        Ok(Job {
+            config,
+            config_path,
+            provenance,
+            out_dir,
+            inputs,
+            earlier,
+            progress: options.progress,
+            watch: options.progress.stopwatch(),
+            set: OutputSet::new(),
+            reused: Vec::new(),
+            cpu: options.cpu,
+        })
+    }
+
+    /// The stages before placement, timed.
+    pub fn prepare(&mut self) -> Result<Prepared> {
+        let prepared = stages::prepare(&self.config, &self.config_path, &self.progress)?;
+        self.watch.absorb(&prepared.timings);
+        Ok(prepared)
+    }
+
+    /// Carries `names` of the earlier run (those it has) into the set.
+    pub fn carry(&mut self, names: &[&str]) {
+        let Some(e) = &self.earlier else { return };
+        for name in names {
+            if e.has(name) {
+                self.set.carry(*name, e.path(name));
+                if !self.reused.iter().any(|r| r == name) {
+                    self.reused.push(name.to_string());
+                }
+            }
+        }
+    }
+
+    /// Finishes `report` (timings, what was reused) as `name` and commits
+    /// the whole set.
+    pub fn finish(self, name: &str, report: Value) -> Result<Outcome> {
+        let summary = summary(&report);
+        self.finish_with(name, report, summary)
+    }
+
+    /// [`Job::finish`] with the summary lines given.
+    pub fn finish_with(mut self, name: &str, mut report: Value, summary: Vec<String>) -> Result<Outcome> {
+        let mut timings = report["timings_ms"].as_object().cloned().unwrap_or_default();
+        for (k, v) in self.watch.to_map() {
+            timings.insert(k, v.into());
+        }
+        timings.insert("total".into(), self.watch.elapsed_ms().into());
+        report["timings_ms"] = Value::Object(timings);
+        report["reused"] = self.reused.clone().into();
+        self.set.add(name, crate::report::to_json(&report)?);
+        commit::commit(&self.out_dir, &self.set, &self.inputs)?;
+        Ok(Outcome {
+            out_dir: self.out_dir,
+            report,
+            summary,
+        })
+    }
+}
+
+/// The config path to reload a run from: as it was given when run from
+/// the same directory (so reports name it alike), else made absolute.
+fn reload_path(p: &Provenance) -> PathBuf {
+    let given = &p.config_given;
+    if given.is_absolute() || std::env::current_dir().ok().as_deref() == Some(p.cwd.as_path()) {
+        given.clone()
+    } else {
+        p.cwd.join(given)
+    }
+}
+
+/// Lays the command line's `new` overrides over the earlier run's `base`.
+fn merge(base: &mut Overrides, new: &Overrides) -> Result<()> {
+    if new.method.is_some() {
+        base.method = new.method.clone();
+    }
+    if new.seed.is_some() {
+        base.seed = new.seed;
+    }
+    base.no_refine |= new.no_refine;
+    if let Some(p) = &new.probes {
+        let abs = std::path::absolute(p).map_err(|e| Error::user_file(p, e))?;
+        base.probes = Some(abs);
+    }
+    Ok(())
+}
+
+/// Applies `overrides` to `config`.
+fn apply(config: &mut Config, overrides: &Overrides) -> Result<()> {
+    if let Some(m) = &overrides.method {
+        config.placement = Placement::parse_cli(m, &config.placement)?;
+    }
+    if let Some(s) = overrides.seed {
+        config.seed = s;
+    }
+    if overrides.no_refine {
+        config.refine.enabled = false;
+    }
+    Ok(())
+}
+
+/// The earlier report's `key` array, or an empty one.
+pub(crate) fn push_warnings(report: &mut Value, warnings: &[String]) {
+    if let Some(a) = report["warnings"].as_array_mut() {
+        a.extend(warnings.iter().map(|w| Value::String(w.clone())));
+    }
+}
+
+/// The summary line of a `report.json`: the placement, and what the bake
+/// and the render found when they ran.
+fn summary(r: &Value) -> Vec<String> {
+    let f = |v: &Value| v.as_f64().unwrap_or(f64::NAN);
+    let mut line = format!(
+        "{}: {} probes, coverage {:.2}% ± {:.2}%, {} in solid, {} near surfaces; voxel {:.4} ({})",
+        r["method"].as_str().unwrap_or("?"),
+        r["probe_count"],
+        100.0 * f(&r["coverage"]),
+        100.0 * f(&r["coverage_ci95"]),
+        r["probes_in_solid"],
+        r["probes_below_clearance"],
+        f(&r["sdf"]["voxel_size"]),
+        r["resolution"]["source"].as_str().unwrap_or("config"),
+    );
+    let b = &r["bake"];
+    if b.is_object() {
+        let seen = f(&b["tracer"]["seen"]);
+        let rate = if seen > 0.0 { f(&b["tracer"]["agree"]) / seen } else { 1.0 };
+        line += &format!(
+            "; baked at {}² ({:.1} MB), tracer agrees with ray casts on {:.2}% of seen hits",
+            b["resolution"],
+            f(&b["bytes"]) / 1e6,
+            100.0 * rate
+        );
+    }
+    let x = &r["render"];
+    if let Some(variants) = x["variants"].as_object() {
+        let parts: Vec<String> = variants
+            .iter()
+            .map(|(name, v)| {
+                let ms = v["gpu_ms"].as_f64().map_or(String::new(), |ms| format!(", {ms:.1} ms"));
+                format!(
+                    "{name} mse_glossy {:.3e}, {:.1} texel fetches/ray{ms}",
+                    f(&v["mse_glossy"]),
+                    f(&v["texel_fetches_per_ray"])
+                )
+            })
+            .collect();
+        line += &format!(
+            "; rendered {}×{} on {}: {}",
+            x["width"],
+            x["height"],
+            x["adapter"].as_str().unwrap_or("?"),
+            parts.join("; ")
+        );
+    }
+    vec![line]
+}

@@ -1,0 +1,204 @@
+//! The `place` job: prepare → coverage reference → place (placement,
+//! refinement, coverage, SVO) → outputs; and the placement part of every
+//! later job, computed or loaded from `--from DIR`.
+
+use super::{Job, Outcome, RunOptions};
+use crate::coverage::CoverageReference;
+use crate::error::{Error, Result};
+use crate::placement::{self, ProbeSet};
+use crate::report::{self, ProbesFile, Report};
+use crate::stages::{self, Placed, Prepared};
+use crate::svo::{self, Svo};
+use serde_json::Value;
+
+/// The files of a placement, carried together when reused.
+pub(crate) const FILES: [&str; 4] = ["probes.json", "svo.bin", "placement.png", "atlas.png"];
+
+/// Runs `probeplace place`.
+///
+/// Contract: on success the output directory holds exactly `probes.json`,
+/// `svo.bin`, `placement.png`, `report.json` and (refined) `atlas.png`, all
+/// of one provenance; on any error it is as it was. User mistakes come back
+/// as [`Error::User`] naming the file or field.
+pub fn place(options: &RunOptions) -> Result<Outcome> {
+    compute(options)?.commit()
+}
+
+/// A placement computed but not yet written: what `place` writes and what
+/// a caller (a sweep, a test) reads before committing it.
+pub struct PlaceRun {
+    pub(crate) job: Job,
+    /// Scene, domain, BVH and SDF.
+    pub prepared: Prepared,
+    /// The coverage measure the run was scored by.
+    pub reference: CoverageReference,
+    /// The probes placed.
+    pub probes: ProbeSet,
+    /// Their octree of probe indices.
+    pub svo: Svo,
+    /// `report.json` as it will be written (timings aside).
+    pub report: Report,
+}
+
+impl PlaceRun {
+    /// The config as run (overrides applied).
+    pub fn config(&self) -> &crate::config::Config {
+        &self.job.config
+    }
+
+    /// Writes the run's outputs as one set.
+    pub fn commit(self) -> Result<Outcome> {
+        let value = to_value(&self.report)?;
+        self.job.finish("report.json", value)
+    }
+}
+
+/// Runs every stage of `place` without writing anything.
+pub fn compute(options: &RunOptions) -> Result<PlaceRun> {
+    let mut job = Job::new(options)?;
+    let prepared = job.prepare()?;
+    let (reference, placed) = compute_placed(&mut job, &prepared)?;
+    let (probes, svo, report) = encode(&mut job, &prepared, placed)?;
+    Ok(PlaceRun {
+        job,
+        prepared,
+        reference,
+        probes,
+        svo,
+        report,
+    })
+}
+
+/// The placement a later job builds on.
+pub(crate) struct Placement {
+    /// The probes.
+    pub probes: ProbeSet,
+    /// Their SVO, in the scene's frame.
+    pub svo: Svo,
+    /// `report.json` so far.
+    pub report: Value,
+}
+
+/// The placement of `job`: loaded from `--from DIR` when that holds one,
+/// else computed; its files join the job's output set either way.
+pub(crate) fn placement(job: &mut Job, prepared: &Prepared) -> Result<Placement> {
+    if let Some(loaded) = load(job, prepared)? {
+        return Ok(loaded);
+    }
+    let (_, placed) = compute_placed(job, prepared)?;
+    let (probes, svo, report) = encode(job, prepared, placed)?;
+    Ok(Placement {
+        probes,
+        svo,
+        report: to_value(&report)?,
+    })
+}
+
+/// The coverage reference and the place stage, timed.
+fn compute_placed(job: &mut Job, prepared: &Prepared) -> Result<(CoverageReference, Placed)> {
+    let config = &job.config;
+    let progress = job.progress;
+    let reference = job.watch.time("coverage_reference", || {
+        CoverageReference::new(
+            &prepared.scene,
+            &prepared.bvh,
+            &prepared.sdf,
+            &config.coverage,
+            config.seed,
+            &progress,
+        )
+    });
+    let given = match &job.provenance.overrides.probes {
+        Some(path) => Some(placement::file::read(path, &prepared.scene, "file")?),
+        None => None,
+    };
+    let placed = stages::place(config, prepared, &reference, given, &progress)
+        .map_err(|e| e.in_file(&job.config_path))?;
+    job.watch.absorb(&placed.timings);
+    Ok((reference, placed))
+}
+
+/// Adds the placement's files to the job's set and builds its report.
+fn encode(job: &mut Job, prepared: &Prepared, mut placed: Placed) -> Result<(ProbeSet, Svo, Report)> {
+    let Some((mut svo, svo_report)) = placed.svo.take() else {
+        return Err(Error::User(format!(
+            "{}: the placement has no probe",
+            job.config_path.display()
+        )));
+    };
+    svo.provenance = job.provenance.to_bytes();
+    let scene_name = job.config.scene.display().to_string();
+    let png = job.watch.time("preview", || {
+        let image = report::placement_views(
+            &prepared.scene,
+            &prepared.domain,
+            &placed.probes.positions(),
+            &placed.holes,
+            report::PREVIEW_VIEW_SIZE,
+        );
+        report::encode_png(&image, "placement.png")
+    })?;
+    let probes_file = ProbesFile::new(
+        &placed.probes,
+        &prepared.scene,
+        &prepared.sdf,
+        &scene_name,
+        &job.config,
+        &job.provenance,
+    );
+    job.set.add("probes.json", report::to_json(&probes_file)?);
+    job.set.add("svo.bin", svo.to_bytes());
+    job.set.add("placement.png", png);
+    if let Some((_, atlas)) = &placed.refined {
+        job.set.add("atlas.png", report::encode_png(atlas, "atlas.png")?);
+    }
+    let report = Report::new(job, prepared, &placed, svo_report);
+    Ok((placed.probes, svo, report))
+}
+
+/// The placement `--from DIR` holds, checked and moved into the scene's
+/// frame; `None` without `--from` or when the directory holds none.
+pub(crate) fn load(job: &mut Job, prepared: &Prepared) -> Result<Option<Placement>> {
+    let Some(e) = &job.earlier else {
+        return Ok(None);
+    };
+    let (Some(report), true, true) = (&e.report, e.has("probes.json"), e.has("svo.bin")) else {
+        return Ok(None);
+    };
+    let probes_path = e.path("probes.json");
+    let method = report["method"].as_str().unwrap_or("file").to_string();
+    let probes = placement::file::read(&probes_path, &prepared.scene, &method)?;
+    let probes_json: Value = serde_json::from_slice(&std::fs::read(&probes_path).map_err(|x| Error::io(&probes_path, x))?)
+        .map_err(|x| Error::user_file(&probes_path, x))?;
+    if probes_json["provenance"] != report["provenance"] {
+        return Err(mixed(&probes_path));
+    }
+    let svo_path = e.path("svo.bin");
+    let bytes = std::fs::read(&svo_path).map_err(|x| Error::user_file(&svo_path, x))?;
+    let mut svo = svo::format::from_bytes(&bytes).map_err(|m| Error::user_file(&svo_path, m))?;
+    if svo.provenance != job.provenance.to_bytes() || svo.probe_count as usize != probes.probes.len() {
+        return Err(mixed(&svo_path));
+    }
+    svo.origin = (svo::format::exact_origin(&bytes) - prepared.scene.origin).as_vec3();
+    svo.frame = prepared.scene.origin;
+    let report = report.clone();
+    job.carry(&FILES);
+    Ok(Some(Placement {
+        probes,
+        svo,
+        report,
+    }))
+}
+
+/// The error of a file whose provenance is not its directory's.
+pub(crate) fn mixed(path: &std::path::Path) -> Error {
+    Error::user_file(
+        path,
+        "--from: comes from another run than the report beside it; run the earlier job again",
+    )
+}
+
+/// A report as the JSON value later jobs extend.
+fn to_value(report: &Report) -> Result<Value> {
+    serde_json::to_value(report).map_err(|e| Error::Internal(format!("serializing JSON: {e}")))
+}

@@ -1,0 +1,132 @@
+//! Probe sets read from a file: a `probes.json` an earlier run wrote
+//! (`--from DIR`), or one made elsewhere (hand-placed, another tool;
+//! `--probes FILE.json`) to be scored like any placement.
+//!
+//! Accepted: an object with a `probes` array whose entries have a
+//! `position` of three numbers (world coordinates, as `probes.json` writes
+//! them, docs/formats.md), optionally `cluster_size`; or a bare array of
+//! `[x, y, z]`. Reading a `probes.json` back gives the positions the run
+//! placed, bit for bit: the file holds `origin + p` in f64 for a scene-local
+//! f32 `p`, and `(world − origin)` rounded to f32 recovers `p`.
+
+use super::{Probe, ProbeSet};
+use crate::error::{Error, Result};
+use crate::scene::Scene;
+use glam::DVec3;
+use serde_json::Value;
+use std::collections::BTreeMap;
+use std::path::Path;
+
+/// Most probes a file may hold: far beyond any placement, small enough
+/// that the later stages stay within memory.
+pub const MAX_PROBES: usize = 1 << 20;
+
+/// The probe set in `path` for `scene`, named `method` in reports.
+///
+/// Contract: a missing or malformed file, a position that is not three
+/// finite numbers, no probe at all, or more than [`MAX_PROBES`] is a user
+/// error naming the file (and the entry).
+pub fn read(path: &Path, scene: &Scene, method: &str) -> Result<ProbeSet> {
+    let bytes =
+        std::fs::read(path).map_err(|e| Error::user_file(path, format!("cannot read: {e}")))?;
+    let value: Value = serde_json::from_slice(&bytes)
+        .map_err(|e| Error::user_file(path, format!("not JSON: {e}")))?;
+    let entries = match &value {
+        Value::Array(a) => a,
+        Value::Object(o) => match o.get("probes") {
+            Some(Value::Array(a)) => a,
+            _ => return Err(Error::user_file(path, "has no `probes` array")),
+        },
+        _ => {
+            return Err(Error::user_file(
+                path,
+                "expected a `probes` object or an array of [x, y, z]",
+            ))
+        }
+    };
+    if entries.is_empty() {
+        return Err(Error::user_file(path, "holds no probe"));
+    }
+    if entries.len() > MAX_PROBES {
+        return Err(Error::user_file(
+            path,
+            format!("holds {} probes; at most {MAX_PROBES} are read", entries.len()),
+        ));
+    }
+    let probes = entries
+        .iter()
+        .enumerate()
+        .map(|(i, e)| {
+            let bad = |why: &str| Error::user_file(path, format!("probe {i}: {why}"));
+            let (position, cluster) = match e {
+                Value::Object(o) => (o.get("position"), o.get("cluster_size")),
+                other => (Some(other), None),
+            };
+            let xyz: Vec<f64> = position
+                .and_then(Value::as_array)
+                .map(|a| a.iter().filter_map(Value::as_f64).collect())
+                .unwrap_or_default();
+            let world: [f64; 3] = xyz
+                .try_into()
+                .map_err(|_| bad("`position` must be three numbers"))?;
+            let world = DVec3::from_array(world);
+            let local = scene.to_local(world);
+            if !world.is_finite() || !local.is_finite() {
+                return Err(bad("the position is not finite"));
+            }
+            let cluster_size = cluster
+                .and_then(Value::as_u64)
+                .map_or(0, |c| c.min(u32::MAX as u64) as u32);
+            Ok(Probe {
+                position: local,
+                cluster_size,
+            })
+        })
+        .collect::<Result<Vec<_>>>()?;
+    Ok(ProbeSet {
+        method: method.to_string(),
+        probes,
+        stats: BTreeMap::new(),
+        params: BTreeMap::new(),
+        min_clearance: 0.0,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::testing::room_with_box;
+
+    #[test]
+    fn positions_written_as_world_f64_read_back_bit_for_bit() {
+        let mut scene = room_with_box();
+        scene.origin = DVec3::new(1234.567, -0.1, 98765.4321);
+        let local = [
+            glam::Vec3::new(0.1, 0.2, 0.3),
+            glam::Vec3::new(3.999_999, 1e-7, 2.5),
+        ];
+        let entries: Vec<Value> = local
+            .iter()
+            .map(|p| serde_json::json!({"position": scene.to_world(*p).to_array()}))
+            .collect();
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("p.json");
+        let text = serde_json::to_string(&serde_json::json!({ "probes": entries })).unwrap();
+        std::fs::write(&path, text).unwrap();
+        let set = read(&path, &scene, "file").unwrap();
+        let back: Vec<glam::Vec3> = set.positions();
+        assert_eq!(back, local);
+    }
+
+    #[test]
+    fn a_bad_entry_is_named() {
+        let scene = room_with_box();
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("p.json");
+        std::fs::write(&path, "[[0,1,2],[0,1]]").unwrap();
+        let e = read(&path, &scene, "file").unwrap_err().to_string();
+        assert!(e.contains("probe 1"), "{e}");
+        std::fs::write(&path, "[]").unwrap();
+        assert!(read(&path, &scene, "file").is_err());
+    }
+}

@@ -1,0 +1,268 @@
+//! Provenance: what ties every file of a run to the inputs that made it.
+//!
+//! Each output carries the same four facts: the tool's version, a hash of
+//! the config as resolved (command-line overrides applied), the seed, and a
+//! hash of the scene's contents (the OBJ file, the MTL libraries it names
+//! and, with `--probes`, the probe file). The JSON files write them as an
+//! object; `svo.bin` and `lightfield.bin` as 32 bytes in their headers
+//! (docs/formats.md). `--from DIR` reuses a file only when its provenance
+//! equals the run's, so a light field can never be traced through an SVO of
+//! another placement, nor a bake resumed on an edited scene.
+//!
+//! The hashes are 64-bit FNV-1a: fingerprints that tell runs apart, not a
+//! defence against someone forging a file.
+
+use crate::config::Config;
+use crate::error::{Error, Result};
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+
+/// The tool and version every output names.
+pub const TOOL: &str = concat!("probeplace ", env!("CARGO_PKG_VERSION"));
+
+/// 64-bit FNV-1a, fed in pieces.
+#[derive(Debug, Clone, Copy)]
+pub struct Fnv(u64);
+
+impl Default for Fnv {
+    fn default() -> Self {
+        Fnv(0xCBF2_9CE4_8422_2325)
+    }
+}
+
+impl Fnv {
+    /// Feeds `bytes`.
+    pub fn write(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.0 = (self.0 ^ b as u64).wrapping_mul(0x0000_0100_0000_01B3);
+        }
+    }
+
+    /// The hash so far.
+    pub fn finish(&self) -> u64 {
+        self.0
+    }
+}
+
+/// FNV-1a of `bytes`.
+pub fn fnv1a(bytes: &[u8]) -> u64 {
+    let mut h = Fnv::default();
+    h.write(bytes);
+    h.finish()
+}
+
+/// What the command line changed in a config, kept so `--from DIR` can
+/// rebuild the very config a directory was made with.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct Overrides {
+    /// `--method`.
+    pub method: Option<String>,
+    /// `--seed`.
+    pub seed: Option<u64>,
+    /// `--no-refine`.
+    pub no_refine: bool,
+    /// `--probes`, absolute.
+    pub probes: Option<PathBuf>,
+}
+
+/// The provenance of a run's outputs.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Provenance {
+    /// [`TOOL`] of the run.
+    pub tool: String,
+    /// FNV-1a of the resolved config, 16 hex digits.
+    pub config_hash: String,
+    /// The seed.
+    pub seed: u64,
+    /// FNV-1a of the scene's files (module docs), 16 hex digits.
+    pub scene_hash: String,
+    /// The config file as the command line named it, and the directory the
+    /// run started in: with the text, what `--from DIR` reloads.
+    pub config_given: PathBuf,
+    /// The working directory of the run.
+    pub cwd: PathBuf,
+    /// The config file's text as read.
+    pub config_text: String,
+    /// The command line's overrides.
+    pub overrides: Overrides,
+}
+
+/// The 32 provenance bytes of the binary files: config hash, scene hash,
+/// seed and the FNV-1a of [`TOOL`], each a little-endian u64.
+pub type ProvenanceBytes = [u8; 32];
+
+impl Provenance {
+    /// The provenance of a run of `config` (read from `config_path`, whose
+    /// text was `config_text`, then changed by `overrides`).
+    ///
+    /// Contract: reads the scene's files (and the probe file); a missing one
+    /// is a user error naming it. Paths in the config and the output
+    /// directory do not enter the config hash, so the same run started from
+    /// another directory has the same provenance.
+    pub fn of(
+        config: &Config,
+        config_path: &Path,
+        config_text: &str,
+        overrides: &Overrides,
+    ) -> Result<Provenance> {
+        let mut scene = Fnv::default();
+        for (i, file) in input_files(config, overrides).into_iter().enumerate() {
+            let bytes = std::fs::read(&file).map_err(|e| match (i, e.kind()) {
+                (0, std::io::ErrorKind::NotFound) => Error::user_file(&file, "scene file not found"),
+                (_, std::io::ErrorKind::NotFound) => Error::user_file(&file, "not found"),
+                _ => Error::user_file(&file, format!("cannot read: {e}")),
+            })?;
+            scene.write(&(bytes.len() as u64).to_le_bytes());
+            scene.write(&bytes);
+        }
+        Ok(Provenance {
+            tool: TOOL.to_string(),
+            config_hash: format!("{:016x}", config_hash(config)),
+            seed: config.seed,
+            scene_hash: format!("{:016x}", scene.finish()),
+            config_given: config_path.to_path_buf(),
+            cwd: std::env::current_dir().unwrap_or_default(),
+            config_text: config_text.to_string(),
+            overrides: overrides.clone(),
+        })
+    }
+
+    /// The binary form written into `svo.bin` and `lightfield.bin`.
+    pub fn to_bytes(&self) -> ProvenanceBytes {
+        let hex = |s: &str| u64::from_str_radix(s, 16).unwrap_or(0);
+        let mut out = [0u8; 32];
+        for (i, w) in [
+            hex(&self.config_hash),
+            hex(&self.scene_hash),
+            self.seed,
+            fnv1a(self.tool.as_bytes()),
+        ]
+        .iter()
+        .enumerate()
+        {
+            out[8 * i..8 * i + 8].copy_from_slice(&w.to_le_bytes());
+        }
+        out
+    }
+
+    /// Why outputs of `earlier` cannot be reused by this run, in words;
+    /// `None` when they can. The first difference found is named, seed
+    /// before config so `--seed 77` on a seed-1 directory says so.
+    pub fn mismatch(&self, earlier: &Provenance) -> Option<String> {
+        if earlier.tool != self.tool {
+            return Some(format!(
+                "was written by {}, this is {}",
+                earlier.tool, self.tool
+            ));
+        }
+        if earlier.seed != self.seed {
+            return Some(format!(
+                "was written with seed {}, this run has seed {}",
+                earlier.seed, self.seed
+            ));
+        }
+        if earlier.scene_hash != self.scene_hash {
+            return Some(format!(
+                "was written from other scene contents (scene hash {} against {} now)",
+                earlier.scene_hash, self.scene_hash
+            ));
+        }
+        if earlier.config_hash != self.config_hash {
+            return Some(format!(
+                "was written from another config (config hash {} against {} now)",
+                earlier.config_hash, self.config_hash
+            ));
+        }
+        None
+    }
+}
+
+/// FNV-1a of the config's parameters: its `Debug` form with the scene and
+/// output paths blanked (the scene enters by content, the output not at all).
+pub fn config_hash(config: &Config) -> u64 {
+    let mut c = config.clone();
+    c.scene = PathBuf::new();
+    c.output = PathBuf::new();
+    fnv1a(format!("{c:?}").as_bytes())
+}
+
+/// The files a run of `config` reads: the OBJ, the MTL libraries it names
+/// that exist (relative to the OBJ), and the probe file of `--probes`.
+pub fn input_files(config: &Config, overrides: &Overrides) -> Vec<PathBuf> {
+    let mut files = vec![config.scene.clone()];
+    files.extend(material_libraries(&config.scene));
+    files.extend(overrides.probes.iter().cloned());
+    files
+}
+
+/// The `mtllib` files `obj` names that exist, relative to its directory.
+pub fn material_libraries(obj: &Path) -> Vec<PathBuf> {
+    let Ok(bytes) = std::fs::read(obj) else {
+        return Vec::new();
+    };
+    let dir = obj.parent().unwrap_or(Path::new(""));
+    let mut out: Vec<PathBuf> = Vec::new();
+    for line in bytes.split(|&b| b == b'\n') {
+        let line = String::from_utf8_lossy(line);
+        let Some(rest) = line.trim_start().strip_prefix("mtllib") else {
+            continue;
+        };
+        if !rest.starts_with(char::is_whitespace) {
+            continue;
+        }
+        for name in rest.split_whitespace() {
+            let p = dir.join(name);
+            if p.is_file() && !out.contains(&p) {
+                out.push(p);
+            }
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fnv_matches_its_published_vectors() {
+        assert_eq!(fnv1a(b""), 0xCBF2_9CE4_8422_2325);
+        assert_eq!(fnv1a(b"a"), 0xAF63_DC4C_8601_EC8C);
+        assert_eq!(fnv1a(b"foobar"), 0x8594_4171_F739_67E8);
+    }
+
+    #[test]
+    fn the_config_hash_ignores_paths_but_not_parameters() {
+        let text = "(scene: \"a.obj\", seed: 1)";
+        let a = Config::parse(text, Path::new("x.ron")).unwrap();
+        let mut b = a.clone();
+        b.scene = PathBuf::from("/elsewhere/a.obj");
+        b.output = PathBuf::from("/tmp/out");
+        assert_eq!(config_hash(&a), config_hash(&b));
+        b.bake.samples.0 = a.bake.samples.0 + 1;
+        assert_ne!(config_hash(&a), config_hash(&b));
+    }
+
+    #[test]
+    fn a_seed_mismatch_is_named_before_a_config_mismatch() {
+        let p = Provenance {
+            tool: TOOL.into(),
+            config_hash: "00000000000000aa".into(),
+            seed: 1,
+            scene_hash: "0000000000000001".into(),
+            config_given: PathBuf::from("c.ron"),
+            cwd: PathBuf::new(),
+            config_text: String::new(),
+            overrides: Overrides::default(),
+        };
+        assert_eq!(p.mismatch(&p), None);
+        let q = Provenance {
+            seed: 77,
+            config_hash: "00000000000000bb".into(),
+            ..p.clone()
+        };
+        let why = q.mismatch(&p).unwrap();
+        assert!(why.contains("seed 1") && why.contains("seed 77"), "{why}");
+        assert_eq!(p.to_bytes()[16..24], 1u64.to_le_bytes());
+    }
+}

@@ -1,0 +1,385 @@
+//! Committing a run's outputs as one unit.
+//!
+//! A directory of outputs always holds one run: a renderer that loads
+//! `svo.bin` and `lightfield.bin` from it must get two files of the same
+//! placement. So a job never writes into the output directory. It writes
+//! every file into a fresh staging directory beside it
+//! (`.NAME.probeplace-PID-NANOS`), syncs each file and the directory, and
+//! only then swaps the staging directory with the output directory in one
+//! `renameat2(RENAME_EXCHANGE)` (Linux); the previous run, now under the
+//! staging name, is removed. Whatever fails before the swap (a full disk, a
+//! name that cannot be written) removes the staging directory and leaves
+//! the previous output whole; a kill at any point leaves the old set or the
+//! new one, never a mix, and the next run into the same parent removes the
+//! staging directories of dead processes. Two runs into one directory swap
+//! in turn: the later one wins whole. Files an earlier run of another job
+//! left there are gone after the swap.
+//!
+//! Files a run reuses from an earlier one (`--from DIR`) are *carried*:
+//! hard-linked (or copied) into the staging directory, so they too belong
+//! to the new set.
+
+use crate::error::{Error, Result};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+/// The files of one run, by name, not yet on disk.
+#[derive(Debug, Default)]
+pub struct OutputSet {
+    files: Vec<(String, Vec<u8>)>,
+    carried: Vec<(String, PathBuf)>,
+}
+
+impl OutputSet {
+    /// An empty set.
+    pub fn new() -> OutputSet {
+        OutputSet::default()
+    }
+
+    /// Adds a file with its contents; a later file of the same name
+    /// replaces it.
+    pub fn add(&mut self, name: impl Into<String>, bytes: Vec<u8>) {
+        let name = name.into();
+        self.remove(&name);
+        self.files.push((name, bytes));
+    }
+
+    /// Adds the file `from` (of an earlier run) under `name`, unchanged.
+    pub fn carry(&mut self, name: impl Into<String>, from: PathBuf) {
+        let name = name.into();
+        self.remove(&name);
+        self.carried.push((name, from));
+    }
+
+    /// Drops `name` from the set.
+    pub fn remove(&mut self, name: &str) {
+        self.files.retain(|(n, _)| n != name);
+        self.carried.retain(|(n, _)| n != name);
+    }
+
+    /// Every name in the set, in writing order.
+    pub fn names(&self) -> Vec<&str> {
+        self.files
+            .iter()
+            .map(|(n, _)| n.as_str())
+            .chain(self.carried.iter().map(|(n, _)| n.as_str()))
+            .collect()
+    }
+
+    /// The contents of `name` when the run made it (not carried).
+    pub fn bytes(&self, name: &str) -> Option<&[u8]> {
+        self.files
+            .iter()
+            .find(|(n, _)| n == name)
+            .map(|(_, b)| b.as_slice())
+    }
+}
+
+/// The files that mark a directory as a probeplace output.
+const MARKERS: [&str; 2] = ["report.json", "compare.json"];
+
+/// Refuses an output directory the commit could not or must not replace:
+/// a path that exists and is not a directory, a non-empty directory that
+/// holds no probeplace output (replacing it would delete the user's files),
+/// or one that holds an input of the run (`inputs`: the config, the scene,
+/// its MTL files), which the swap would delete. Called before any
+/// expensive stage, and again at the commit.
+pub fn check_destination(dir: &Path, inputs: &[PathBuf]) -> Result<()> {
+    if dir.exists() && !dir.is_dir() {
+        return Err(Error::user_file(
+            dir,
+            "output path exists and is not a directory",
+        ));
+    }
+    let out = absolute(dir);
+    for input in inputs {
+        if absolute(input).starts_with(&out) {
+            return Err(Error::user_file(
+                input,
+                format!(
+                    "is an input of this run but lies in the output directory {}, which the run replaces; choose another --out",
+                    dir.display()
+                ),
+            ));
+        }
+    }
+    if dir.is_dir() {
+        let mut entries = std::fs::read_dir(dir)
+            .map_err(|e| Error::user_file(dir, format!("cannot read output directory: {e}")))?;
+        let empty = entries.next().is_none();
+        let ours = MARKERS.iter().any(|m| is_probeplace_json(&dir.join(m)));
+        if !empty && !ours {
+            return Err(Error::user_file(
+                dir,
+                "is not empty and holds no probeplace output (report.json or compare.json); the run would replace its files, so choose an empty or new --out",
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Whether `path` is a JSON file whose `format` names probeplace.
+fn is_probeplace_json(path: &Path) -> bool {
+    std::fs::read(path)
+        .ok()
+        .and_then(|b| serde_json::from_slice::<serde_json::Value>(&b).ok())
+        .and_then(|v| v.get("format")?.as_str().map(|f| f.starts_with("probeplace")))
+        .unwrap_or(false)
+}
+
+/// `path` made absolute and normalized, without touching the file system
+/// beyond the current directory (so missing paths compare too).
+fn absolute(path: &Path) -> PathBuf {
+    let p = std::path::absolute(path).unwrap_or_else(|_| path.to_path_buf());
+    std::fs::canonicalize(&p).unwrap_or_else(|_| crate::config::normalize(&p))
+}
+
+/// Writes `set` as the whole contents of `dir` (module docs).
+///
+/// Contract: on `Ok`, `dir` holds exactly the set's files, synced; on
+/// `Err`, `dir` is as it was and no staging directory remains. `inputs`
+/// are checked as in [`check_destination`].
+pub fn commit(dir: &Path, set: &OutputSet, inputs: &[PathBuf]) -> Result<()> {
+    check_destination(dir, inputs)?;
+    let dir = std::path::absolute(dir).map_err(|e| Error::io(dir, e))?;
+    let (parent, name) = match (dir.parent(), dir.file_name()) {
+        (Some(p), Some(n)) => (p.to_path_buf(), n.to_string_lossy().into_owned()),
+        _ => return Err(Error::user_file(&dir, "is not a directory name")),
+    };
+    std::fs::create_dir_all(&parent)
+        .map_err(|e| Error::user_file(&parent, format!("cannot create output directory: {e}")))?;
+    sweep_dead_staging(&parent, &name);
+    let staging = parent.join(format!(
+        ".{name}.probeplace-{}-{}",
+        std::process::id(),
+        std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map_or(0, |d| d.as_nanos())
+    ));
+    std::fs::create_dir(&staging).map_err(|e| Error::io(&staging, e))?;
+    let written = write_all(&staging, set).and_then(|()| swap(&staging, &dir, &parent));
+    if written.is_err() {
+        let _ = std::fs::remove_dir_all(&staging);
+    }
+    written
+}
+
+/// Writes and syncs every file of `set` into `staging`, then the directory.
+fn write_all(staging: &Path, set: &OutputSet) -> Result<()> {
+    let mut step = 0;
+    for (name, bytes) in &set.files {
+        let path = staging.join(name);
+        fault::before_write(&path);
+        let mut f = std::fs::File::create(&path).map_err(|e| Error::io(&path, e))?;
+        f.write_all(bytes)
+            .and_then(|()| f.sync_all())
+            .map_err(|e| Error::io(&path, e))?;
+        step += 1;
+        fault::kill_at(step);
+    }
+    for (name, from) in &set.carried {
+        let path = staging.join(name);
+        fault::before_write(&path);
+        if std::fs::hard_link(from, &path).is_err() {
+            std::fs::copy(from, &path).map_err(|e| Error::io(&path, e))?;
+            let f = std::fs::File::open(&path).map_err(|e| Error::io(&path, e))?;
+            f.sync_all().map_err(|e| Error::io(&path, e))?;
+        }
+        step += 1;
+        fault::kill_at(step);
+    }
+    sync_dir(staging)?;
+    fault::kill_at(step + 1);
+    Ok(())
+}
+
+/// Puts `staging` in place of `dir`, removes the previous contents.
+fn swap(staging: &Path, dir: &Path, parent: &Path) -> Result<()> {
+    let steps = 1_000;
+    if !dir.exists() && std::fs::rename(staging, dir).is_ok() {
+        sync_dir(parent)?;
+        fault::kill_at(steps);
+        return Ok(());
+    }
+    exchange(staging, dir).map_err(|e| Error::io(dir, format!("cannot replace: {e}")))?;
+    sync_dir(parent)?;
+    fault::kill_at(steps);
+    // `staging` now holds the previous run.
+    let _ = std::fs::remove_dir_all(staging);
+    fault::kill_at(steps + 1);
+    Ok(())
+}
+
+/// Exchanges two directories atomically.
+#[cfg(target_os = "linux")]
+fn exchange(a: &Path, b: &Path) -> std::io::Result<()> {
+    use std::ffi::CString;
+    use std::os::unix::ffi::OsStrExt;
+    let ca = CString::new(a.as_os_str().as_bytes())?;
+    let cb = CString::new(b.as_os_str().as_bytes())?;
+    // SAFETY: both pointers are valid NUL-terminated paths for the call.
+    let rc = unsafe {
+        libc::renameat2(
+            libc::AT_FDCWD,
+            ca.as_ptr(),
+            libc::AT_FDCWD,
+            cb.as_ptr(),
+            libc::RENAME_EXCHANGE,
+        )
+    };
+    if rc == 0 {
+        Ok(())
+    } else {
+        Err(std::io::Error::last_os_error())
+    }
+}
+
+/// Exchanges two directories: two renames where no atomic exchange exists
+/// (a kill between them leaves the old set under the staging name).
+#[cfg(not(target_os = "linux"))]
+fn exchange(a: &Path, b: &Path) -> std::io::Result<()> {
+    let aside = a.with_extension("old");
+    std::fs::rename(b, &aside)?;
+    std::fs::rename(a, b)?;
+    std::fs::rename(&aside, a)
+}
+
+/// Syncs a directory's entries to disk.
+fn sync_dir(dir: &Path) -> Result<()> {
+    #[cfg(unix)]
+    {
+        let f = std::fs::File::open(dir).map_err(|e| Error::io(dir, e))?;
+        f.sync_all().map_err(|e| Error::io(dir, e))?;
+    }
+    let _ = dir;
+    Ok(())
+}
+
+/// Removes staging directories of `name` in `parent` whose process is gone
+/// (left by a kill); live ones belong to a concurrent run and stay.
+fn sweep_dead_staging(parent: &Path, name: &str) {
+    let prefix = format!(".{name}.probeplace-");
+    let Ok(entries) = std::fs::read_dir(parent) else {
+        return;
+    };
+    for e in entries.flatten() {
+        let file_name = e.file_name().to_string_lossy().into_owned();
+        let Some(rest) = file_name.strip_prefix(&prefix) else {
+            continue;
+        };
+        let pid = rest.split('-').next().and_then(|p| p.parse::<u32>().ok());
+        let alive = pid.is_some_and(|p| Path::new(&format!("/proc/{p}")).exists());
+        if !alive && cfg!(target_os = "linux") {
+            let _ = std::fs::remove_dir_all(e.path());
+        }
+    }
+}
+
+/// Faults for the tests of this module's promises, set by environment
+/// variables the tests give the binary: `PROBEPLACE_TEST_KILL_AT=N` sends
+/// the process SIGKILL after commit step N (files written count 1, 2, …,
+/// then the directory sync, then 1000 after the swap and 1001 after the old
+/// set is removed); `PROBEPLACE_TEST_DIR_AT=NAME` makes a directory where
+/// output NAME is about to be written, as a name taken by a directory would.
+mod fault {
+    use std::path::Path;
+
+    pub fn kill_at(step: usize) {
+        let Some(at) = std::env::var_os("PROBEPLACE_TEST_KILL_AT") else {
+            return;
+        };
+        if at.to_str().and_then(|s| s.parse::<usize>().ok()) == Some(step) {
+            #[cfg(unix)]
+            // SAFETY: signalling our own process has no memory effects.
+            unsafe {
+                libc::kill(libc::getpid(), libc::SIGKILL);
+            }
+            std::process::abort();
+        }
+    }
+
+    pub fn before_write(path: &Path) {
+        if let Some(name) = std::env::var_os("PROBEPLACE_TEST_DIR_AT") {
+            if path.file_name() == Some(name.as_os_str()) {
+                let _ = std::fs::create_dir(path);
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn listing(dir: &Path) -> Vec<(String, Vec<u8>)> {
+        let mut v: Vec<_> = std::fs::read_dir(dir)
+            .unwrap()
+            .map(|e| {
+                let e = e.unwrap();
+                (
+                    e.file_name().to_string_lossy().into_owned(),
+                    std::fs::read(e.path()).unwrap(),
+                )
+            })
+            .collect();
+        v.sort();
+        v
+    }
+
+    fn set(files: &[(&str, &str)]) -> OutputSet {
+        let mut s = OutputSet::new();
+        for (n, b) in files {
+            s.add(*n, b.as_bytes().to_vec());
+        }
+        s
+    }
+
+    #[test]
+    fn a_commit_replaces_the_whole_directory_and_leaves_no_staging() {
+        let root = tempfile::tempdir().unwrap();
+        let out = root.path().join("out");
+        commit(&out, &set(&[("report.json", "{\"format\":\"probeplace.report\"}"), ("lightfield.bin", "old")]), &[]).unwrap();
+        commit(&out, &set(&[("report.json", "{\"format\":\"probeplace.report\"}"), ("svo.bin", "new")]), &[]).unwrap();
+        let names: Vec<String> = listing(&out).into_iter().map(|(n, _)| n).collect();
+        assert_eq!(names, ["report.json", "svo.bin"]);
+        assert_eq!(std::fs::read_dir(root.path()).unwrap().count(), 1);
+    }
+
+    #[test]
+    fn a_carried_file_keeps_its_bytes_after_its_directory_is_replaced() {
+        let root = tempfile::tempdir().unwrap();
+        let out = root.path().join("out");
+        commit(&out, &set(&[("report.json", "{\"format\":\"probeplace.report\"}"), ("probes.json", "P")]), &[]).unwrap();
+        let mut s = set(&[("report.json", "{\"format\":\"probeplace.report\"}")]);
+        s.carry("probes.json", out.join("probes.json"));
+        commit(&out, &s, &[]).unwrap();
+        assert_eq!(std::fs::read(out.join("probes.json")).unwrap(), b"P");
+    }
+
+    #[test]
+    fn a_foreign_directory_and_an_input_inside_the_output_are_refused() {
+        let root = tempfile::tempdir().unwrap();
+        let out = root.path().join("photos");
+        std::fs::create_dir(&out).unwrap();
+        std::fs::write(out.join("holiday.jpg"), b"x").unwrap();
+        let e = commit(&out, &set(&[("a", "b")]), &[]).unwrap_err();
+        assert!(matches!(e, Error::User(_)), "{e}");
+        assert_eq!(listing(&out).len(), 1);
+        let run = root.path().join("run");
+        let e = check_destination(&run, &[run.join("scene.obj")]).unwrap_err();
+        assert!(e.to_string().contains("scene.obj"), "{e}");
+    }
+
+    #[test]
+    fn a_file_that_cannot_be_written_leaves_the_previous_output_whole() {
+        let root = tempfile::tempdir().unwrap();
+        let out = root.path().join("out");
+        let old = set(&[("report.json", "{\"format\":\"probeplace.report\"}"), ("svo.bin", "old")]);
+        commit(&out, &old, &[]).unwrap();
+        let before = listing(&out);
+        let bad = set(&[("svo.bin", "new"), ("no/such/dir/report.json", "x")]);
+        assert!(commit(&out, &bad, &[]).is_err());
+        assert_eq!(listing(&out), before);
+        assert_eq!(std::fs::read_dir(root.path()).unwrap().count(), 1);
+    }
+}

@@ -1,0 +1,103 @@
+//! The bake stage: every probe's light-field maps (McGuire et al. 2017 §3),
+//! their distance pyramid (Wang et al. 2019 §4.2) and irradiance, with
+//! radiance path traced from the config's lights; and the check of the CPU
+//! tracer against exact ray casts that every bake reports.
+
+use super::Prepared;
+use crate::config::Config;
+use crate::lightfield::LightField;
+use crate::progress::{Progress, Stopwatch};
+use crate::render::Renderer;
+use crate::sampling::Sampler;
+use crate::svo::{self, Svo};
+use crate::trace::check::{self, Agreement};
+use crate::trace::{single::March, Selection};
+use glam::Vec3;
+
+/// Seed offset of the probe radiance's random streams, so they differ from
+/// the reference image's even under the same config seed.
+const BAKE_STREAMS: u64 = 0x1F_BA4E;
+
+/// Free points whose random rays check the tracer in every bake.
+pub const TRACER_CHECK_RAYS: usize = 4096;
+
+/// What the bake stage produced.
+pub struct Baked {
+    /// The probes' maps.
+    pub field: LightField,
+    /// Area lights (emissive triangles) the radiance saw.
+    pub area_lights: usize,
+    /// Warnings for the report.
+    pub warnings: Vec<String>,
+    /// `geometry`, `radiance`, `pyramid`, `irradiance`.
+    pub timings: Stopwatch,
+}
+
+/// Bakes the probes at `positions` with `config.bake`.
+///
+/// Contract: deterministic for a config and positions, whatever the thread
+/// count; a scene without any light bakes black maps and says so in
+/// [`Baked::warnings`].
+pub fn bake(
+    config: &Config,
+    prepared: &Prepared,
+    positions: &[Vec3],
+    progress: &Progress,
+) -> Baked {
+    let (scene, bvh) = (&prepared.scene, &prepared.bvh);
+    let renderer = Renderer::new(scene, bvh, &config.lights, config.bake.bounces.0);
+    let mut warnings = Vec::new();
+    if renderer.lights().is_empty() {
+        warnings.push(
+            "bake: the scene has no emissive material and the config no lights; every radiance is black (add `lights` to the config)".into(),
+        );
+    }
+    let seed = config.seed;
+    let radiance = |o: Vec3, d: Vec3, stream: u64| {
+        renderer.radiance(o, d, &mut Sampler::new(seed ^ BAKE_STREAMS, stream))
+    };
+    let baked = crate::lightfield::bake(
+        &config.bake,
+        positions,
+        scene,
+        bvh,
+        prepared.domain.size().length(),
+        seed,
+        &radiance,
+        progress,
+    );
+    let mut timings = progress.stopwatch();
+    for (k, v) in &baked.timings_ms {
+        timings.record(k, *v);
+    }
+    Baked {
+        field: baked.field,
+        area_lights: renderer.lights().area_light_count(),
+        warnings,
+        timings,
+    }
+}
+
+/// The CPU light-field tracer (Hi-Z march, SVO selection) against exact
+/// ray casts: one random ray from each of [`TRACER_CHECK_RAYS`] random free
+/// points of the domain.
+pub fn check_tracer(
+    config: &Config,
+    prepared: &Prepared,
+    field: &LightField,
+    svo: &Svo,
+    progress: &Progress,
+) -> Agreement {
+    let seed = config.seed;
+    let input = prepared.placement_input(seed, progress);
+    let origins = svo::random_free_points(&input, TRACER_CHECK_RAYS, seed ^ 0x7EACE);
+    check::compare(
+        field,
+        &Selection::Svo(svo),
+        &prepared.scene,
+        &prepared.bvh,
+        &origins,
+        seed ^ 0xD1EC,
+        March::HiZ,
+    )
+}

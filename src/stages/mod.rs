@@ -1,0 +1,139 @@
+//! The pipeline's composite stages, each a function from the previous
+//! stage's typed product to its own, shared by every job:
+//!
+//! | stage | product | paper |
+//! |---|---|---|
+//! | [`prepare`]: load, BVH, voxel size, SDF | [`Prepared`] | Wang et al. 2019 §3.1 |
+//! | [`place()`]: placement, refinement, coverage, SVO | [`Placed`] | Wang §3.1–3.3, §4.1 |
+//! | [`bake()`]: light-field maps, pyramid, irradiance | [`Baked`] | McGuire et al. 2017 §3; Wang §4.2 |
+//! | [`validate::reference`]: the path-traced reference | [`crate::render::Reference`] | Wang §5.1 |
+//! | [`validate::validate`]: a render through the probes, measured | [`validate::Validation`] | Wang §5.1 |
+//!
+//! Stages compute; they never encode a file. Each product carries the wall
+//! times of its steps in a [`Stopwatch`] the job folds into its own.
+
+pub mod bake;
+pub mod place;
+pub mod validate;
+
+pub use bake::{bake, Baked};
+pub use place::{place, Placed};
+
+use crate::config::{Config, Domain, VoxelSize};
+use crate::error::{Error, Result};
+use crate::placement::PlacementInput;
+use crate::progress::{Progress, Stopwatch};
+use crate::resolution::{self, Resolution};
+use crate::scene::raycast::SceneBvh;
+use crate::scene::{self, Bounds, Scene};
+use crate::sdf::{self, Sdf};
+use glam::DVec3;
+use std::path::Path;
+
+/// The scene and what every placement method reads, built by [`prepare`].
+pub struct Prepared {
+    /// The loaded scene.
+    pub scene: Scene,
+    /// Where probes may go.
+    pub domain: Bounds,
+    /// The scene's BVH.
+    pub bvh: SceneBvh,
+    /// The SDF of the domain.
+    pub sdf: Sdf,
+    /// How its voxel size was chosen.
+    pub resolution: Resolution,
+    /// `load`, `bvh`, `resolution`, `sdf`.
+    pub timings: Stopwatch,
+}
+
+impl Prepared {
+    /// The input of a placement method over this scene.
+    pub fn placement_input<'a>(&'a self, seed: u64, progress: &'a Progress) -> PlacementInput<'a> {
+        PlacementInput {
+            scene: &self.scene,
+            bvh: &self.bvh,
+            sdf: &self.sdf,
+            domain: &self.domain,
+            seed,
+            progress,
+        }
+    }
+}
+
+/// The stages before placement (load, domain, BVH, SDF) for `config`, read
+/// from `config_path`.
+///
+/// Contract: errors of the stages that read config fields (domain, SDF) are
+/// prefixed with `config_path`; scene errors name the scene file themselves.
+pub fn prepare(config: &Config, config_path: &Path, progress: &Progress) -> Result<Prepared> {
+    let mut timings = progress.stopwatch();
+    let scene = timings.try_time("load", || {
+        scene::load_obj(&config.scene, config.scale.0, config.up)
+    })?;
+    let domain = resolve_domain(&config.domain, &scene).map_err(|e| e.in_file(config_path))?;
+    let bvh = timings.time("bvh", || SceneBvh::new(&scene));
+    let resolution = timings.time("resolution", || {
+        resolve_voxel_size(config, &scene, &bvh, &domain)
+    });
+    let sdf = timings
+        .try_time("sdf", || {
+            sdf::build(
+                &scene,
+                &bvh,
+                &domain,
+                resolution.voxel_size,
+                &config.sdf,
+                config.seed,
+                progress,
+            )
+        })
+        .map_err(|e| e.in_file(config_path))?;
+    Ok(Prepared {
+        scene,
+        domain,
+        bvh,
+        sdf,
+        resolution,
+        timings,
+    })
+}
+
+/// The voxel size of `config` for `domain` of `scene`: the config's, or
+/// the one [`resolution::auto`] chooses.
+pub fn resolve_voxel_size(
+    config: &Config,
+    scene: &Scene,
+    bvh: &SceneBvh,
+    domain: &Bounds,
+) -> Resolution {
+    match config.voxel_size {
+        VoxelSize::Fixed(v) => Resolution::fixed(v.0),
+        VoxelSize::Auto => resolution::auto(scene, bvh, domain, config.seed),
+    }
+}
+
+/// The domain box in the scene's local coordinates: the scene bounds, or
+/// the config's box (world coordinates), which must overlap the scene.
+pub fn resolve_domain(domain: &Domain, scene: &Scene) -> Result<Bounds> {
+    match domain {
+        Domain::Auto => Ok(scene.bounds),
+        Domain::Box(b) => {
+            let d = Bounds {
+                min: scene.to_local(DVec3::from_array(b.min)),
+                max: scene.to_local(DVec3::from_array(b.max)),
+            };
+            let overlap =
+                d.min.cmplt(scene.bounds.max).all() && d.max.cmpgt(scene.bounds.min).all();
+            if !overlap {
+                return Err(Error::User(format!(
+                    "domain: box {:?}..{:?} does not overlap the scene bounds {:?}..{:?}",
+                    b.min,
+                    b.max,
+                    scene.to_world(scene.bounds.min).to_array(),
+                    scene.to_world(scene.bounds.max).to_array()
+                )));
+            }
+            Ok(d)
+        }
+    }
+}

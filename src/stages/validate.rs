@@ -1,0 +1,288 @@
+//! Validation (Wang et al. 2019 §5.1): the path-traced reference of a
+//! camera, and renders of the same view through the probes, measured
+//! against it. `render` and `compare` both go through here: one G-buffer
+//! per view, one tracer chosen once (the GPU's, or its CPU twin), one
+//! composition and one set of [`Metrics`].
+
+use super::Prepared;
+use crate::config::{CameraParams, Config};
+use crate::error::{Error, Result};
+use crate::gpu::{kind, twin, Context, ProbeTracer, Record, SelectionKind};
+use crate::lightfield::LightField;
+use crate::render::lights::luminance;
+use crate::render::probes::{box_filter, compose, error_heat_map, gbuffer, mse, GBuffer, ProbeImage};
+use crate::render::reference::{mean_of, render_reference};
+use crate::render::{Reference, Renderer};
+use crate::svo::Svo;
+use crate::trace::{check::padded_bounds, single::March, Lattice, Selection};
+use glam::Vec3;
+use serde::Serialize;
+
+/// Random streams of the validation renders' glossy rays.
+const GLOSSY_STREAMS: u64 = 0x6_1055;
+
+/// Radius of the box filter of [`Metrics::mse_glossy_filtered`].
+pub const FILTER_RADIUS: u32 = 3;
+
+/// The seed of camera `index`'s reference and rays; camera 0's is the
+/// config's, so `bake`'s reference is `compare`'s first.
+fn camera_seed(config: &Config, index: usize) -> u64 {
+    config.seed ^ (index as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15)
+}
+
+/// The path-traced reference of camera `index` (`camera`), at the config's
+/// `reference` size, paths and bounces.
+///
+/// Contract: deterministic for a config and camera index.
+pub fn reference(config: &Config, prepared: &Prepared, camera: &CameraParams, index: usize) -> Reference {
+    let r = &config.reference;
+    let renderer = Renderer::new(&prepared.scene, &prepared.bvh, &config.lights, r.bounces.0);
+    render_reference(
+        &renderer,
+        camera,
+        r.width.0,
+        r.height.0,
+        r.samples_per_pixel.0,
+        camera_seed(config, index),
+    )
+}
+
+/// One camera's fixed inputs: its reference, G-buffer and display scales.
+pub struct View {
+    /// The camera.
+    pub camera: CameraParams,
+    /// Its path-traced reference.
+    pub reference: Reference,
+    /// The reference's glossy indirect image, box filtered.
+    pub filtered_glossy: Vec<[f32; 3]>,
+    /// Primary hits, irradiance queries and glossy rays.
+    pub gbuffer: GBuffer,
+    /// Exposure of the PNG previews (the reference's).
+    pub exposure: f32,
+    /// Error of the heat maps' full scale.
+    pub error_scale: f32,
+}
+
+impl View {
+    /// The view of camera `index` with its `reference`, `glossy_rays` glossy
+    /// rays per pixel (common random numbers: the same rays for every
+    /// placement measured from this view).
+    pub fn new(
+        config: &Config,
+        prepared: &Prepared,
+        camera: &CameraParams,
+        index: usize,
+        reference: Reference,
+        glossy_rays: u32,
+    ) -> View {
+        let (scene, bvh) = (&prepared.scene, &prepared.bvh);
+        let direct = Renderer::new(scene, bvh, &config.lights, 0);
+        let gbuffer = gbuffer(
+            &direct,
+            camera,
+            reference.width,
+            reference.height,
+            glossy_rays,
+            &padded_bounds(&scene.bounds),
+            camera_seed(config, index) ^ GLOSSY_STREAMS,
+        );
+        View {
+            camera: *camera,
+            filtered_glossy: box_filter(
+                &reference.glossy_indirect,
+                reference.width,
+                reference.height,
+                FILTER_RADIUS,
+            ),
+            exposure: auto_exposure(&reference.full),
+            error_scale: (4.0 * mean_luminance(&reference.glossy_indirect)) as f32,
+            reference,
+            gbuffer,
+        }
+    }
+
+    /// The glossy error heat map of `glossy` against the reference.
+    pub fn heat_map(&self, glossy: &[[f32; 3]]) -> image::RgbImage {
+        let r = &self.reference;
+        error_heat_map(glossy, &r.glossy_indirect, r.width, r.height, self.error_scale)
+    }
+}
+
+/// The light-field tracer of one probe set, chosen once: the GPU's where
+/// an adapter takes the field, else the CPU twin, which gives the same
+/// records (tests compare them).
+pub struct Tracer<'a> {
+    field: &'a LightField,
+    svo: Option<&'a Svo>,
+    lattice: Option<&'a Lattice>,
+    gpu: Option<ProbeTracer<'a>>,
+}
+
+impl<'a> Tracer<'a> {
+    /// The tracer of `field` with its SVO and/or grid. With a `context` the
+    /// field is uploaded; when that fails the CPU twin traces and the
+    /// second value says why.
+    pub fn new(
+        context: Option<&'a Context>,
+        field: &'a LightField,
+        svo: Option<&'a Svo>,
+        lattice: Option<&'a Lattice>,
+    ) -> (Tracer<'a>, Option<String>) {
+        let (gpu, why) = match context.map(|ctx| ProbeTracer::new(ctx, field, svo, lattice)) {
+            Some(Ok(t)) => (Some(t), None),
+            Some(Err(e)) => (None, Some(e)),
+            None => (None, None),
+        };
+        (
+            Tracer {
+                field,
+                svo,
+                lattice,
+                gpu,
+            },
+            why,
+        )
+    }
+
+    /// Whether the GPU traces.
+    pub fn on_gpu(&self) -> bool {
+        self.gpu.is_some()
+    }
+
+    fn selection(&self, kind: SelectionKind) -> Result<Selection<'a>> {
+        match (kind, self.lattice, self.svo) {
+            (SelectionKind::Grid, Some(l), _) => Ok(Selection::Grid(l)),
+            (SelectionKind::Svo, _, Some(s)) => Ok(Selection::Svo(s)),
+            _ => Err(Error::Internal(format!("{kind:?} selection without its structure"))),
+        }
+    }
+
+    /// Irradiance at the view's surfaces, and the GPU time.
+    pub fn gather(&self, view: &View, kind: SelectionKind) -> Result<(Vec<Record>, Option<f64>)> {
+        let q = &view.gbuffer.irradiance;
+        match &self.gpu {
+            Some(t) => t.gather_irradiance(q, kind).map_err(Error::Internal),
+            None => Ok((twin::gather_irradiance(self.field, &self.selection(kind)?, q), None)),
+        }
+    }
+
+    /// The view's glossy rays through the probes, and the GPU time.
+    pub fn trace(&self, view: &View, march: March, kind: SelectionKind) -> Result<(Vec<Record>, Option<f64>)> {
+        let q = &view.gbuffer.glossy;
+        match &self.gpu {
+            Some(t) => t.trace_rays(q, march, kind).map_err(Error::Internal),
+            None => Ok((twin::trace_rays(self.field, &self.selection(kind)?, q, march), None)),
+        }
+    }
+}
+
+/// The figures of one render through the probes against its view's
+/// reference (Wang et al. 2019 §5.1, and the tracer's work per ray, §4.2).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Metrics {
+    /// Glossy-indirect MSE against the reference, per pixel and channel.
+    pub mse_glossy: f64,
+    /// The same after a 7×7 box filter of both images, which removes most
+    /// sampling noise and keeps what placement changes: missing and wrong
+    /// reflections (Wang's Fig. 8 compares filtered glossy components).
+    pub mse_glossy_filtered: f64,
+    /// MSE of the whole image against the reference.
+    pub mse_full: f64,
+    /// Pyramid texels the march visits per glossy ray, at every level.
+    pub texel_fetches_per_ray: f64,
+    /// Glossy rays no probe resolved (unknown or no probe), as a fraction.
+    pub unresolved_fraction: f64,
+    /// GPU time of the trace and the gather in milliseconds (timestamps);
+    /// `null` on the CPU twin or without timestamp queries.
+    pub gpu_ms: Option<f64>,
+    /// Mean RGB of the glossy indirect image, to set beside the reference's.
+    pub glossy_indirect_mean: [f64; 3],
+    /// Texels the surfel tests read per glossy ray.
+    pub surfel_fetches_per_ray: f64,
+    /// Probes consulted after the first, per glossy ray.
+    pub probe_switches_per_ray: f64,
+    /// Glossy rays no probe could resolve.
+    pub unresolved_rays: u64,
+    /// Glossy rays that hit a surface.
+    pub hits: u64,
+    /// Glossy rays that leave the scene.
+    pub misses: u64,
+}
+
+/// A render through the probes and its figures.
+pub struct Validation {
+    /// The image.
+    pub image: ProbeImage,
+    /// Its figures against the reference.
+    pub metrics: Metrics,
+}
+
+/// Composes the view from `irradiance` (answers to its irradiance queries)
+/// and `glossy` (to its glossy rays) and measures it; `gpu_ms` is the sum
+/// of the two kernels' GPU times where both have one.
+pub fn validate(
+    view: &View,
+    irradiance: &(Vec<Record>, Option<f64>),
+    glossy: &(Vec<Record>, Option<f64>),
+) -> Validation {
+    let image = compose(&view.gbuffer, &irradiance.0, &glossy.0);
+    let records = &glossy.0;
+    let rays = records.len().max(1) as f64;
+    let sum = |f: fn(&Record) -> u32| records.iter().map(|r| f(r) as u64).sum::<u64>();
+    let count = |k: u32| records.iter().filter(|r| r.kind == k).count() as u64;
+    let unresolved = count(kind::UNKNOWN) + count(kind::NO_PROBE);
+    let r = &view.reference;
+    let metrics = Metrics {
+        mse_glossy: mse(&image.glossy_indirect, &r.glossy_indirect),
+        mse_glossy_filtered: mse(
+            &box_filter(&image.glossy_indirect, r.width, r.height, FILTER_RADIUS),
+            &view.filtered_glossy,
+        ),
+        mse_full: mse(&image.full, &r.full),
+        texel_fetches_per_ray: sum(|r| r.fetches) as f64 / rays,
+        unresolved_fraction: unresolved as f64 / rays,
+        gpu_ms: glossy.1.zip(irradiance.1).map(|(a, b)| a + b),
+        glossy_indirect_mean: mean_of(&image.glossy_indirect),
+        surfel_fetches_per_ray: (crate::trace::single::SURFEL_TEST_FETCHES as u64
+            * sum(|r| r.surfels)) as f64
+            / rays,
+        probe_switches_per_ray: sum(|r| r.probes.saturating_sub(1)) as f64 / rays,
+        unresolved_rays: unresolved,
+        hits: count(kind::HIT),
+        misses: count(kind::MISS),
+    };
+    Validation { image, metrics }
+}
+
+/// The answers of a placement without probes: no indirect light at all.
+pub fn dark(view: &View) -> [(Vec<Record>, Option<f64>); 2] {
+    let none = |n: usize| {
+        let r = Record {
+            kind: kind::NO_PROBE,
+            ..bytemuck::Zeroable::zeroed()
+        };
+        (vec![r; n], None)
+    };
+    [none(view.gbuffer.irradiance.len()), none(view.gbuffer.glossy.len())]
+}
+
+/// Mean luminance of `pixels`, non-finite values left out (0 for none).
+pub fn mean_luminance(pixels: &[[f32; 3]]) -> f64 {
+    pixels
+        .iter()
+        .map(|&p| luminance(Vec3::from(p)) as f64)
+        .filter(|v| v.is_finite())
+        .sum::<f64>()
+        / pixels.len().max(1) as f64
+}
+
+/// Exposure that maps the mean luminance of `pixels` to 0.4 (display
+/// previews only; the EXR files hold the linear values).
+pub fn auto_exposure(pixels: &[[f32; 3]]) -> f32 {
+    let mean = mean_luminance(pixels);
+    if mean > 1e-12 {
+        (0.4 / mean) as f32
+    } else {
+        1.0
+    }
+}
