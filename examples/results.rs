@@ -1191,7 +1191,7 @@ fn generality_section(md: &mut String, rows: &mut [Value]) {
     let mut beaten: Vec<String> = Vec::new();
     let mut short: Vec<String> = Vec::new();
     let mut solid = 0;
-    let mut warned = 0;
+    let mut warned: Vec<String> = Vec::new();
     for r in rows.iter() {
         let probes = num(r, "probes");
         let grid = at(r, "smallest_grid").and_then(Value::as_array);
@@ -1235,7 +1235,7 @@ fn generality_section(md: &mut String, rows: &mut [Value]) {
             .and_then(Value::as_array)
             .map_or(0, Vec::len);
         if nw > 0 {
-            warned += 1;
+            warned.push(format!("{label} ({nw})"));
         }
         t.rows.push(vec![
             text(r, "scene"),
@@ -1280,6 +1280,11 @@ fn generality_section(md: &mut String, rows: &mut [Value]) {
     );
     let _ = writeln!(
         md,
-        "- Rows with a probe in solid: {solid}; rows with warnings: {warned}.\n"
+        "- Rows with a probe in solid: {solid}; rows with warnings (how many): {}.\n",
+        if warned.is_empty() {
+            "none".to_string()
+        } else {
+            warned.join(", ")
+        }
     );
 }
