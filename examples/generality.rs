@@ -3,8 +3,9 @@
 //! `probeplace::fixtures::generated::suite()`, and every config of
 //! `configs/` with its `voxel_size` removed, with both of our placement
 //! methods; it writes each run's outputs under `DIR/<scene>-<method>/`, the
-//! rows as `DIR/generality.json`, and prints the Markdown table that
-//! README.md shows (`probeplace::generality::markdown_table`).
+//! rows as `DIR/generality.json`, which `examples/results.rs` turns into
+//! docs/results.md's generality table, and prints the rows as a Markdown
+//! table (`probeplace::generality::markdown_table`).
 
 use probeplace::config::{Config, Placement, VoxelSize};
 use probeplace::fixtures::generated::{generate, suite};
