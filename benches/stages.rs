@@ -37,7 +37,7 @@ fn stages(c: &mut Criterion, name: &str, config: &str) {
             &scene,
             &bvh,
             &scene.bounds,
-            probeplace::pipeline::resolve_voxel_size(&cfg, &scene, &bvh, &scene.bounds).voxel_size,
+            probeplace::stages::resolve_voxel_size(&cfg, &scene, &bvh, &scene.bounds).voxel_size,
             &params,
             1,
             &progress,

@@ -1,3 +1,4 @@
+#![warn(missing_docs)]
 //! probeplace: decides where to put light-field probes in a 3D scene.
 //!
 //! The pipeline follows Wang et al. 2019, *Fast Non-uniform Radiance Probe
@@ -29,6 +30,44 @@
 //! [`stages`] composes them into typed products; [`jobs`] composes the
 //! stages into what the command line runs; the `probeplace` binary is a
 //! thin shell over the jobs.
+//!
+//! # A renderer's view
+//!
+//! Place probes (here a small grid, for speed), then load what a renderer
+//! needs from the output directory: the probes, in `probes.json` order, and
+//! the octree that names up to four of them for any point.
+//!
+//! ```
+//! use probeplace::jobs::{self, RunOptions};
+//! use probeplace::provenance::Overrides;
+//! use probeplace::svo::Svo;
+//!
+//! let out = std::env::temp_dir().join(format!("probeplace-doc-{}", std::process::id()));
+//! let options = RunOptions {
+//!     config: Some("configs/cornell.ron".into()),
+//!     out: Some(out.clone()),
+//!     overrides: Overrides {
+//!         method: Some("grid:2x2x2".into()),
+//!         no_refine: true,
+//!         ..Overrides::default()
+//!     },
+//!     ..RunOptions::default()
+//! };
+//! jobs::place(&options)?;
+//!
+//! let probes = probeplace::placement::file::read_world(&out.join("probes.json"))?;
+//! let svo = Svo::read(&out.join("svo.bin"))?;
+//! assert_eq!(probes.len(), 8);
+//! assert_eq!(svo.probe_count as usize, probes.len());
+//!
+//! // The middle of the box, in world coordinates (a read tree's frame).
+//! let centre = (probes.iter().map(|(p, _)| *p).sum::<glam::DVec3>() / 8.0).as_vec3();
+//! let nearby = svo.probes_at(centre);
+//! assert!(!nearby.is_empty() && nearby.len() <= 4);
+//! assert!(nearby.iter().all(|&i| (i as usize) < probes.len()));
+//! # std::fs::remove_dir_all(&out).ok();
+//! # Ok::<(), probeplace::Error>(())
+//! ```
 
 pub mod config;
 pub mod coverage;
@@ -39,16 +78,17 @@ pub mod gpu;
 pub mod jobs;
 pub mod lightfield;
 pub mod placement;
+pub mod probes;
 pub mod progress;
 pub mod provenance;
 pub mod refine;
 pub mod render;
-pub mod report;
-pub mod resolution;
+pub(crate) mod report;
+pub(crate) mod resolution;
 pub mod sampling;
 pub mod scene;
 pub mod sdf;
-pub mod skeleton;
+pub(crate) mod skeleton;
 pub mod stages;
 pub mod svo;
 pub mod trace;

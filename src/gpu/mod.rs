@@ -5,7 +5,7 @@
 //! | kernel (src/gpu/shaders/) | what it does | CPU twin |
 //! |---|---|---|
 //! | `trace.wgsl`: `trace_rays` | one ray through the probes, bi-level or Hi-Z march, grid or SVO selection; radiance at the end | [`twin::trace_rays`] ([`crate::trace`]) |
-//! | `irradiance.wgsl`: `gather_irradiance` | diffuse irradiance at a point from the irradiance probes (McGuire §5.2) | [`twin::gather_irradiance`] ([`crate::lightfield::gather`]) |
+//! | `irradiance.wgsl`: `gather_irradiance` | diffuse irradiance at a point from the irradiance probes (McGuire §5.2) | [`twin::gather_irradiance`] ([`crate::trace::gather`]) |
 //! | `common.wgsl` | bindings, octahedral mapping, SVO and grid lookups | [`crate::lightfield::octahedral`], [`crate::svo::Svo::probes_at`], [`crate::trace::Lattice`] |
 //!
 //! The probe maps live in 2D texture arrays, one layer per probe, at the

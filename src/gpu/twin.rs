@@ -3,7 +3,8 @@
 //! the two record by record and `render` can run without a GPU.
 
 use super::{kind, Query, Record};
-use crate::lightfield::{gather, LightField};
+use crate::lightfield::LightField;
+use crate::trace::gather;
 use crate::trace::single::{March, Steps};
 use crate::trace::{self, Outcome, Selection};
 use bytemuck::Zeroable;

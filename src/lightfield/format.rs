@@ -26,7 +26,6 @@
 //! rounded to f32) and read back with `frame` zero.
 
 use super::LightField;
-use crate::svo::format::crc32;
 use glam::{DVec3, Vec3};
 use half::f16;
 
@@ -80,7 +79,7 @@ pub fn to_bytes(field: &LightField) -> Vec<u8> {
     }
     put_halves(&mut out, field.irradiance.iter().flatten().copied());
     put_halves(&mut out, field.moments.iter().flatten().copied());
-    let crc = crc32(&out);
+    let crc = crc32fast::hash(&out);
     out.extend_from_slice(&crc.to_le_bytes());
     out
 }
@@ -126,7 +125,7 @@ pub fn from_bytes(bytes: &[u8]) -> Result<LightField, String> {
         ));
     }
     let body = bytes.len() - 4;
-    if crc32(&bytes[..body]) != word(body) {
+    if crc32fast::hash(&bytes[..body]) != word(body) {
         return Err("checksum mismatch: the file is damaged".into());
     }
     let mut at = HEADER_BYTES;

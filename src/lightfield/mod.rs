@@ -4,7 +4,6 @@
 //! octahedral directional map"); the bake fills the maps themselves.
 
 pub mod format;
-pub mod gather;
 pub mod irradiance;
 pub mod maps;
 pub mod octahedral;

@@ -27,6 +27,35 @@ pub const MAX_PROBES: usize = 1 << 20;
 /// finite numbers, no probe at all, or more than [`MAX_PROBES`] is a user
 /// error naming the file (and the entry).
 pub fn read(path: &Path, scene: &Scene, method: &str) -> Result<ProbeSet> {
+    let probes = read_world(path)?
+        .into_iter()
+        .enumerate()
+        .map(|(i, (world, cluster_size))| {
+            let position = scene.to_local(world);
+            if !position.is_finite() {
+                return Err(Error::user_file(path, format!("probe {i}: the position is not finite")));
+            }
+            Ok(Probe {
+                position,
+                cluster_size,
+            })
+        })
+        .collect::<Result<Vec<_>>>()?;
+    Ok(ProbeSet {
+        method: method.to_string(),
+        probes,
+        stats: BTreeMap::new(),
+        params: BTreeMap::new(),
+        min_clearance: 0.0,
+    })
+}
+
+/// The probes of `path` in world coordinates, with their cluster sizes (0
+/// where the file has none), in file order: what a renderer loads beside
+/// `svo.bin` and `lightfield.bin`, whose indices refer to this order.
+///
+/// Contract: as [`read`], without a scene.
+pub fn read_world(path: &Path) -> Result<Vec<(DVec3, u32)>> {
     let bytes =
         std::fs::read(path).map_err(|e| Error::user_file(path, format!("cannot read: {e}")))?;
     let value: Value = serde_json::from_slice(&bytes)
@@ -53,7 +82,7 @@ pub fn read(path: &Path, scene: &Scene, method: &str) -> Result<ProbeSet> {
             format!("holds {} probes; at most {MAX_PROBES} are read", entries.len()),
         ));
     }
-    let probes = entries
+    entries
         .iter()
         .enumerate()
         .map(|(i, e)| {
@@ -70,26 +99,15 @@ pub fn read(path: &Path, scene: &Scene, method: &str) -> Result<ProbeSet> {
                 .try_into()
                 .map_err(|_| bad("`position` must be three numbers"))?;
             let world = DVec3::from_array(world);
-            let local = scene.to_local(world);
-            if !world.is_finite() || !local.is_finite() {
+            if !world.is_finite() {
                 return Err(bad("the position is not finite"));
             }
             let cluster_size = cluster
                 .and_then(Value::as_u64)
                 .map_or(0, |c| c.min(u32::MAX as u64) as u32);
-            Ok(Probe {
-                position: local,
-                cluster_size,
-            })
+            Ok((world, cluster_size))
         })
-        .collect::<Result<Vec<_>>>()?;
-    Ok(ProbeSet {
-        method: method.to_string(),
-        probes,
-        stats: BTreeMap::new(),
-        params: BTreeMap::new(),
-        min_clearance: 0.0,
-    })
+        .collect()
 }
 
 #[cfg(test)]

@@ -56,23 +56,6 @@ impl OutputSet {
         self.files.retain(|(n, _)| n != name);
         self.carried.retain(|(n, _)| n != name);
     }
-
-    /// Every name in the set, in writing order.
-    pub fn names(&self) -> Vec<&str> {
-        self.files
-            .iter()
-            .map(|(n, _)| n.as_str())
-            .chain(self.carried.iter().map(|(n, _)| n.as_str()))
-            .collect()
-    }
-
-    /// The contents of `name` when the run made it (not carried).
-    pub fn bytes(&self, name: &str) -> Option<&[u8]> {
-        self.files
-            .iter()
-            .find(|(n, _)| n == name)
-            .map(|(_, b)| b.as_slice())
-    }
 }
 
 /// The files that mark a directory as a probeplace output.

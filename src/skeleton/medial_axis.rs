@@ -44,7 +44,7 @@ use super::cluster::cluster_by_visibility;
 use super::surface_points::{precluster, sample_surface_points};
 use crate::config::MedialAxisParams;
 use crate::error::{Error, Result};
-use crate::placement::{PlacementInput, Probe, ProbeSet};
+use crate::probes::{PlacementInput, Probe, ProbeSet};
 use crate::sdf::{Sdf, VoxelClass};
 use indicatif::ParallelProgressIterator;
 use rayon::prelude::*;

@@ -24,7 +24,7 @@
 use super::cluster::cluster_by_visibility;
 use crate::config::SdfSkeletonParams;
 use crate::error::{Error, Result};
-use crate::placement::{PlacementInput, Probe, ProbeSet};
+use crate::probes::{PlacementInput, Probe, ProbeSet};
 use crate::sdf::{Sdf, VoxelClass};
 use glam::{IVec3, Vec3};
 use rayon::prelude::*;

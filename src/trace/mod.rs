@@ -15,6 +15,7 @@
 //! This is the CPU twin of the GPU tracer: same march, same selection.
 
 pub mod check;
+pub mod gather;
 pub mod single;
 
 use crate::lightfield::{octahedral, LightField};

@@ -7,7 +7,7 @@
 
 const MIN_NORMAL_WEIGHT: f32 = 0.05;
 
-// lightfield::gather::bilinear, for the irradiance (rgb) or moment (rg) map.
+// trace::gather::bilinear, for the irradiance (rgb) or moment (rg) map.
 fn bilinear(moments: bool, probe: u32, d: vec3f) -> vec4f {
     let m = params.m;
     let e = oct_encode(d);

@@ -25,9 +25,9 @@
 //! This is the CPU twin of `gather_irradiance` in
 //! `src/gpu/shaders/irradiance.wgsl`.
 
-use super::irradiance::chebyshev_visibility;
-use super::{octahedral, LightField};
-use crate::trace::Selection;
+use super::Selection;
+use crate::lightfield::irradiance::chebyshev_visibility;
+use crate::lightfield::{octahedral, LightField};
 use glam::{IVec3, Vec3};
 
 /// Floor of the normal weight: a probe behind the surface still counts a
