@@ -104,6 +104,7 @@ pub fn compare(options: &RunOptions) -> Result<Outcome> {
         figures: Vec::new(),
     };
     let ours_count = bench.ours(&mut job)?;
+    bench.given(&mut job)?;
     let grid_rows = bench.grids(&mut job, options.grids.as_ref(), ours_count)?;
     bench.competitors(&mut job, &grid_rows, ours_count)?;
     write(job, bench, &views, context.as_ref())
@@ -343,6 +344,20 @@ impl Bench<'_> {
             job.watch.record(method, t.elapsed().as_secs_f64() * 1e3);
         }
         Ok(ours_count)
+    }
+
+    /// The probe set of `--probes FILE.json`, scored as given (coverage,
+    /// SVO, bake, render), beside ours.
+    fn given(&mut self, job: &mut Job) -> Result<()> {
+        let Some(path) = job.provenance.overrides.probes.clone() else {
+            return Ok(());
+        };
+        let t = std::time::Instant::now();
+        let probes = placement::file::read(&path, &self.prepared.scene, "file")?;
+        let placed = stages::place(&self.config, self.prepared, self.coverage, Some(probes), &self.progress)?;
+        self.measure("file", Family::Given, candidate_of(placed))?;
+        job.watch.record("file", t.elapsed().as_secs_f64() * 1e3);
+        Ok(())
     }
 
     /// The sweep of uniform grids (the given ones, the config's, or a sweep

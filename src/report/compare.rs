@@ -19,6 +19,8 @@ pub enum Family {
     Relocated,
     /// Silvennoinen & Lehtinen 2017's greedy voxel placement.
     Greedy,
+    /// A probe set made elsewhere (`--probes FILE.json`), scored as given.
+    Given,
 }
 
 impl Family {
@@ -29,6 +31,7 @@ impl Family {
             Family::Grid => "grid",
             Family::Relocated => "relocated",
             Family::Greedy => "greedy",
+            Family::Given => "given",
         }
     }
 
@@ -39,6 +42,7 @@ impl Family {
             Family::Grid => "uniform grid",
             Family::Relocated => "grid, relocated (RTXGI)",
             Family::Greedy => "greedy (Silvennoinen & Lehtinen)",
+            Family::Given => "given (--probes)",
         }
     }
 }
@@ -271,7 +275,7 @@ pub fn summary(report: &CompareReport) -> Vec<String> {
             report
                 .placements
                 .iter()
-                .any(|p| p.name == c.placement && p.family == Family::Ours)
+                .any(|p| p.name == c.placement && matches!(p.family, Family::Ours | Family::Given))
         })
         .map(|c| {
             let count = match (&c.equal_count, c.error_ratio_at_equal_count) {

@@ -153,7 +153,7 @@ fn summary(h: &mut String, report: &CompareReport) {
             .iter()
             .find(|p| p.name == c.placement)
             .map(|p| p.family);
-        if family != Some(Family::Ours) {
+        if !matches!(family, Some(Family::Ours | Family::Given)) {
             continue;
         }
         let _ = write!(
@@ -310,6 +310,7 @@ fn style(f: Family) -> (&'static str, &'static str) {
         Family::Grid => ("#3060c0", "square"),
         Family::Relocated => ("#c07020", "diamond"),
         Family::Greedy => ("#a03090", "triangle"),
+        Family::Given => ("#202020", "circle"),
     }
 }
 
@@ -428,6 +429,7 @@ fn plot(
         Family::Grid,
         Family::Relocated,
         Family::Greedy,
+        Family::Given,
     ] {
         if !points.iter().any(|p| p.0.family == f) {
             continue;
