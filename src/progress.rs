@@ -12,6 +12,13 @@ pub struct Progress {
     lines: bool,
 }
 
+impl Default for Progress {
+    /// No bars, no stage lines: library use.
+    fn default() -> Self {
+        Progress::hidden()
+    }
+}
+
 impl Progress {
     /// `enabled = false` makes every bar hidden.
     pub fn new(enabled: bool) -> Progress {

@@ -147,7 +147,7 @@ fn a_full_disk_leaves_the_earlier_output_whole() {
     // A private mount namespace with a 2 MiB tmpfs: the earlier output fits,
     // the filler takes the rest, the later run cannot stage its files.
     let d = tempfile::tempdir().unwrap();
-    let script = format!(
+    let script = String::from(
         r#"set -e
 mount -t tmpfs -o size=2m tmpfs "$1"
 "$2" place "$3" --out "$1/out" --method grid:2x2x2 --no-refine -q

@@ -529,7 +529,7 @@ impl Bench<'_> {
     #[allow(clippy::type_complexity)]
     fn render_each(
         &self,
-        answer: impl Fn(&View) -> Result<[(Vec<crate::gpu::Record>, Option<f64>); 2]>,
+        answer: impl Fn(&View) -> Result<[validate::Answers; 2]>,
     ) -> Result<(Vec<CameraRow>, Vec<Vec<u8>>, Vec<Vec<u8>>)> {
         let (mut rows, mut renders, mut errors) = (Vec::new(), Vec::new(), Vec::new());
         for view in self.views {

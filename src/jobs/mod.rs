@@ -65,12 +65,6 @@ pub struct RunOptions {
     pub grids: Option<Vec<GridParams>>,
 }
 
-impl Default for Progress {
-    fn default() -> Self {
-        Progress::hidden()
-    }
-}
-
 /// What a finished job wrote.
 #[derive(Debug)]
 pub struct Outcome {
@@ -320,7 +314,7 @@ fn apply(config: &mut Config, overrides: &Overrides) -> Result<()> {
     Ok(())
 }
 
-/// The earlier report's `key` array, or an empty one.
+/// Appends `warnings` to the report's `warnings`.
 pub(crate) fn push_warnings(report: &mut Value, warnings: &[String]) {
     if let Some(a) = report["warnings"].as_array_mut() {
         a.extend(warnings.iter().map(|w| Value::String(w.clone())));

@@ -6,9 +6,8 @@ use super::{bake, place, push_warnings, Job, Outcome, RunOptions};
 use crate::error::{Error, Result};
 use crate::gpu::{Context, SelectionKind};
 use crate::report::render::{RenderReport, VariantReport};
-use crate::report::{self};
+use crate::report;
 use crate::stages::validate::{self, Tracer, View};
-use crate::stages::Prepared;
 use crate::trace::{single::March, Lattice};
 use std::collections::BTreeMap;
 
@@ -64,7 +63,7 @@ pub fn render(options: &RunOptions) -> Result<Outcome> {
         View::new(&job.config, &prepared, &camera, 0, reference, GLOSSY_RAYS)
     });
     let mut warnings = Vec::new();
-    let report = render_variants(&mut job, &prepared, &view, &baked.field, &placement.svo, &variants, &mut watch, &mut warnings)?;
+    let report = render_variants(&mut job, &view, &baked.field, &placement.svo, &variants, &mut watch, &mut warnings)?;
     placement.report["render"] = serde_json::to_value(&report).map_err(|e| Error::Internal(e.to_string()))?;
     push_warnings(&mut placement.report, &warnings);
     job.finish("report.json", placement.report)
@@ -75,7 +74,6 @@ pub fn render(options: &RunOptions) -> Result<Outcome> {
 #[allow(clippy::too_many_arguments)]
 fn render_variants(
     job: &mut Job,
-    _prepared: &Prepared,
     view: &View,
     field: &crate::lightfield::LightField,
     svo: &crate::svo::Svo,
@@ -108,7 +106,7 @@ fn render_variants(
     let size = (view.reference.width, view.reference.height);
     // The irradiance gather depends on the selection only: when both
     // variants select alike it runs once.
-    let mut gathered: Vec<(SelectionKind, (Vec<crate::gpu::Record>, Option<f64>))> = Vec::new();
+    let mut gathered: Vec<(SelectionKind, validate::Answers)> = Vec::new();
     let mut reports = BTreeMap::new();
     for variant in [Variant::BiLevel, Variant::HiZ] {
         if !variants.contains(&variant) {

@@ -299,7 +299,7 @@ impl Report {
             domain: BoundsRecord::world(&prepared.domain, scene),
             sdf: sdf.into(),
             resolution: Some(prepared.resolution),
-            coverage_detail: coverage.clone(),
+            coverage_detail: *coverage,
             placement_stats: probes.stats.clone(),
             placement_params: probes.params.clone(),
             refine,

@@ -108,6 +108,10 @@ impl View {
     }
 }
 
+/// A kernel's answers, one record per query, and its GPU time (ms) where
+/// the adapter has timestamps.
+pub type Answers = (Vec<Record>, Option<f64>);
+
 /// The light-field tracer of one probe set, chosen once: the GPU's where
 /// an adapter takes the field, else the CPU twin, which gives the same
 /// records (tests compare them).
@@ -158,7 +162,7 @@ impl<'a> Tracer<'a> {
     }
 
     /// Irradiance at the view's surfaces, and the GPU time.
-    pub fn gather(&self, view: &View, kind: SelectionKind) -> Result<(Vec<Record>, Option<f64>)> {
+    pub fn gather(&self, view: &View, kind: SelectionKind) -> Result<Answers> {
         let q = &view.gbuffer.irradiance;
         match &self.gpu {
             Some(t) => t.gather_irradiance(q, kind).map_err(Error::Internal),
@@ -167,7 +171,7 @@ impl<'a> Tracer<'a> {
     }
 
     /// The view's glossy rays through the probes, and the GPU time.
-    pub fn trace(&self, view: &View, march: March, kind: SelectionKind) -> Result<(Vec<Record>, Option<f64>)> {
+    pub fn trace(&self, view: &View, march: March, kind: SelectionKind) -> Result<Answers> {
         let q = &view.gbuffer.glossy;
         match &self.gpu {
             Some(t) => t.trace_rays(q, march, kind).map_err(Error::Internal),
@@ -222,8 +226,8 @@ pub struct Validation {
 /// of the two kernels' GPU times where both have one.
 pub fn validate(
     view: &View,
-    irradiance: &(Vec<Record>, Option<f64>),
-    glossy: &(Vec<Record>, Option<f64>),
+    irradiance: &Answers,
+    glossy: &Answers,
 ) -> Validation {
     let image = compose(&view.gbuffer, &irradiance.0, &glossy.0);
     let records = &glossy.0;
@@ -255,7 +259,7 @@ pub fn validate(
 }
 
 /// The answers of a placement without probes: no indirect light at all.
-pub fn dark(view: &View) -> [(Vec<Record>, Option<f64>); 2] {
+pub fn dark(view: &View) -> [Answers; 2] {
     let none = |n: usize| {
         let r = Record {
             kind: kind::NO_PROBE,
