@@ -1,6 +1,15 @@
 //! Deterministic sampling helpers shared by the stages: hashing a seed and an
 //! index into random numbers (so parallel loops stay reproducible whatever the
 //! thread schedule), well-spread direction sets, area-uniform surface points.
+//!
+//! Why not the `rand` crates: every draw here is a pure function of
+//! `(seed, stream, index)`, so any work item, on any thread, in any order,
+//! gets the same numbers with no generator state to create, seed or carry;
+//! a `rand` generator per work item (seeded from such a hash) would give the
+//! same guarantee at the cost of its state and setup in the hottest loops
+//! (path tracing, coverage), and its streams may change between `rand`
+//! releases, which would silently change every figure. The crates were
+//! declared and unused, and are removed (docs/method.md, "Random numbers").
 
 use glam::{Mat3, Quat, Vec3};
 use std::f32::consts::PI;
