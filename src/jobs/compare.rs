@@ -558,7 +558,9 @@ fn candidate_of(placed: Placed) -> Candidate {
 fn reuse(job: &mut Job, method: &str, prepared: &Prepared) -> Result<Option<Candidate>> {
     let Some(e) = &job.earlier else { return Ok(None) };
     let Some(report) = e.report.clone() else { return Ok(None) };
-    if report["method"].as_str() != Some(method) || report["refine"].is_null() {
+    // Ours are refined: the earlier run's method is ours with `+refine`.
+    let refined = format!("{method}+refine");
+    if report["method"].as_str() != Some(refined.as_str()) || report["refine"].is_null() {
         return Ok(None);
     }
     let Some(placement) = super::place::load(job, prepared)? else {
