@@ -34,9 +34,10 @@ use crate::scene::Bounds;
 use crate::sdf::{Sdf, VoxelClass};
 use atlas::Atlas;
 use fitness::AtlasState;
+use gibbs::SweepStats;
 use glam::Vec3;
 use image::RgbImage;
-use prune::CoverMatrix;
+use prune::{CoverMatrix, FillPrune};
 use serde::Serialize;
 use std::collections::BTreeMap;
 use view::{ProbeView, Viewer};
@@ -227,31 +228,16 @@ pub fn refine(
     );
     let views_of = |ps: &[Vec3]| -> Vec<ProbeView> { ps.iter().map(|&p| viewer.view(p)).collect() };
 
+    // Move the probes (§3.3).
     let initial = probes.positions();
     let mut state = AtlasState::new(params.fitness, &atlas, views_of(&initial));
     let r_initial = state.r();
-    let atlas_initial: Vec<bool> = (0..atlas.len())
-        .map(|t| state.best_quality(t).is_some())
-        .collect();
+    let atlas_initial = seen_texels(&atlas, &state);
     let atlas_coverage_initial = state.seen_share();
-
-    let eps = 1e-3 * input.sdf.voxel_size;
-    let legal_move = |a: Vec3, b: Vec3| -> bool {
-        may_stand(input.sdf, input.domain, r.min_clearance(), b) && !input.bvh.occluded(a, b, eps)
-    };
-    let sweeps = gibbs::Sweeps {
-        viewer: &viewer,
-        legal_move: &legal_move,
-        iterations: params.iterations.0,
-        initial_step: r.initial_step,
-        min_step: r.min_step,
-        beta: r.beta,
-        seed: hash2(input.seed, 0x5EF1),
-    };
-    let mut positions = initial.clone();
-    let (refined, stats) = gibbs::optimize(&sweeps, &mut state, &mut positions, input.progress);
+    let (refined, stats) = sweep(params, &r, input, &viewer, &mut state, &initial);
     let r_refined = AtlasState::new(params.fitness, &atlas, views_of(&refined)).r();
 
+    // Fill holes and prune superfluous probes (§1 "fewest probes").
     let matrix = CoverMatrix::new(reference, input.bvh);
     let tiers = fill_candidates(params, &r, input, reference);
     let fp = matrix.fill_and_prune(
@@ -262,10 +248,80 @@ pub fn refine(
         params.prune,
         input.progress,
     );
+    let final_probes = kept_probes(&probes, &refined, &fp);
+    let final_positions: Vec<Vec3> = final_probes.iter().map(|p| p.position).collect();
+    let final_state = AtlasState::new(params.fitness, &atlas, views_of(&final_positions));
+
+    let outcome = Outcome {
+        stats,
+        r_initial,
+        r_refined,
+        atlas_coverage_initial,
+        initial: &initial,
+        final_positions: &final_positions,
+        final_state: &final_state,
+        fp: &fp,
+        atlas_texels: atlas.len(),
+    };
+    let report = refine_report(params, &r, &matrix, &outcome);
+    let atlas_image = atlas_panels(&atlas, &atlas_initial, &final_state);
+    Ok(Refined {
+        probes: ProbeSet {
+            method: format!("{}+refine", probes.method),
+            probes: final_probes,
+            stats: probes.stats,
+            params: probes.params,
+            min_clearance: final_min_clearance(&r, &fp),
+        },
+        report,
+        atlas_image,
+    })
+}
+
+/// Whether some probe of `state` sees each texel of `atlas`.
+fn seen_texels(atlas: &Atlas, state: &AtlasState) -> Vec<bool> {
+    (0..atlas.len())
+        .map(|t| state.best_quality(t).is_some())
+        .collect()
+}
+
+/// Gibbs sampling with stochastic direction steps (§3.3, eq. 3, Fig. 6)
+/// from the `initial` positions, whose views `state` holds: a probe may move
+/// only to where it may stand at the clearance probes move at, and not
+/// through a surface. Returns the best positions seen and what the sweeps did.
+fn sweep(
+    params: &RefineParams,
+    r: &Resolved,
+    input: &PlacementInput,
+    viewer: &Viewer,
+    state: &mut AtlasState,
+    initial: &[Vec3],
+) -> (Vec<Vec3>, SweepStats) {
+    let eps = 1e-3 * input.sdf.voxel_size;
+    let legal_move = |a: Vec3, b: Vec3| -> bool {
+        may_stand(input.sdf, input.domain, r.min_clearance(), b) && !input.bvh.occluded(a, b, eps)
+    };
+    let sweeps = gibbs::Sweeps {
+        viewer,
+        legal_move: &legal_move,
+        iterations: params.iterations.0,
+        initial_step: r.initial_step,
+        min_step: r.min_step,
+        beta: r.beta,
+        seed: hash2(input.seed, 0x5EF1),
+    };
+    let mut positions = initial.to_vec();
+    gibbs::optimize(&sweeps, state, &mut positions, input.progress)
+}
+
+/// The probes filling and pruning kept: the input probes at their `refined`
+/// positions (with their cluster sizes) followed by those filling added
+/// (cluster size 0), in the order of `fp.kept`.
+fn kept_probes(probes: &ProbeSet, refined: &[Vec3], fp: &FillPrune) -> Vec<Probe> {
     let mut all: Vec<Probe> = probes
         .probes
         .iter()
-        .zip(&refined)
+        .zip(refined)
         .map(|(p, &position)| Probe {
             position,
             cluster_size: p.cluster_size,
@@ -275,58 +331,89 @@ pub fn refine(
         position,
         cluster_size: 0,
     }));
-    let final_probes: Vec<Probe> = fp.kept.iter().map(|&k| all[k]).collect();
-    let final_positions: Vec<Vec3> = final_probes.iter().map(|p| p.position).collect();
-    let final_state = AtlasState::new(params.fitness, &atlas, views_of(&final_positions));
+    fp.kept.iter().map(|&k| all[k]).collect()
+}
 
+/// The least clearance of the final probes: that of the lowest fill tier a
+/// kept probe came from, or the one probes move at.
+fn final_min_clearance(r: &Resolved, fp: &FillPrune) -> f32 {
+    fp.kept_tiers
+        .iter()
+        .map(|&t| r.tiers[t])
+        .fold(r.min_clearance(), f32::min)
+}
+
+/// What the steps of [`refine`] produced, for its report.
+struct Outcome<'a> {
+    /// What the sweeps did.
+    stats: SweepStats,
+    /// `R` of the input probes.
+    r_initial: f64,
+    /// `R` of the best set the sweeps saw.
+    r_refined: f64,
+    /// Share of the atlas area the input probes see.
+    atlas_coverage_initial: f64,
+    /// Positions of the input probes.
+    initial: &'a [Vec3],
+    /// Positions of the final probes.
+    final_positions: &'a [Vec3],
+    /// The atlas seen by the final probes.
+    final_state: &'a AtlasState<'a>,
+    /// What filling and pruning did.
+    fp: &'a FillPrune,
+    /// Texels of the atlas.
+    atlas_texels: usize,
+}
+
+/// The [`RefineReport`] of `outcome`, its coverages measured by `matrix`.
+fn refine_report(
+    params: &RefineParams,
+    r: &Resolved,
+    matrix: &CoverMatrix,
+    outcome: &Outcome,
+) -> RefineReport {
+    let (stats, fp, initial) = (outcome.stats, outcome.fp, outcome.initial);
     let m = fp.coverable.max(1) as f64;
-    let (covered_initial, incidence_initial) = matrix.summary(&initial);
+    let (covered_initial, incidence_initial) = matrix.summary(initial);
     let added_kept = fp.kept.iter().filter(|&&k| k >= initial.len()).count();
-    let report = RefineReport {
+    let probes_final = outcome.final_positions.len();
+    RefineReport {
         fitness: params.fitness,
         iterations: stats.iterations,
         proposals: stats.proposals,
         accepted: stats.accepted,
         rejected_illegal: stats.illegal,
-        r_initial,
-        r_refined,
-        r_final: final_state.r(),
+        r_initial: outcome.r_initial,
+        r_refined: outcome.r_refined,
+        r_final: outcome.final_state.r(),
         coverage_initial: covered_initial as f64 / m,
         coverage_refined: fp.covered_initial as f64 / m,
         coverage_final: fp.covered_final as f64 / m,
-        atlas_coverage_initial,
-        atlas_coverage_final: final_state.seen_share(),
+        atlas_coverage_initial: outcome.atlas_coverage_initial,
+        atlas_coverage_final: outcome.final_state.seen_share(),
         best_view_incidence_deg_initial: incidence_initial,
-        best_view_incidence_deg_final: matrix.summary(&final_positions).1,
+        best_view_incidence_deg_final: matrix.summary(outcome.final_positions).1,
         probes_initial: initial.len(),
-        probes_final: final_probes.len(),
-        removed: initial.len() - (final_probes.len() - added_kept),
+        probes_final,
+        removed: initial.len() - (probes_final - added_kept),
         added: added_kept,
         probes_below_clearance: fp.kept_tiers.iter().filter(|&&t| t > 0).count(),
         clearance_tiers: r.tiers.iter().map(|&c| c as f64).collect(),
         fill_rounds: fp.rounds.clone(),
-        params: r.report(params, atlas.len()),
-    };
+        params: r.report(params, outcome.atlas_texels),
+    }
+}
+
+/// The visibility atlas before (left) and after (right), as in the paper's
+/// Fig. 5: texels some probe sees in green, the rest in red. `seen_before`
+/// says which texels the input probes see, `after` holds the final probes.
+fn atlas_panels(atlas: &Atlas, seen_before: &[bool], after: &AtlasState) -> RgbImage {
     let color = |seen: bool| if seen { SEEN } else { UNSEEN };
-    let before = atlas.render(ATLAS_PANEL_PIXELS, |t| color(atlas_initial[t as usize]));
+    let before = atlas.render(ATLAS_PANEL_PIXELS, |t| color(seen_before[t as usize]));
     let after = atlas.render(ATLAS_PANEL_PIXELS, |t| {
-        color(final_state.best_quality(t as usize).is_some())
+        color(after.best_quality(t as usize).is_some())
     });
-    Ok(Refined {
-        probes: ProbeSet {
-            method: format!("{}+refine", probes.method),
-            probes: final_probes,
-            stats: probes.stats,
-            params: probes.params,
-            min_clearance: fp
-                .kept_tiers
-                .iter()
-                .map(|&t| r.tiers[t])
-                .fold(r.min_clearance(), f32::min),
-        },
-        report,
-        atlas_image: side_by_side(&before, &after),
-    })
+    side_by_side(&before, &after)
 }
 
 /// Clearances of the fill tiers: `start`, halved until it reaches `floor`,

@@ -314,6 +314,9 @@ fn style(f: Family) -> (&'static str, &'static str) {
     }
 }
 
+/// A point of a plot: its row, its probe count (x) and its value (y).
+type PlotPoint<'a> = (&'a PlacementRow, f64, f64);
+
 /// A scatter plot of `y(row)` against probe count (log scale), the grid
 /// sweep joined by a line; `log_y` puts y on a log scale too.
 fn plot(
@@ -324,14 +327,36 @@ fn plot(
     report: &CompareReport,
     y: impl Fn(&PlacementRow) -> f64,
 ) -> String {
-    let points: Vec<(&PlacementRow, f64, f64)> = report
+    let points: Vec<PlotPoint> = report
         .placements
         .iter()
         .map(|r| (r, r.probes.max(1) as f64, y(r)))
         .filter(|(_, _, v)| v.is_finite() && (!log_y || *v > 0.0))
         .collect();
     let mut s = String::new();
-    let (w, hgt) = (LEFT + PLOT_W + RIGHT, TOP + PLOT_H + BOTTOM);
+    plot_header(&mut s, title);
+    if points.is_empty() {
+        s.push_str("</svg>\n");
+        return s;
+    }
+    let frame = PlotFrame {
+        xs: Axis::new(points.iter().map(|p| p.1), true),
+        ys: Axis::new(points.iter().map(|p| p.2), log_y),
+    };
+    plot_axes(&mut s, &frame, x_label, y_label);
+    plot_grid_sweep(&mut s, &frame, &points);
+    plot_points(&mut s, &frame, &points);
+    plot_legend(&mut s, &points);
+    s.push_str("</svg>\n");
+    s
+}
+
+/// Width and height of the whole SVG, margins included.
+const SVG_SIZE: (f64, f64) = (LEFT + PLOT_W + RIGHT, TOP + PLOT_H + BOTTOM);
+
+/// Opens the SVG: its size, a white background and `title` centred over the plot area.
+fn plot_header(s: &mut String, title: &str) {
+    let (w, hgt) = SVG_SIZE;
     let _ = writeln!(
         s,
         "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{w}\" height=\"{hgt}\" viewBox=\"0 0 {w} {hgt}\" font-family=\"sans-serif\" font-size=\"12\">"
@@ -343,20 +368,35 @@ fn plot(
         LEFT + PLOT_W / 2.0,
         escape(title)
     );
-    if points.is_empty() {
-        s.push_str("</svg>\n");
-        return s;
+}
+
+/// The two axes of a plot, mapping data to SVG coordinates.
+struct PlotFrame {
+    xs: Axis,
+    ys: Axis,
+}
+
+impl PlotFrame {
+    /// SVG x of data x.
+    fn px(&self, x: f64) -> f64 {
+        LEFT + self.xs.unit(x) * PLOT_W
     }
-    let xs = Axis::new(points.iter().map(|p| p.1), true);
-    let ys = Axis::new(points.iter().map(|p| p.2), log_y);
-    let px = |x: f64| LEFT + xs.unit(x) * PLOT_W;
-    let py = |v: f64| TOP + (1.0 - ys.unit(v)) * PLOT_H;
+
+    /// SVG y of data y.
+    fn py(&self, v: f64) -> f64 {
+        TOP + (1.0 - self.ys.unit(v)) * PLOT_H
+    }
+}
+
+/// The plot area's border, the grid lines and labels of the ticks on both
+/// axes, and the axis labels.
+fn plot_axes(s: &mut String, frame: &PlotFrame, x_label: &str, y_label: &str) {
     let _ = writeln!(
         s,
         "<rect x=\"{LEFT}\" y=\"{TOP}\" width=\"{PLOT_W}\" height=\"{PLOT_H}\" fill=\"none\" stroke=\"#888\"/>"
     );
-    for t in xs.ticks() {
-        let x = px(t);
+    for t in frame.xs.ticks() {
+        let x = frame.px(t);
         let _ = writeln!(
             s,
             "<line x1=\"{x:.1}\" y1=\"{TOP}\" x2=\"{x:.1}\" y2=\"{:.1}\" stroke=\"#eee\"/><text x=\"{x:.1}\" y=\"{:.1}\" text-anchor=\"middle\">{}</text>",
@@ -365,8 +405,8 @@ fn plot(
             tick_label(t)
         );
     }
-    for t in ys.ticks() {
-        let yy = py(t);
+    for t in frame.ys.ticks() {
+        let yy = frame.py(t);
         let _ = writeln!(
             s,
             "<line x1=\"{LEFT}\" y1=\"{yy:.1}\" x2=\"{:.1}\" y2=\"{yy:.1}\" stroke=\"#eee\"/><text x=\"{:.1}\" y=\"{:.1}\" text-anchor=\"end\">{}</text>",
@@ -380,12 +420,17 @@ fn plot(
         s,
         "<text x=\"{}\" y=\"{}\" text-anchor=\"middle\">{}</text><text transform=\"translate(16 {}) rotate(-90)\" text-anchor=\"middle\">{}</text>",
         LEFT + PLOT_W / 2.0,
-        hgt - 8.0,
+        SVG_SIZE.1 - 8.0,
         escape(x_label),
         TOP + PLOT_H / 2.0,
         escape(y_label)
     );
-    let mut grid: Vec<&(&PlacementRow, f64, f64)> = points
+}
+
+/// The line joining the grid sweep's points in order of probe count, where
+/// the sweep has more than one point.
+fn plot_grid_sweep(s: &mut String, frame: &PlotFrame, points: &[PlotPoint]) {
+    let mut grid: Vec<&PlotPoint> = points
         .iter()
         .filter(|p| p.0.family == Family::Grid)
         .collect();
@@ -393,7 +438,7 @@ fn plot(
     if grid.len() > 1 {
         let line: Vec<String> = grid
             .iter()
-            .map(|p| format!("{:.1},{:.1}", px(p.1), py(p.2)))
+            .map(|p| format!("{:.1},{:.1}", frame.px(p.1), frame.py(p.2)))
             .collect();
         let _ = writeln!(
             s,
@@ -402,9 +447,14 @@ fn plot(
             line.join(" ")
         );
     }
-    for (r, x, v) in &points {
+}
+
+/// A marker per point with a tooltip, and beside every point not of the
+/// grid sweep its placement's name.
+fn plot_points(s: &mut String, frame: &PlotFrame, points: &[PlotPoint]) {
+    for (r, x, v) in points {
         let (color, shape) = style(r.family);
-        let (cx, cy) = (px(*x), py(*v));
+        let (cx, cy) = (frame.px(*x), frame.py(*v));
         let _ = writeln!(
             s,
             "{}<title>{}: {} probes, {}</title></g>",
@@ -423,6 +473,11 @@ fn plot(
             );
         }
     }
+}
+
+/// The legend right of the plot area: a marker and label for each family
+/// that has points.
+fn plot_legend(s: &mut String, points: &[PlotPoint]) {
     let mut ly = TOP + 10.0;
     for f in [
         Family::Ours,
@@ -446,8 +501,6 @@ fn plot(
         );
         ly += 18.0;
     }
-    s.push_str("</svg>\n");
-    s
 }
 
 /// An open `<g>` holding a marker at (x, y); the caller closes it.
