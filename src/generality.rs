@@ -13,8 +13,8 @@
 //! --example generality` writes them as JSON and as the README's table.
 
 use crate::config::Config;
-use crate::jobs::compare::smallest_grid_reaching;
 use crate::error::Result;
+use crate::jobs::compare::smallest_grid_reaching;
 use crate::jobs::{self, RunOptions};
 use crate::progress::Progress;
 use serde::Serialize;

@@ -108,7 +108,9 @@ impl Provenance {
         let mut scene = Fnv::default();
         for (i, file) in input_files(config, overrides).into_iter().enumerate() {
             let bytes = std::fs::read(&file).map_err(|e| match (i, e.kind()) {
-                (0, std::io::ErrorKind::NotFound) => Error::user_file(&file, "scene file not found"),
+                (0, std::io::ErrorKind::NotFound) => {
+                    Error::user_file(&file, "scene file not found")
+                }
                 (_, std::io::ErrorKind::NotFound) => Error::user_file(&file, "not found"),
                 _ => Error::user_file(&file, format!("cannot read: {e}")),
             })?;

@@ -56,7 +56,11 @@ pub(crate) struct Bake {
 
 /// The bake of `placement`: reused from `--from DIR` when it holds one,
 /// else computed; adds its files to the set and `bake` to the report.
-pub(crate) fn bake_stage(job: &mut Job, prepared: &Prepared, placement: &mut place::Placement) -> Result<Bake> {
+pub(crate) fn bake_stage(
+    job: &mut Job,
+    prepared: &Prepared,
+    placement: &mut place::Placement,
+) -> Result<Bake> {
     if let Some(b) = load(job, prepared, placement)? {
         return Ok(b);
     }
@@ -72,9 +76,13 @@ pub(crate) fn bake_stage(job: &mut Job, prepared: &Prepared, placement: &mut pla
     });
     let mut warnings = baked.warnings;
     let reference = match &config.reference.camera {
-        Some(camera) => Some(watch.time("reference", || validate::reference(config, prepared, camera, 0))),
+        Some(camera) => Some(watch.time("reference", || {
+            validate::reference(config, prepared, camera, 0)
+        })),
         None => {
-            warnings.push("bake: no reference.camera in the config; the reference image is skipped".into());
+            warnings.push(
+                "bake: no reference.camera in the config; the reference image is skipped".into(),
+            );
             None
         }
     };
@@ -102,7 +110,8 @@ pub(crate) fn bake_stage(job: &mut Job, prepared: &Prepared, placement: &mut pla
         }),
         timings_ms: timings,
     };
-    placement.report["bake"] = serde_json::to_value(&report).map_err(|e| Error::Internal(e.to_string()))?;
+    placement.report["bake"] =
+        serde_json::to_value(&report).map_err(|e| Error::Internal(e.to_string()))?;
     push_warnings(&mut placement.report, &warnings);
     Ok(Bake { field, reference })
 }
@@ -115,14 +124,32 @@ fn add_files(job: &mut Job, field: &LightField, reference: Option<&Reference>) -
     let (w, h, rad) = atlas(field.resolution, probes, |i| field.radiance[i]);
     report::add_image(set, "radiance", (w, h), &rad, validate::auto_exposure(&rad))?;
     let (w, h, irr) = atlas(field.irradiance_resolution, probes, |i| field.irradiance[i]);
-    report::add_image(set, "irradiance", (w, h), &irr, validate::auto_exposure(&irr))?;
-    set.add("distance.png", report::encode_png(&distance_preview(field), "distance.png")?);
-    set.add("normal.png", report::encode_png(&normal_preview(field), "normal.png")?);
+    report::add_image(
+        set,
+        "irradiance",
+        (w, h),
+        &irr,
+        validate::auto_exposure(&irr),
+    )?;
+    set.add(
+        "distance.png",
+        report::encode_png(&distance_preview(field), "distance.png")?,
+    );
+    set.add(
+        "normal.png",
+        report::encode_png(&normal_preview(field), "normal.png")?,
+    );
     if let Some(image) = reference {
         let exposure = validate::auto_exposure(&image.full);
         let size = (image.width, image.height);
         report::add_image(set, "reference", size, &image.full, exposure)?;
-        report::add_image(set, "reference-glossy", size, &image.glossy_indirect, exposure)?;
+        report::add_image(
+            set,
+            "reference-glossy",
+            size,
+            &image.glossy_indirect,
+            exposure,
+        )?;
     }
     Ok(())
 }
@@ -130,26 +157,40 @@ fn add_files(job: &mut Job, field: &LightField, reference: Option<&Reference>) -
 /// The bake `--from DIR` holds for `placement`, when the placement came
 /// from there too and the directory has a bake (and the reference the
 /// config's camera needs).
-pub(crate) fn load(job: &mut Job, prepared: &Prepared, placement: &place::Placement) -> Result<Option<Bake>> {
+pub(crate) fn load(
+    job: &mut Job,
+    prepared: &Prepared,
+    placement: &place::Placement,
+) -> Result<Option<Bake>> {
     let Some(e) = &job.earlier else {
         return Ok(None);
     };
     let has_camera = job.config.reference.camera.is_some();
     let placed_there = job.reused.iter().any(|r| r == "probes.json");
     let baked_there = matches!(placement.report.get("bake"), Some(Value::Object(_)));
-    if !placed_there || !baked_there || !e.has("lightfield.bin") || (has_camera && !e.has("reference.exr")) {
+    if !placed_there
+        || !baked_there
+        || !e.has("lightfield.bin")
+        || (has_camera && !e.has("reference.exr"))
+    {
         return Ok(None);
     }
     let path = e.path("lightfield.bin");
     let mut field = LightField::read(&path)?;
-    if field.provenance != job.provenance.to_bytes() || field.positions.len() != placement.probes.probes.len() {
+    if field.provenance != job.provenance.to_bytes()
+        || field.positions.len() != placement.probes.probes.len()
+    {
         return Err(place::mixed(&path));
     }
     // The file holds world positions in f32; the probes' own positions are
     // the exact ones the bake used.
     field.positions = placement.probes.positions();
     field.frame = prepared.scene.origin;
-    let reference = if has_camera { Some(read_reference(e)?) } else { None };
+    let reference = if has_camera {
+        Some(read_reference(e)?)
+    } else {
+        None
+    };
     job.carry(&FILES);
     job.carry(&REFERENCE_FILES);
     Ok(Some(Bake { field, reference }))

@@ -155,7 +155,8 @@ fn write(mut job: Job, bench: Bench, views: &[View], context: Option<&Context>) 
         placements: bench.figures,
     };
     job.set.add("compare.csv", to_csv(&report).into_bytes());
-    job.set.add("report.html", html::page(&report, &figures).into_bytes());
+    job.set
+        .add("report.html", html::page(&report, &figures).into_bytes());
     let value = serde_json::to_value(&report).map_err(|e| Error::Internal(e.to_string()))?;
     let summary = crate::report::compare::summary(&report);
     job.finish_with("compare.json", value, summary)
@@ -279,7 +280,14 @@ fn views(job: &mut Job, prepared: &Prepared, cameras: &[CameraParams]) -> Result
                     Some(r) => r,
                     None => validate::reference(config, prepared, camera, i),
                 };
-                View::new(config, prepared, camera, i, reference, config.compare.glossy_rays.0)
+                View::new(
+                    config,
+                    prepared,
+                    camera,
+                    i,
+                    reference,
+                    config.compare.glossy_rays.0,
+                )
             })
             .collect()
     });
@@ -323,8 +331,9 @@ impl Bench<'_> {
             let candidate = match reuse(job, method, self.prepared)? {
                 Some(found) => found,
                 None => {
-                    let placed = stages::place(&c, self.prepared, self.coverage, None, &self.progress)
-                        .map_err(|e| e.in_file(&job.config_path))?;
+                    let placed =
+                        stages::place(&c, self.prepared, self.coverage, None, &self.progress)
+                            .map_err(|e| e.in_file(&job.config_path))?;
                     let mut stats = stats_of(&placed.probes);
                     if let Some((r, _)) = &placed.refined {
                         stats.insert("refine_coverage_final".into(), r.coverage_final);
@@ -354,7 +363,13 @@ impl Bench<'_> {
         };
         let t = std::time::Instant::now();
         let probes = placement::file::read(&path, &self.prepared.scene, "file")?;
-        let placed = stages::place(&self.config, self.prepared, self.coverage, Some(probes), &self.progress)?;
+        let placed = stages::place(
+            &self.config,
+            self.prepared,
+            self.coverage,
+            Some(probes),
+            &self.progress,
+        )?;
         self.measure("file", Family::Given, candidate_of(placed))?;
         job.watch.record("file", t.elapsed().as_secs_f64() * 1e3);
         Ok(())
@@ -391,7 +406,12 @@ impl Bench<'_> {
     /// The competitors: what engines ship (the grid nearest our count,
     /// relocated and classified), and Silvennoinen & Lehtinen's greedy
     /// placement with as many probes as ours.
-    fn competitors(&mut self, job: &mut Job, grids: &[(usize, GridParams)], ours_count: usize) -> Result<()> {
+    fn competitors(
+        &mut self,
+        job: &mut Job,
+        grids: &[(usize, GridParams)],
+        ours_count: usize,
+    ) -> Result<()> {
         let mut competitors = Vec::new();
         if let Some((_, g)) = grids
             .iter()
@@ -399,7 +419,8 @@ impl Bench<'_> {
         {
             competitors.push((Placement::Relocated(*g), Family::Relocated));
         }
-        let spacing = placement::greedy::spacing_for_count(&self.prepared.domain, ours_count.max(1));
+        let spacing =
+            placement::greedy::spacing_for_count(&self.prepared.domain, ours_count.max(1));
         competitors.push((
             Placement::Greedy(GreedyParams {
                 spacing: Positive(spacing),
@@ -430,34 +451,50 @@ impl Bench<'_> {
     }
 
     /// Coverage, SVO, bake and the render from every camera of a placement.
-    fn measure(
-        &mut self,
-        name: &str,
-        family: Family,
-        candidate: Candidate,
-    ) -> Result<()> {
+    fn measure(&mut self, name: &str, family: Family, candidate: Candidate) -> Result<()> {
         let stats = candidate.stats;
-        let Prepared { scene, domain, bvh, sdf, .. } = self.prepared;
+        let Prepared {
+            scene,
+            domain,
+            bvh,
+            sdf,
+            ..
+        } = self.prepared;
         let probes = &candidate.probes;
         let positions = probes.positions();
-        let (cov, holes) = self.coverage.evaluate_with_holes(bvh, &positions, &self.progress);
+        let (cov, holes) = self
+            .coverage
+            .evaluate_with_holes(bvh, &positions, &self.progress);
         let health = crate::coverage::probe_health(sdf, domain, &positions);
         let views_png = report::placement_views(scene, domain, &positions, &holes, VIEW_SIZE);
         let mut tracer_name = "none";
         let (cameras, renders, errors, probe_bytes, svo_bytes) = match candidate.svo {
             _ if positions.is_empty() => {
-                self.warnings.push(format!("compare: {name} placed no probes; its renders are black"));
+                self.warnings.push(format!(
+                    "compare: {name} placed no probes; its renders are black"
+                ));
                 let (rows, renders, errors) = self.render_each(|view| Ok(validate::dark(view)))?;
                 (rows, renders, errors, 0, 0)
             }
             svo => {
                 let svo = match svo {
                     Some(s) => s,
-                    None => crate::svo::bake(&self.config.svo, probes, &self.prepared.placement_input(self.config.seed, &self.progress))?.svo,
+                    None => {
+                        crate::svo::bake(
+                            &self.config.svo,
+                            probes,
+                            &self
+                                .prepared
+                                .placement_input(self.config.seed, &self.progress),
+                        )?
+                        .svo
+                    }
                 };
                 let field = match candidate.field {
                     Some(f) => f,
-                    None => stages::bake(&self.config, self.prepared, &positions, &self.progress).field,
+                    None => {
+                        stages::bake(&self.config, self.prepared, &positions, &self.progress).field
+                    }
                 };
                 // Grids are traced as engines trace them today (McGuire et al.
                 // 2017: bi-level march, the cell's eight probes); the rest with
@@ -466,12 +503,18 @@ impl Bench<'_> {
                     Family::Grid => Lattice::from_positions(&field.positions),
                     _ => None,
                 };
-                tracer_name = if lattice.is_some() { "bilevel+grid" } else { "hiz+svo" };
+                tracer_name = if lattice.is_some() {
+                    "bilevel+grid"
+                } else {
+                    "hiz+svo"
+                };
                 let (rows, renders, errors) = self.render(name, &field, &svo, lattice.as_ref())?;
                 (rows, renders, errors, field.bytes() as u64, svo.bytes())
             }
         };
-        let mean = |f: fn(&CameraRow) -> f64| cameras.iter().map(f).sum::<f64>() / cameras.len().max(1) as f64;
+        let mean = |f: fn(&CameraRow) -> f64| {
+            cameras.iter().map(f).sum::<f64>() / cameras.len().max(1) as f64
+        };
         self.rows.push(PlacementRow {
             name: name.to_string(),
             family,
@@ -507,7 +550,8 @@ impl Bench<'_> {
     ) -> Result<(Vec<CameraRow>, Vec<Vec<u8>>, Vec<Vec<u8>>)> {
         let (tracer, why) = Tracer::new(self.context, field, Some(svo), lattice);
         if let Some(e) = why {
-            self.warnings.push(format!("compare: {name}: {e}; traced on the CPU twin"));
+            self.warnings
+                .push(format!("compare: {name}: {e}; traced on the CPU twin"));
         }
         if !tracer.on_gpu() {
             self.gpu_used = false;
@@ -536,7 +580,10 @@ impl Bench<'_> {
             let [irradiance, glossy] = answer(view)?;
             let v = validate::validate(view, &irradiance, &glossy);
             renders.push(png(&v.image.full, view, "render")?);
-            errors.push(report::encode_png(&view.heat_map(&v.image.glossy_indirect), "error map")?);
+            errors.push(report::encode_png(
+                &view.heat_map(&v.image.glossy_indirect),
+                "error map",
+            )?);
             rows.push(v.metrics);
         }
         Ok((rows, renders, errors))
@@ -556,8 +603,12 @@ fn candidate_of(placed: Placed) -> Candidate {
 /// Our `method`'s probes, SVO and light field from `--from DIR`, when that
 /// run placed them refined with this method; its files are carried.
 fn reuse(job: &mut Job, method: &str, prepared: &Prepared) -> Result<Option<Candidate>> {
-    let Some(e) = &job.earlier else { return Ok(None) };
-    let Some(report) = e.report.clone() else { return Ok(None) };
+    let Some(e) = &job.earlier else {
+        return Ok(None);
+    };
+    let Some(report) = e.report.clone() else {
+        return Ok(None);
+    };
     // Ours are refined: the earlier run's method is ours with `+refine`.
     let refined = format!("{method}+refine");
     if report["method"].as_str() != Some(refined.as_str()) || report["refine"].is_null() {
@@ -600,9 +651,6 @@ fn png(pixels: &[[f32; 3]], view: &View, what: &str) -> Result<Vec<u8>> {
     let (w, h) = (view.reference.width, view.reference.height);
     report::encode_png(&exr::tonemap(pixels, w, h, view.exposure), what)
 }
-
-
-
 
 #[cfg(test)]
 mod tests {

@@ -111,7 +111,13 @@ pub fn inspect(path: &Path) -> Result<Inspection> {
     let light_field = if lf_path.exists() {
         let field = crate::lightfield::LightField::read(&lf_path)?;
         if field.provenance != svo.provenance {
-            return Err(Error::user_file(&lf_path, format!("comes from another run than {}: the two come from different runs", file.display())));
+            return Err(Error::user_file(
+                &lf_path,
+                format!(
+                    "comes from another run than {}: the two come from different runs",
+                    file.display()
+                ),
+            ));
         }
         if field.positions.len() != svo.probe_count as usize {
             return Err(Error::user_file(
@@ -140,7 +146,9 @@ pub fn inspect(path: &Path) -> Result<Inspection> {
 fn check_one_run(file: &Path, svo: &Svo) -> Result<()> {
     for name in ["report.json", "probes.json", "compare.json"] {
         let path = file.with_file_name(name);
-        let Ok(bytes) = std::fs::read(&path) else { continue };
+        let Ok(bytes) = std::fs::read(&path) else {
+            continue;
+        };
         let value: Value = serde_json::from_slice(&bytes)
             .map_err(|e| Error::user_file(&path, format!("not JSON: {e}")))?;
         let provenance: Option<crate::provenance::Provenance> =
@@ -148,7 +156,10 @@ fn check_one_run(file: &Path, svo: &Svo) -> Result<()> {
         if provenance.map(|p| p.to_bytes()) != Some(svo.provenance) {
             return Err(Error::user_file(
                 &path,
-                format!("comes from another run than {}: the two come from different runs", file.display()),
+                format!(
+                    "comes from another run than {}: the two come from different runs",
+                    file.display()
+                ),
             ));
         }
     }

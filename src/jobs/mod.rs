@@ -82,7 +82,11 @@ impl Outcome {
     pub fn warnings(&self) -> Vec<String> {
         self.report["warnings"]
             .as_array()
-            .map(|a| a.iter().filter_map(|w| w.as_str().map(String::from)).collect())
+            .map(|a| {
+                a.iter()
+                    .filter_map(|w| w.as_str().map(String::from))
+                    .collect()
+            })
             .unwrap_or_default()
     }
 
@@ -112,9 +116,15 @@ impl Earlier {
             serde_json::from_slice(&std::fs::read(dir.join(name)).ok()?).ok()
         };
         let report = read("report.json");
-        let main = report.clone().or_else(|| read("compare.json")).ok_or_else(|| {
-            Error::user_file(dir, "--from: holds no report.json or compare.json of probeplace")
-        })?;
+        let main = report
+            .clone()
+            .or_else(|| read("compare.json"))
+            .ok_or_else(|| {
+                Error::user_file(
+                    dir,
+                    "--from: holds no report.json or compare.json of probeplace",
+                )
+            })?;
         let provenance = serde_json::from_value(main["provenance"].clone()).map_err(|_| {
             Error::user_file(
                 dir,
@@ -254,7 +264,12 @@ impl Job {
     }
 
     /// [`Job::finish`] with the summary lines given.
-    pub fn finish_with(mut self, name: &str, mut report: Value, summary: Vec<String>) -> Result<Outcome> {
+    pub fn finish_with(
+        mut self,
+        name: &str,
+        mut report: Value,
+        summary: Vec<String>,
+    ) -> Result<Outcome> {
         // This run's stages only: what it reused took no time.
         let mut timings = serde_json::Map::new();
         for (k, v) in self.watch.to_map() {
@@ -339,7 +354,11 @@ fn summary(r: &Value) -> Vec<String> {
     let b = &r["bake"];
     if b.is_object() {
         let seen = f(&b["tracer"]["seen"]);
-        let rate = if seen > 0.0 { f(&b["tracer"]["agree"]) / seen } else { 1.0 };
+        let rate = if seen > 0.0 {
+            f(&b["tracer"]["agree"]) / seen
+        } else {
+            1.0
+        };
         line += &format!(
             "; baked at {}² ({:.1} MB), tracer agrees with ray casts on {:.2}% of seen hits",
             b["resolution"],
@@ -352,7 +371,9 @@ fn summary(r: &Value) -> Vec<String> {
         let parts: Vec<String> = variants
             .iter()
             .map(|(name, v)| {
-                let ms = v["gpu_ms"].as_f64().map_or(String::new(), |ms| format!(", {ms:.1} ms"));
+                let ms = v["gpu_ms"]
+                    .as_f64()
+                    .map_or(String::new(), |ms| format!(", {ms:.1} ms"));
                 format!(
                     "{name} mse_glossy {:.3e}, {:.1} texel fetches/ray{ms}",
                     f(&v["mse_glossy"]),

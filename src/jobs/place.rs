@@ -119,7 +119,11 @@ fn compute_placed(job: &mut Job, prepared: &Prepared) -> Result<(CoverageReferen
 }
 
 /// Adds the placement's files to the job's set and builds its report.
-fn encode(job: &mut Job, prepared: &Prepared, mut placed: Placed) -> Result<(ProbeSet, Svo, Report)> {
+fn encode(
+    job: &mut Job,
+    prepared: &Prepared,
+    mut placed: Placed,
+) -> Result<(ProbeSet, Svo, Report)> {
     let Some((mut svo, svo_report)) = placed.svo.take() else {
         return Err(Error::User(format!(
             "{}: the placement has no probe",
@@ -150,7 +154,8 @@ fn encode(job: &mut Job, prepared: &Prepared, mut placed: Placed) -> Result<(Pro
     job.set.add("svo.bin", svo.to_bytes());
     job.set.add("placement.png", png);
     if let Some((_, atlas)) = &placed.refined {
-        job.set.add("atlas.png", report::encode_png(atlas, "atlas.png")?);
+        job.set
+            .add("atlas.png", report::encode_png(atlas, "atlas.png")?);
     }
     let report = Report::new(job, prepared, &placed, svo_report);
     Ok((placed.probes, svo, report))
@@ -168,15 +173,19 @@ pub(crate) fn load(job: &mut Job, prepared: &Prepared) -> Result<Option<Placemen
     let probes_path = e.path("probes.json");
     let method = report["method"].as_str().unwrap_or("file").to_string();
     let probes = placement::file::read(&probes_path, &prepared.scene, &method)?;
-    let probes_json: Value = serde_json::from_slice(&std::fs::read(&probes_path).map_err(|x| Error::io(&probes_path, x))?)
-        .map_err(|x| Error::user_file(&probes_path, x))?;
+    let probes_json: Value = serde_json::from_slice(
+        &std::fs::read(&probes_path).map_err(|x| Error::io(&probes_path, x))?,
+    )
+    .map_err(|x| Error::user_file(&probes_path, x))?;
     if probes_json["provenance"] != report["provenance"] {
         return Err(mixed(&probes_path));
     }
     let svo_path = e.path("svo.bin");
     let bytes = std::fs::read(&svo_path).map_err(|x| Error::user_file(&svo_path, x))?;
     let mut svo = svo::format::from_bytes(&bytes).map_err(|m| Error::user_file(&svo_path, m))?;
-    if svo.provenance != job.provenance.to_bytes() || svo.probe_count as usize != probes.probes.len() {
+    if svo.provenance != job.provenance.to_bytes()
+        || svo.probe_count as usize != probes.probes.len()
+    {
         return Err(mixed(&svo_path));
     }
     svo.origin = (svo::format::exact_origin(&bytes) - prepared.scene.origin).as_vec3();

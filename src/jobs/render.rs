@@ -5,8 +5,8 @@
 use super::{bake, place, push_warnings, Job, Outcome, RunOptions};
 use crate::error::{Error, Result};
 use crate::gpu::{Context, SelectionKind};
-use crate::report::render::{RenderReport, VariantReport};
 use crate::report;
+use crate::report::render::{RenderReport, VariantReport};
 use crate::stages::validate::{self, Tracer, View};
 use crate::trace::{single::March, Lattice};
 use std::collections::BTreeMap;
@@ -57,14 +57,25 @@ pub fn render(options: &RunOptions) -> Result<Outcome> {
     let prepared = job.prepare()?;
     let mut placement = place::placement(&mut job, &prepared)?;
     let baked = bake::bake_stage(&mut job, &prepared, &mut placement)?;
-    let reference = baked.reference.ok_or_else(|| Error::Internal("render without a reference".into()))?;
+    let reference = baked
+        .reference
+        .ok_or_else(|| Error::Internal("render without a reference".into()))?;
     let mut watch = job.progress.stopwatch();
     let view = watch.time("gbuffer", || {
         View::new(&job.config, &prepared, &camera, 0, reference, GLOSSY_RAYS)
     });
     let mut warnings = Vec::new();
-    let report = render_variants(&mut job, &view, &baked.field, &placement.svo, &variants, &mut watch, &mut warnings)?;
-    placement.report["render"] = serde_json::to_value(&report).map_err(|e| Error::Internal(e.to_string()))?;
+    let report = render_variants(
+        &mut job,
+        &view,
+        &baked.field,
+        &placement.svo,
+        &variants,
+        &mut watch,
+        &mut warnings,
+    )?;
+    placement.report["render"] =
+        serde_json::to_value(&report).map_err(|e| Error::Internal(e.to_string()))?;
     push_warnings(&mut placement.report, &warnings);
     job.finish("report.json", placement.report)
 }
@@ -129,12 +140,38 @@ fn render_variants(
         let glossy = tracer.trace(view, march, kind)?;
         let v = validate::validate(view, &gathered[at].1, &glossy);
         let set = &mut job.set;
-        report::add_image(set, &format!("render_{name}"), size, &v.image.full, view.exposure)?;
-        report::add_image(set, &format!("render_{name}-glossy"), size, &v.image.glossy_indirect, view.exposure)?;
+        report::add_image(
+            set,
+            &format!("render_{name}"),
+            size,
+            &v.image.full,
+            view.exposure,
+        )?;
+        report::add_image(
+            set,
+            &format!("render_{name}-glossy"),
+            size,
+            &v.image.glossy_indirect,
+            view.exposure,
+        )?;
         let heat = format!("error_{name}.png");
-        set.add(heat.clone(), report::encode_png(&view.heat_map(&v.image.glossy_indirect), &heat)?);
-        let selection = if kind == SelectionKind::Grid { "grid" } else { "svo" };
-        reports.insert(name.to_string(), VariantReport { march: name, selection, metrics: v.metrics });
+        set.add(
+            heat.clone(),
+            report::encode_png(&view.heat_map(&v.image.glossy_indirect), &heat)?,
+        );
+        let selection = if kind == SelectionKind::Grid {
+            "grid"
+        } else {
+            "svo"
+        };
+        reports.insert(
+            name.to_string(),
+            VariantReport {
+                march: name,
+                selection,
+                metrics: v.metrics,
+            },
+        );
         watch.record(name, t.elapsed().as_secs_f64() * 1e3);
     }
     let timings_ms = watch.to_map_with_total();

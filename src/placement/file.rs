@@ -33,7 +33,10 @@ pub fn read(path: &Path, scene: &Scene, method: &str) -> Result<ProbeSet> {
         .map(|(i, (world, cluster_size))| {
             let position = scene.to_local(world);
             if !position.is_finite() {
-                return Err(Error::user_file(path, format!("probe {i}: the position is not finite")));
+                return Err(Error::user_file(
+                    path,
+                    format!("probe {i}: the position is not finite"),
+                ));
             }
             Ok(Probe {
                 position,
@@ -79,7 +82,10 @@ pub fn read_world(path: &Path) -> Result<Vec<(DVec3, u32)>> {
     if entries.len() > MAX_PROBES {
         return Err(Error::user_file(
             path,
-            format!("holds {} probes; at most {MAX_PROBES} are read", entries.len()),
+            format!(
+                "holds {} probes; at most {MAX_PROBES} are read",
+                entries.len()
+            ),
         ));
     }
     entries

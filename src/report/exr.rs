@@ -124,7 +124,10 @@ pub fn decode_rgb(bytes: &[u8]) -> Result<(u32, u32, Vec<[f32; 3]>), String> {
             .ok_or("truncated header")?;
         if name == b"dataWindow" && size == 16 {
             let v = |i: usize| i32::from_le_bytes(value[i..i + 4].try_into().expect("4 bytes"));
-            window = Some((v(8) as i64 - v(0) as i64 + 1, v(12) as i64 - v(4) as i64 + 1));
+            window = Some((
+                v(8) as i64 - v(0) as i64 + 1,
+                v(12) as i64 - v(4) as i64 + 1,
+            ));
         }
         at = size_at + 4 + size;
     }

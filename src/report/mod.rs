@@ -19,9 +19,9 @@ pub mod render;
 
 use crate::config::UpAxis;
 use crate::coverage::Coverage;
-use crate::provenance::Provenance;
 use crate::error::{Error, Result};
 use crate::placement::ProbeSet;
+use crate::provenance::Provenance;
 use crate::refine::RefineReport;
 use crate::scene::{world_to_file, Bounds, Scene};
 use crate::sdf::{Sdf, VoxelClass};
@@ -288,7 +288,9 @@ impl Report {
             probes_outside_scene: health.probes_outside_scene,
             probes_outside_domain: health.probes_outside_domain,
             probes_below_clearance: refine.as_ref().map_or(0, |r| r.probes_below_clearance),
-            best_view_incidence_deg: refine.as_ref().and_then(|r| r.best_view_incidence_deg_final),
+            best_view_incidence_deg: refine
+                .as_ref()
+                .and_then(|r| r.best_view_incidence_deg_final),
             scene: SceneRecord {
                 path: config.scene.display().to_string(),
                 triangles: scene.triangles.len(),
@@ -366,7 +368,10 @@ pub fn add_image(
 ) -> Result<()> {
     let png = format!("{stem}.png");
     let image = exr::tonemap(pixels, width, height, exposure);
-    set.add(format!("{stem}.exr"), exr::encode_rgb(width, height, pixels));
+    set.add(
+        format!("{stem}.exr"),
+        exr::encode_rgb(width, height, pixels),
+    );
     set.add(png.clone(), encode_png(&image, &png)?);
     Ok(())
 }

@@ -50,14 +50,12 @@ pub fn place(
     let refine_it = config.refine.enabled && given.is_none();
     let probes = match given {
         Some(p) => p,
-        None => timings
-            .try_time("placement", || placement::place(&config.placement, &input))?,
+        None => timings.try_time("placement", || placement::place(&config.placement, &input))?,
     };
     let (probes, refined) = if refine_it {
-        let out = timings
-            .try_time("refine", || {
-                refine::refine(&config.refine, probes, &input, reference)
-            })?;
+        let out = timings.try_time("refine", || {
+            refine::refine(&config.refine, probes, &input, reference)
+        })?;
         (out.probes, Some((out.report, out.atlas_image)))
     } else {
         (probes, None)
@@ -72,8 +70,7 @@ pub fn place(
     let svo = if positions.is_empty() {
         None
     } else {
-        let baked = timings
-            .try_time("svo", || svo::bake(&config.svo, &probes, &input))?;
+        let baked = timings.try_time("svo", || svo::bake(&config.svo, &probes, &input))?;
         Some((baked.svo, baked.report))
     };
     Ok(Placed {

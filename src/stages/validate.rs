@@ -10,7 +10,9 @@ use crate::error::{Error, Result};
 use crate::gpu::{kind, twin, Context, ProbeTracer, Record, SelectionKind};
 use crate::lightfield::LightField;
 use crate::render::lights::luminance;
-use crate::render::probes::{box_filter, compose, error_heat_map, gbuffer, mse, GBuffer, ProbeImage};
+use crate::render::probes::{
+    box_filter, compose, error_heat_map, gbuffer, mse, GBuffer, ProbeImage,
+};
 use crate::render::reference::{mean_of, render_reference};
 use crate::render::{Reference, Renderer};
 use crate::svo::Svo;
@@ -34,7 +36,12 @@ fn camera_seed(config: &Config, index: usize) -> u64 {
 /// `reference` size, paths and bounces.
 ///
 /// Contract: deterministic for a config and camera index.
-pub fn reference(config: &Config, prepared: &Prepared, camera: &CameraParams, index: usize) -> Reference {
+pub fn reference(
+    config: &Config,
+    prepared: &Prepared,
+    camera: &CameraParams,
+    index: usize,
+) -> Reference {
     let r = &config.reference;
     let renderer = Renderer::new(&prepared.scene, &prepared.bvh, &config.lights, r.bounces.0);
     render_reference(
@@ -104,7 +111,13 @@ impl View {
     /// The glossy error heat map of `glossy` against the reference.
     pub fn heat_map(&self, glossy: &[[f32; 3]]) -> image::RgbImage {
         let r = &self.reference;
-        error_heat_map(glossy, &r.glossy_indirect, r.width, r.height, self.error_scale)
+        error_heat_map(
+            glossy,
+            &r.glossy_indirect,
+            r.width,
+            r.height,
+            self.error_scale,
+        )
     }
 }
 
@@ -157,7 +170,9 @@ impl<'a> Tracer<'a> {
         match (kind, self.lattice, self.svo) {
             (SelectionKind::Grid, Some(l), _) => Ok(Selection::Grid(l)),
             (SelectionKind::Svo, _, Some(s)) => Ok(Selection::Svo(s)),
-            _ => Err(Error::Internal(format!("{kind:?} selection without its structure"))),
+            _ => Err(Error::Internal(format!(
+                "{kind:?} selection without its structure"
+            ))),
         }
     }
 
@@ -166,7 +181,10 @@ impl<'a> Tracer<'a> {
         let q = &view.gbuffer.irradiance;
         match &self.gpu {
             Some(t) => t.gather_irradiance(q, kind).map_err(Error::Internal),
-            None => Ok((twin::gather_irradiance(self.field, &self.selection(kind)?, q), None)),
+            None => Ok((
+                twin::gather_irradiance(self.field, &self.selection(kind)?, q),
+                None,
+            )),
         }
     }
 
@@ -175,7 +193,10 @@ impl<'a> Tracer<'a> {
         let q = &view.gbuffer.glossy;
         match &self.gpu {
             Some(t) => t.trace_rays(q, march, kind).map_err(Error::Internal),
-            None => Ok((twin::trace_rays(self.field, &self.selection(kind)?, q, march), None)),
+            None => Ok((
+                twin::trace_rays(self.field, &self.selection(kind)?, q, march),
+                None,
+            )),
         }
     }
 }
@@ -224,11 +245,7 @@ pub struct Validation {
 /// Composes the view from `irradiance` (answers to its irradiance queries)
 /// and `glossy` (to its glossy rays) and measures it; `gpu_ms` is the sum
 /// of the two kernels' GPU times where both have one.
-pub fn validate(
-    view: &View,
-    irradiance: &Answers,
-    glossy: &Answers,
-) -> Validation {
+pub fn validate(view: &View, irradiance: &Answers, glossy: &Answers) -> Validation {
     let image = compose(&view.gbuffer, &irradiance.0, &glossy.0);
     let records = &glossy.0;
     let rays = records.len().max(1) as f64;
@@ -267,7 +284,10 @@ pub fn dark(view: &View) -> [Answers; 2] {
         };
         (vec![r; n], None)
     };
-    [none(view.gbuffer.irradiance.len()), none(view.gbuffer.glossy.len())]
+    [
+        none(view.gbuffer.irradiance.len()),
+        none(view.gbuffer.glossy.len()),
+    ]
 }
 
 /// Mean luminance of `pixels`, non-finite values left out (0 for none).
