@@ -6,8 +6,7 @@
 //! coordinates turned the box's 6 probes into 48 at 1 km and 300 at 100 km:
 //! the occlusion tests' epsilons (a thousandth of a voxel) fell below one ulp.
 
-mod common;
-use common::*;
+use crate::common::*;
 use std::path::{Path, PathBuf};
 
 /// One placement of the Cornell box.

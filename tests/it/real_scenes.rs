@@ -1,8 +1,7 @@
 //! The real scenes of McGuire's Computer Graphics Archive, read from
 //! ../shared/scenes (never copied into the repository).
 
-mod common;
-use common::*;
+use crate::common::*;
 
 fn run(config: &str) -> serde_json::Value {
     shared_scenes();

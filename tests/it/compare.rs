@@ -3,8 +3,7 @@
 //! our procedural pillared hall; the three files; the HTML page in headless
 //! Chromium; determinism.
 
-mod common;
-use common::*;
+use crate::common::*;
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;

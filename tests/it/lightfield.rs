@@ -3,8 +3,7 @@
 //! casts find, on the Cornell boxes and Holodeck, with both probe
 //! selections; `bake` writes what it documents and its reference converges.
 
-mod common;
-use common::*;
+use crate::common::*;
 use probeplace::lightfield::{pyramid, LightField};
 use probeplace::svo;
 use probeplace::trace::single::March;

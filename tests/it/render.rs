@@ -4,8 +4,7 @@
 //! at equal error, the run is deterministic, and without a GPU the CPU twin
 //! renders the same image.
 
-mod common;
-use common::*;
+use crate::common::*;
 use std::path::Path;
 
 fn render(config: &str, out: &Path, extra: &[&str]) -> serde_json::Value {

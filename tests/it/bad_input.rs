@@ -1,8 +1,7 @@
 //! Every user mistake exits 2 with one line naming the file or field, prints
 //! no panic, and writes nothing.
 
-mod common;
-use common::*;
+use crate::common::*;
 use std::path::Path;
 
 /// `dir/run.ron`: the minimal config for `scene`, plus the fields in `extra`.

@@ -4,8 +4,7 @@
 //! a hit is read from; the irradiance gather (McGuire §5.2) matches its
 //! twin; and Hi-Z reads fewer texels than bi-level.
 
-mod common;
-use common::*;
+use crate::common::*;
 use glam::Vec3;
 use probeplace::gpu::{kind, twin, ProbeTracer, Query, Record, SelectionKind};
 use probeplace::lightfield::LightField;

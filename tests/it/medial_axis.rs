@@ -2,8 +2,7 @@
 //! acceptance on the Cornell box and Sponza, and its density control (Wang et al. 2019 Fig. 3: pre-clustering
 //! more coarsely gives fewer probes) on several scenes.
 
-mod common;
-use common::*;
+use crate::common::*;
 use probeplace::config::{Config, MedialAxisParams, Placement, Positive};
 use probeplace::placement;
 use probeplace::progress::Progress;

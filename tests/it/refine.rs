@@ -3,11 +3,10 @@
 //! the procedural pillared hall, each compared with the uniform grids that
 //! McGuire et al. 2017 would use at the same coverage target.
 //!
-//! `cargo test --release --test refine -- --nocapture` prints the table the
+//! `cargo test --release -- refine:: --nocapture` prints the table the
 //! README quotes.
 
-mod common;
-use common::*;
+use crate::common::*;
 use probeplace::config::Config;
 use probeplace::coverage::CoverageReference;
 use probeplace::pipeline::{self, PlaceOptions};

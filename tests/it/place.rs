@@ -1,7 +1,6 @@
 //! End-to-end runs of `probeplace place` on our own fixtures.
 
-mod common;
-use common::*;
+use crate::common::*;
 
 #[test]
 fn cornell_default_run_meets_the_acceptance_bar() {

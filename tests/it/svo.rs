@@ -2,8 +2,7 @@
 //! end to end on the scenes the issue names: for random free points, the
 //! first listed probe must see the point.
 
-mod common;
-use common::*;
+use crate::common::*;
 use glam::DVec3;
 use probeplace::config::Config;
 use probeplace::pipeline;
