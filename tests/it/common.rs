@@ -189,40 +189,6 @@ pub fn gpu_context(test: &str) -> Option<probeplace::gpu::Context> {
     }
 }
 
-/// Places `config`'s probes (with `method`, unrefined, when given), then
-/// bakes their light field at the config's resolution with `radiance`.
-pub fn place_and_bake(
-    config: &str,
-    method: Option<&str>,
-    radiance: &probeplace::lightfield::maps::RadianceFn,
-) -> (
-    probeplace::pipeline::PlaceRun,
-    probeplace::lightfield::LightField,
-) {
-    use probeplace::pipeline::{self, PlaceOptions};
-    let path = root().join(config);
-    let cfg = probeplace::config::Config::load(&path).unwrap();
-    let options = PlaceOptions {
-        method: method.map(String::from),
-        no_refine: method.is_some(),
-        ..PlaceOptions::default()
-    };
-    let run = pipeline::compute_place(cfg.clone(), &path, &options).unwrap();
-    let p = &run.prepared;
-    let field = probeplace::lightfield::bake(
-        &cfg.bake,
-        &run.probes.positions(),
-        &p.scene,
-        &p.bvh,
-        p.domain.size().length(),
-        cfg.seed,
-        radiance,
-        &probeplace::progress::Progress::hidden(),
-    )
-    .field;
-    (run, field)
-}
-
 /// `config`'s probes (with `method`, unrefined, when given) and their light
 /// field baked at the config's resolution, with a radiance that is a colour
 /// per direction (so that a texel read from the wrong place reads the wrong
