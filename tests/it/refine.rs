@@ -8,7 +8,6 @@
 
 use crate::common::*;
 use probeplace::config::Config;
-use probeplace::coverage::CoverageReference;
 use probeplace::pipeline::{self, PlaceOptions};
 use probeplace::progress::Progress;
 
@@ -27,8 +26,12 @@ fn compare_with_grids(config: &str, target: f32) -> (u64, Option<([u32; 3], f64)
         out: Some(out.path().to_path_buf()),
         ..Default::default()
     };
-    let outcome = pipeline::place_with(cfg.clone(), &path, &options).unwrap();
-    let r = outcome.report;
+    // `place` as the command runs it (what `place_with` does), keeping the
+    // run: its scene and coverage reference score the grids below.
+    let mut run = pipeline::compute_place(cfg, &path, &options).unwrap();
+    run.finish_timings();
+    run.write_files().unwrap();
+    let r = &run.report;
     assert_eq!(r.probes_in_solid, 0, "{config}");
     assert_eq!(r.probes_outside_scene, 0, "{config}");
     assert!(
@@ -40,20 +43,12 @@ fn compare_with_grids(config: &str, target: f32) -> (u64, Option<([u32; 3], f64)
     assert_eq!(refine.coverage_final, r.coverage, "{config}");
     assert!(out.path().join("atlas.png").is_file());
 
-    // The grids, scored by the same coverage measure (same seed, same samples).
+    // The grids, scored by the same coverage measure: the run's own
+    // reference (same seed, same samples).
     let progress = Progress::hidden();
-    let prepared = pipeline::prepare(&cfg, &path, &progress, &mut Default::default()).unwrap();
-    let reference = CoverageReference::new(
-        &prepared.scene,
-        &prepared.bvh,
-        &prepared.sdf,
-        &cfg.coverage,
-        cfg.seed,
-        &progress,
-    );
     let smallest = probeplace::compare::smallest_grid_reaching(
-        &prepared,
-        &reference,
+        &run.prepared,
+        &run.reference,
         target as f64,
         SWEEP_STEPS,
         None,
