@@ -310,8 +310,8 @@ fn svo_mistakes_name_their_field() {
 #[test]
 fn inspect_refuses_what_is_not_an_intact_svo() {
     let d = tempfile::tempdir().unwrap();
-    let out = d.path().join("out");
-    place(&root().join("configs/cornell.ron"), &out, &["--no-refine"]);
+    // A placement alone, shared with the `svo` inspect test (read only).
+    let out = &shared_job("place", "configs/cornell.ron", &["--no-refine"]).dir;
     let good = std::fs::read(out.join("svo.bin")).unwrap();
     let check = |name: &str, bytes: &[u8], why: &str| {
         let p = d.path().join(name);
