@@ -272,6 +272,15 @@ pub const TEST_REFERENCE: [(&str, &str); 3] =
 /// The test-quality `compare`, set inside the config's own `compare`.
 pub const TEST_COMPARE: [(&str, &str); 1] = [("glossy_rays", "2")];
 
+/// The test-quality coverage measure (a tenth of the samples: a 95%
+/// interval of about ±1.6% instead of ±0.5%), set inside the config's own
+/// `coverage`.
+pub const TEST_COVERAGE: [(&str, &str); 2] = [("samples", "4000"), ("reference_points", "1024")];
+
+/// Test-quality refinement: a quarter of the sweeps, then filling and
+/// pruning as usual; set inside the config's own `refine`.
+pub const TEST_REFINE: [(&str, &str); 1] = [("iterations", "5")];
+
 /// A config written for one test into a temporary directory, which lives as
 /// long as this value.
 pub struct Overlay {
@@ -341,9 +350,10 @@ pub fn overlay(config: &str, set: &[(&str, &str)]) -> Overlay {
     Overlay { path, _dir: dir }
 }
 
-/// [`overlay`] at test quality: [`TEST_BAKE`], [`TEST_REFERENCE`] and
-/// [`TEST_COMPARE`] (the latter two inside the config's own `reference`
-/// and `compare`, keeping its camera), then the fields of `set`.
+/// [`overlay`] at test quality: [`TEST_BAKE`], then [`TEST_REFERENCE`],
+/// [`TEST_COMPARE`], [`TEST_COVERAGE`] and [`TEST_REFINE`] within the
+/// config's own fields of those names (so that its camera, coverage target
+/// and the like stay), then the fields of `set` (whole).
 pub fn test_quality(config: &str, set: &[(&str, &str)]) -> Overlay {
     let text = std::fs::read_to_string(root().join(config)).unwrap();
     let within = |field: &str, values: &[(&str, &str)]| {
@@ -351,10 +361,14 @@ pub fn test_quality(config: &str, set: &[(&str, &str)]) -> Overlay {
     };
     let reference = within("reference", &TEST_REFERENCE);
     let compare = within("compare", &TEST_COMPARE);
+    let coverage = within("coverage", &TEST_COVERAGE);
+    let refine = within("refine", &TEST_REFINE);
     let mut fields = vec![
         ("bake", TEST_BAKE),
         ("reference", reference.as_str()),
         ("compare", compare.as_str()),
+        ("coverage", coverage.as_str()),
+        ("refine", refine.as_str()),
     ];
     for &(k, v) in set {
         fields.retain(|(f, _)| *f != k);
@@ -709,6 +723,11 @@ fn test_quality_overlays_change_only_what_they_set() {
             shipped.reference.samples_per_pixel,
         );
         c.compare.glossy_rays = shipped.compare.glossy_rays;
+        assert_eq!(c.coverage.samples.0, 4000, "{name}");
+        assert_eq!(c.refine.iterations.0, 5, "{name}");
+        (c.coverage.samples, c.coverage.reference_points) =
+            (shipped.coverage.samples, shipped.coverage.reference_points);
+        c.refine.iterations = shipped.refine.iterations;
         assert_eq!(c, shipped, "{name}");
     }
 }

@@ -131,14 +131,16 @@ fn grid_method_from_the_command_line() {
     assert_eq!(r["probes_in_solid"].as_u64().unwrap() as usize, in_solid);
 }
 
+/// At test quality.
 #[test]
 fn same_config_and_seed_give_byte_identical_probes() {
     // Refinement is on (the default): its Gibbs sampling is seeded too.
+    let config = test_quality("configs/cornell.ron", &[]);
     for method in ["sdf-skeleton", "medial-axis", "grid:3x3x3"] {
         let (a, b) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
-        let cfg = root().join("configs/cornell.ron");
-        place(&cfg, a.path(), &["--method", method]);
-        place(&cfg, b.path(), &["--method", method]);
+        let cfg = config.path();
+        place(cfg, a.path(), &["--method", method]);
+        place(cfg, b.path(), &["--method", method]);
         for f in ["probes.json", "svo.bin", "placement.png", "atlas.png"] {
             assert_eq!(
                 std::fs::read(a.path().join(f)).unwrap(),
