@@ -350,31 +350,34 @@ pub fn overlay(config: &str, set: &[(&str, &str)]) -> Overlay {
     Overlay { path, _dir: dir }
 }
 
-/// [`overlay`] at test quality: [`TEST_BAKE`], then [`TEST_REFERENCE`],
-/// [`TEST_COMPARE`], [`TEST_COVERAGE`] and [`TEST_REFINE`] within the
-/// config's own fields of those names (so that its camera, coverage target
-/// and the like stay), then the fields of `set` (whole).
+/// [`overlay`] at test quality ([`test_quality_fields`]), then the fields
+/// of `set` (whole).
 pub fn test_quality(config: &str, set: &[(&str, &str)]) -> Overlay {
     let text = std::fs::read_to_string(root().join(config)).unwrap();
-    let within = |field: &str, values: &[(&str, &str)]| {
-        set_ron_fields(&ron_field(&text, field).unwrap_or_else(|| "()".into()), values)
-    };
-    let reference = within("reference", &TEST_REFERENCE);
-    let compare = within("compare", &TEST_COMPARE);
-    let coverage = within("coverage", &TEST_COVERAGE);
-    let refine = within("refine", &TEST_REFINE);
-    let mut fields = vec![
-        ("bake", TEST_BAKE),
-        ("reference", reference.as_str()),
-        ("compare", compare.as_str()),
-        ("coverage", coverage.as_str()),
-        ("refine", refine.as_str()),
-    ];
+    let mut fields = test_quality_fields(&text);
     for &(k, v) in set {
         fields.retain(|(f, _)| *f != k);
-        fields.push((k, v));
+        fields.push((k, v.to_string()));
     }
+    let fields: Vec<(&str, &str)> = fields.iter().map(|(k, v)| (*k, v.as_str())).collect();
     overlay(config, &fields)
+}
+
+/// The top-level fields that put the RON config `text` at test quality:
+/// [`TEST_BAKE`], then [`TEST_REFERENCE`], [`TEST_COMPARE`],
+/// [`TEST_COVERAGE`] and [`TEST_REFINE`] within the config's own fields of
+/// those names (so that its camera, coverage target and the like stay).
+pub fn test_quality_fields(text: &str) -> Vec<(&'static str, String)> {
+    let within = |field: &str, values: &[(&str, &str)]| {
+        set_ron_fields(&ron_field(text, field).unwrap_or_else(|| "()".into()), values)
+    };
+    vec![
+        ("bake", TEST_BAKE.to_string()),
+        ("reference", within("reference", &TEST_REFERENCE)),
+        ("compare", within("compare", &TEST_COMPARE)),
+        ("coverage", within("coverage", &TEST_COVERAGE)),
+        ("refine", within("refine", &TEST_REFINE)),
+    ]
 }
 
 /// A RON string literal holding `s`.
