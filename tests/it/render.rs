@@ -4,22 +4,18 @@
 //! at equal error, the run is deterministic, and without a GPU the CPU twin
 //! renders the same image.
 
-mod common;
-use common::*;
+use crate::common::*;
 use std::path::Path;
-
-fn render(config: &str, out: &Path, extra: &[&str]) -> serde_json::Value {
-    run_job("render", &root().join(config), out, extra)
-}
 
 fn f(v: &serde_json::Value) -> f64 {
     v.as_f64().unwrap_or_else(|| panic!("not a number: {v}"))
 }
 
-/// The acceptance on one scene, both variants.
+/// The acceptance on one scene, both variants, at the shipped config's
+/// quality (the run is shared: `lightfield` reads its bake).
 fn renders_both_variants(config: &str) {
-    let dir = tempfile::tempdir().unwrap();
-    let r = render(config, dir.path(), &[]);
+    let run = shared_job("render", config, &[]);
+    let (dir, r) = (&run.dir, &run.report);
     let x = &r["render"];
     eprintln!("{config}: {x:#}");
     if std::env::var_os("CI").is_some() {
@@ -60,7 +56,7 @@ fn renders_both_variants(config: &str) {
             format!("render_{name}-glossy.png"),
             format!("error_{name}.png"),
         ] {
-            let img = image::open(dir.path().join(&file)).unwrap();
+            let img = image::open(dir.join(&file)).unwrap();
             assert_eq!((img.width(), img.height()), (w, h), "{config}: {file}");
         }
         for file in [
@@ -68,7 +64,7 @@ fn renders_both_variants(config: &str) {
             format!("render_{name}-glossy.exr"),
         ] {
             let img = exr::prelude::read_first_rgba_layer_from_file(
-                dir.path().join(&file),
+                dir.join(&file),
                 |res, _| vec![[0.0f32; 3]; res.width() * res.height()],
                 |px: &mut Vec<[f32; 3]>, pos, (r, g, b, _a): (f32, f32, f32, f32)| {
                     px[pos.y() * pos.width() + pos.x()] = [r, g, b];
@@ -111,20 +107,22 @@ fn renders_holodeck() {
     renders_both_variants("configs/holodeck.ron");
 }
 
-/// Same config, same bytes; and the CPU twin draws the same picture.
+/// Same config, same bytes; and the CPU twin draws the same picture. At
+/// test quality.
 #[test]
 fn render_is_deterministic_and_the_cpu_twin_agrees() {
-    let config = "configs/cornell-glossy.ron";
     shared_scenes();
+    let config = test_quality("configs/cornell-glossy.ron", &[]);
     let (a, b, c) = (
         tempfile::tempdir().unwrap(),
         tempfile::tempdir().unwrap(),
         tempfile::tempdir().unwrap(),
     );
     let extra = ["--variant", "hiz"];
-    let ra = render(config, a.path(), &extra);
-    render(config, b.path(), &extra);
-    let rc = render(config, c.path(), &["--variant", "hiz", "--cpu"]);
+    let render = |out: &Path, extra: &[&str]| run_job("render", config.path(), out, extra);
+    let ra = render(a.path(), &extra);
+    render(b.path(), &extra);
+    let rc = render(c.path(), &["--variant", "hiz", "--cpu"]);
     for file in [
         "render_hiz.exr",
         "render_hiz-glossy.exr",
@@ -151,14 +149,16 @@ fn render_is_deterministic_and_the_cpu_twin_agrees() {
     assert!(cpu["gpu_ms"].is_null());
 }
 
-/// Without any adapter the CPU twin renders, and a one-line warning says so.
+/// Without any adapter the CPU twin renders, and a one-line warning says
+/// so. At test quality.
 #[test]
 fn without_an_adapter_render_falls_back_to_the_cpu_twin() {
+    let config = test_quality("configs/cornell.ron", &[]);
     let dir = tempfile::tempdir().unwrap();
     let o = std::process::Command::new(env!("CARGO_BIN_EXE_probeplace"))
         .args([
             "render",
-            "configs/cornell.ron",
+            config.arg(),
             "--variant",
             "hiz",
             "--quiet",

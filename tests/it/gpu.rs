@@ -4,9 +4,7 @@
 //! a hit is read from; the irradiance gather (McGuire §5.2) matches its
 //! twin; and Hi-Z reads fewer texels than bi-level.
 
-mod common;
-use common::*;
-use glam::Vec3;
+use crate::common::*;
 use probeplace::gpu::{kind, twin, ProbeTracer, Query, Record, SelectionKind};
 use probeplace::lightfield::LightField;
 use probeplace::jobs::place::PlaceRun;
@@ -21,9 +19,9 @@ const RAYS: usize = 6000;
 
 /// Places `config`'s probes (or a grid, for `method`) and bakes a light
 /// field whose radiance is a colour per direction, so that a wrong texel
-/// reads a wrong colour.
-fn scene(config: &str, method: Option<&str>) -> (PlaceRun, LightField) {
-    place_and_bake(config, method, &|_, d, _| (d + Vec3::ONE) * 0.5)
+/// reads a wrong colour (shared with the tracer tests of `lightfield`).
+fn scene(config: &str, method: Option<&str>) -> &'static (PlaceRun, LightField) {
+    baked_probes(config, method)
 }
 
 /// Random rays from free points, each to the padded bounds.

@@ -7,8 +7,7 @@
 //! `cargo run --release --example generality` writes the same rows as
 //! JSON and the README's table.
 
-mod common;
-use common::*;
+use crate::common::*;
 use probeplace::config::{Config, VoxelSize};
 use probeplace::fixtures::generated::{generate, suite};
 use probeplace::generality::{self, GeneralityRow};

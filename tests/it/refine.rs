@@ -3,11 +3,10 @@
 //! the procedural pillared hall, each compared with the uniform grids that
 //! McGuire et al. 2017 would use at the same coverage target.
 //!
-//! `cargo test --release --test refine -- --nocapture` prints the table the
+//! `cargo test --release -- refine:: --nocapture` prints the table the
 //! README quotes.
 
-mod common;
-use common::*;
+use crate::common::*;
 use probeplace::config::Config;
 use probeplace::jobs::{self, RunOptions};
 use probeplace::progress::Progress;
@@ -25,10 +24,12 @@ fn compare_with_grids(config: &str, target: f32) -> (u64, Option<([u32; 3], f64)
     let out = tempfile::tempdir().unwrap();
     let options = RunOptions {
         config: Some(path.clone()),
-        loaded: Some(cfg.clone()),
+        loaded: Some(cfg),
         out: Some(out.path().to_path_buf()),
         ..Default::default()
     };
+    // `place` as the command runs it, keeping the run: its scene and
+    // coverage reference score the grids below.
     let run = jobs::place::compute(&options).unwrap();
     let r = &run.report;
     assert_eq!(r.probes_in_solid, 0, "{config}");
@@ -41,7 +42,8 @@ fn compare_with_grids(config: &str, target: f32) -> (u64, Option<([u32; 3], f64)
     let refine = r.refine.as_ref().expect("refinement ran");
     assert_eq!(refine.coverage_final, r.coverage, "{config}");
 
-    // The grids, scored by the run's own coverage measure.
+    // The grids, scored by the same coverage measure: the run's own
+    // reference (same seed, same samples).
     let progress = Progress::hidden();
     let smallest = probeplace::jobs::compare::smallest_grid_reaching(
         &run.prepared,

@@ -6,8 +6,7 @@
 //! coordinates turned the box's 6 probes into 48 at 1 km and 300 at 100 km:
 //! the occlusion tests' epsilons (a thousandth of a voxel) fell below one ulp.
 
-mod common;
-use common::*;
+use crate::common::*;
 use std::path::{Path, PathBuf};
 
 /// One placement of the Cornell box.
@@ -98,8 +97,8 @@ fn shift_points(ron: &str, key: &str, shift: [f64; 3]) -> String {
 }
 
 /// Writes `case`'s scene and a config with configs/cornell.ron's fields
-/// (scene and scale aside, points shifted with the scene) into `dir`;
-/// returns the config's path.
+/// (scene and scale aside, points shifted with the scene), at test quality,
+/// into `dir`; returns the config's path.
 fn write_case(dir: &Path, case: &Case) -> PathBuf {
     let fixture = probeplace::fixtures::cornell_box();
     let divide = if case.metres { 1e3 } else { 1.0 };
@@ -133,6 +132,10 @@ fn write_case(dir: &Path, case: &Case) -> PathBuf {
     for key in ["position", "look_at"] {
         text = shift_points(&text, key, case.shift_m());
     }
+    // Invariance holds at any quality: the cases run at test quality.
+    let quality = test_quality_fields(&text);
+    let fields: Vec<(&str, &str)> = quality.iter().map(|(k, v)| (*k, v.as_str())).collect();
+    let text = set_ron_fields(&text, &fields);
     let path = dir.join(format!("{}.ron", case.name));
     std::fs::write(&path, text).unwrap();
     path

@@ -1,12 +1,14 @@
 //! End-to-end runs of `probeplace place` on our own fixtures.
 
-mod common;
-use common::*;
+use crate::common::*;
 
 #[test]
 fn cornell_default_run_meets_the_acceptance_bar() {
+    // The default run, shared with the SVO and seed tests.
+    let run = shared_job("place", "configs/cornell.ron", &[]);
+    let r = &run.report;
     let out = tempfile::tempdir().unwrap();
-    let r = place(&root().join("configs/cornell.ron"), out.path(), &[]);
+    copy_dir(&run.dir, out.path());
     assert!(out.path().join("svo.bin").is_file());
     assert_svo_sound(&r, "cornell");
     // Issue 4's bar: refinement on by default, full coverage with no more
@@ -129,14 +131,16 @@ fn grid_method_from_the_command_line() {
     assert_eq!(r["probes_in_solid"].as_u64().unwrap() as usize, in_solid);
 }
 
+/// At test quality.
 #[test]
 fn same_config_and_seed_give_byte_identical_probes() {
     // Refinement is on (the default): its Gibbs sampling is seeded too.
+    let config = test_quality("configs/cornell.ron", &[]);
     for method in ["sdf-skeleton", "medial-axis", "grid:3x3x3"] {
         let (a, b) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
-        let cfg = root().join("configs/cornell.ron");
-        place(&cfg, a.path(), &["--method", method]);
-        place(&cfg, b.path(), &["--method", method]);
+        let cfg = config.path();
+        place(cfg, a.path(), &["--method", method]);
+        place(cfg, b.path(), &["--method", method]);
         for f in ["probes.json", "svo.bin", "placement.png", "atlas.png"] {
             assert_eq!(
                 std::fs::read(a.path().join(f)).unwrap(),
@@ -173,7 +177,15 @@ fn one_thread_and_the_default_pool_give_identical_outputs() {
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     };
     run(a.path(), Some("1"));
-    run(b.path(), None);
+    // The default pool's run is the shared one of `real_scenes` unless the
+    // environment sets the pool's size.
+    let b = match std::env::var_os("RAYON_NUM_THREADS") {
+        None => shared_job("place", "configs/cornell-glossy.ron", &[]).dir.clone(),
+        Some(_) => {
+            run(b.path(), None);
+            b.path().to_path_buf()
+        }
+    };
     let ra = read_json(&a.path().join("report.json"));
     assert!(
         ra["refine"]["fill_rounds"].as_array().unwrap().len() > 1,
@@ -183,7 +195,7 @@ fn one_thread_and_the_default_pool_give_identical_outputs() {
     for f in ["probes.json", "svo.bin", "placement.png", "atlas.png"] {
         assert_eq!(
             std::fs::read(a.path().join(f)).unwrap(),
-            std::fs::read(b.path().join(f)).unwrap(),
+            std::fs::read(b.join(f)).unwrap(),
             "{f} differs between 1 thread and the default pool"
         );
     }
@@ -193,16 +205,17 @@ fn one_thread_and_the_default_pool_give_identical_outputs() {
     };
     assert_eq!(
         untimed(ra),
-        untimed(read_json(&b.path().join("report.json")))
+        untimed(read_json(&b.join("report.json")))
     );
 }
 
 #[test]
 fn seed_changes_the_coverage_samples_not_the_validity() {
-    let (a, b) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
-    let cfg = root().join("configs/cornell.ron");
-    let ra = place(&cfg, a.path(), &["--seed", "1"]);
-    let rb = place(&cfg, b.path(), &["--seed", "2"]);
+    // The config's own seed is 1: its run is the shared default run.
+    let b = tempfile::tempdir().unwrap();
+    let ra = &shared_job("place", "configs/cornell.ron", &[]).report;
+    assert_eq!(ra["seed"], 1);
+    let rb = place(&root().join("configs/cornell.ron"), b.path(), &["--seed", "2"]);
     assert_eq!(rb["seed"], 2);
     assert_ne!(
         ra["coverage_detail"]["covered_samples"],

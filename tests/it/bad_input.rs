@@ -1,8 +1,7 @@
 //! Every user mistake exits 2 with one line naming the file or field, prints
 //! no panic, and writes nothing.
 
-mod common;
-use common::*;
+use crate::common::*;
 use std::path::Path;
 
 /// `dir/run.ron`: the minimal config for `scene`, plus the fields in `extra`.
@@ -314,8 +313,8 @@ fn svo_mistakes_name_their_field() {
 #[test]
 fn inspect_refuses_what_is_not_an_intact_svo() {
     let d = tempfile::tempdir().unwrap();
-    let out = d.path().join("out");
-    place(&root().join("configs/cornell.ron"), &out, &["--no-refine"]);
+    // A placement alone, shared with the `svo` inspect test (read only).
+    let out = &shared_job("place", "configs/cornell.ron", &["--no-refine"]).dir;
     let good = std::fs::read(out.join("svo.bin")).unwrap();
     let check = |name: &str, bytes: &[u8], why: &str| {
         let p = d.path().join(name);

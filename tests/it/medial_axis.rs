@@ -2,20 +2,18 @@
 //! acceptance on the Cornell box and Sponza, and its density control (Wang et al. 2019 Fig. 3: pre-clustering
 //! more coarsely gives fewer probes) on several scenes.
 
-mod common;
-use common::*;
-use probeplace::config::{Config, MedialAxisParams, Placement, Positive};
+use crate::common::*;
+use probeplace::config::{MedialAxisParams, Placement, Positive};
 use probeplace::placement;
 use probeplace::progress::Progress;
-use probeplace::{sdf, stages};
+use probeplace::sdf;
 
 /// Probe counts of `medial-axis` on `config` for each pre-clustering radius
-/// (in voxels), everything else at its defaults; the SDF is built once.
+/// (in voxels), everything else at its defaults; the SDF is built once
+/// (and shared with the SVO tests).
 fn counts_by_precluster_radius(config: &str, radii_voxels: &[f32]) -> Vec<usize> {
-    let path = root().join(config);
-    let config = Config::load(&path).unwrap();
+    let (config, prepared) = prepared(config);
     let progress = Progress::hidden();
-    let prepared = stages::prepare(&config, &path, &progress).unwrap();
     let (input, sdf) = (
         prepared.placement_input(config.seed, &progress),
         &prepared.sdf,

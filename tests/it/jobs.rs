@@ -2,9 +2,9 @@
 //! sets committed whole (a directory taken by a name, a full disk, SIGKILL
 //! at every step of the commit), `--probes`, and the destination checks.
 
-mod common;
 
-use common::{probeplace, read_json, root};
+
+use crate::common::{probeplace, read_json, root};
 use std::collections::BTreeMap;
 use std::path::Path;
 use std::process::Command;

@@ -1,18 +1,14 @@
 //! The real scenes of McGuire's Computer Graphics Archive, read from
 //! ../shared/scenes (never copied into the repository).
 
-mod common;
-use common::*;
+use crate::common::*;
 
-fn run(config: &str) -> serde_json::Value {
+/// The report of `place` on the shipped config, run once per test process
+/// (the SVO tests read the same runs).
+fn run(config: &str) -> &'static serde_json::Value {
     shared_scenes();
-    let out = tempfile::tempdir().unwrap();
-    let r = place(
-        &root().join(format!("configs/{config}.ron")),
-        out.path(),
-        &[],
-    );
-    assert_svo_sound(&r, config);
+    let r = &shared_job("place", &format!("configs/{config}.ron"), &[]).report;
+    assert_svo_sound(r, config);
     r
 }
 

@@ -3,43 +3,38 @@
 //! our procedural pillared hall; the three files; the HTML page in headless
 //! Chromium; determinism.
 
-mod common;
-use common::*;
+use crate::common::*;
 use serde_json::Value;
 use std::path::{Path, PathBuf};
-use std::sync::OnceLock;
 
-/// Runs `compare` on `config` into a fresh directory; returns it and the JSON.
-fn run_compare(config: &str, extra: &[&str]) -> (tempfile::TempDir, Value) {
-    let dir = tempfile::tempdir().unwrap();
-    let mut args = vec![
-        "compare",
-        config,
-        "--out",
-        dir.path().to_str().unwrap(),
-        "--quiet",
-    ];
+/// Runs `compare` on `config` into `dir`; returns the JSON.
+fn run_compare(config: &str, dir: &Path, extra: &[&str]) -> Value {
+    let mut args = vec!["compare", config, "--out", dir.to_str().unwrap(), "--quiet"];
     args.extend_from_slice(extra);
     let o = probeplace(&args);
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success(), "compare {config} failed: {stderr}");
     eprintln!("{config}: {stderr}");
-    let json = read_json(&dir.path().join("compare.json"));
-    (dir, json)
+    read_json(&dir.join("compare.json"))
 }
 
-/// One comparison per scene, shared by the tests of this file.
-fn cornell_glossy() -> &'static (tempfile::TempDir, Value) {
-    static RUN: OnceLock<(tempfile::TempDir, Value)> = OnceLock::new();
-    RUN.get_or_init(|| {
+/// The comparison on the shipped CornellBox-Glossy config, at its quality.
+fn cornell_glossy() -> &'static Shared {
+    shared_scenes();
+    shared_job("compare", "configs/cornell-glossy.ron", &[])
+}
+
+/// The comparison on CornellBox-Glossy at test quality, shared by the tests
+/// of the report's shape and page.
+fn cornell_glossy_test_quality() -> &'static Shared {
+    let key = "compare cornell-glossy test quality";
+    shared(key, || {
         shared_scenes();
-        run_compare("configs/cornell-glossy.ron", &[])
+        let config = test_quality("configs/cornell-glossy.ron", &[]);
+        let dir = shared_dir(key);
+        let report = run_compare(config.arg(), &dir, &[]);
+        Shared { dir, report }
     })
-}
-
-fn pillared_hall() -> &'static (tempfile::TempDir, Value) {
-    static RUN: OnceLock<(tempfile::TempDir, Value)> = OnceLock::new();
-    RUN.get_or_init(|| run_compare("configs/pillared-hall.ron", &[]))
 }
 
 fn placement<'a>(r: &'a Value, name: &str) -> &'a Value {
@@ -102,18 +97,20 @@ fn assert_advantage(scene: &str, r: &Value) {
 
 #[test]
 fn ours_beats_grids_on_cornell_glossy() {
-    assert_advantage("CornellBox-Glossy", &cornell_glossy().1);
+    assert_advantage("CornellBox-Glossy", &cornell_glossy().report);
 }
 
 #[test]
 fn ours_beats_grids_in_the_pillared_hall() {
-    assert_advantage("pillared hall", &pillared_hall().1);
+    let run = shared_job("compare", "configs/pillared-hall.ron", &[]);
+    assert_advantage("pillared hall", &run.report);
 }
 
-/// Every placement the issue names, with every figure, for each camera.
+/// Every placement the issue names, with every figure, for each camera. At
+/// test quality.
 #[test]
 fn report_has_every_placement_and_figure() {
-    let (dir, r) = cornell_glossy();
+    let Shared { dir, report: r } = cornell_glossy_test_quality();
     let placements = r["placements"].as_array().unwrap();
     for family in ["ours", "grid", "relocated", "greedy"] {
         assert!(
@@ -154,7 +151,7 @@ fn report_has_every_placement_and_figure() {
         .unwrap();
     assert_eq!(relocated["probes_in_solid"], 0, "{relocated}");
     // The CSV has a line per placement and camera.
-    let csv = std::fs::read_to_string(dir.path().join("compare.csv")).unwrap();
+    let csv = std::fs::read_to_string(dir.join("compare.csv")).unwrap();
     assert_eq!(csv.lines().count(), 1 + placements.len() * cameras);
     assert!(csv.starts_with("placement,family,tracer,camera,probes,"));
     // Every non-grid placement is matched.
@@ -216,8 +213,8 @@ fn report_html_opens_in_headless_chromium() {
     let Some(chromium) = chromium() else {
         return;
     };
-    let (dir, r) = cornell_glossy();
-    let page = dir.path().join("report.html");
+    let Shared { dir, report: r } = cornell_glossy_test_quality();
+    let page = dir.join("report.html");
     let html = std::fs::read_to_string(&page).unwrap();
     // Nothing is fetched: no remote sources, links or style URLs (the SVG
     // namespace is a name, not a fetch).
@@ -253,12 +250,14 @@ fn report_html_opens_in_headless_chromium() {
 }
 
 /// The same config and seed give the same files (timings and GPU times
-/// aside), here on the CPU twin where the times are absent.
+/// aside), here on the CPU twin where the times are absent. At test quality.
 #[test]
 fn compare_is_deterministic() {
+    let config = test_quality("configs/cornell.ron", &[]);
     let extra = ["--grids", "2x2x2,3x3x3", "--cpu"];
-    let (a, ra) = run_compare("configs/cornell.ron", &extra);
-    let (b, rb) = run_compare("configs/cornell.ron", &extra);
+    let (a, b) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
+    let ra = run_compare(config.arg(), a.path(), &extra);
+    let rb = run_compare(config.arg(), b.path(), &extra);
     let strip = |mut v: Value| {
         v.as_object_mut().unwrap().remove("timings_ms");
         v

@@ -2,11 +2,8 @@
 //! end to end on the scenes the issue names: for random free points, the
 //! first listed probe must see the point.
 
-mod common;
-use common::*;
+use crate::common::*;
 use glam::DVec3;
-use probeplace::config::Config;
-use probeplace::stages;
 use probeplace::progress::Progress;
 use probeplace::svo::{self, Svo};
 
@@ -18,17 +15,18 @@ const POINTS: usize = 10_000;
 /// first listed probe is unoccluded from them. The files are in world
 /// coordinates, the scene in its local ones: points go through
 /// `Scene::to_world` and `Scene::to_local` as a renderer's would.
-fn place_and_check(config: &str) -> (serde_json::Value, f64) {
-    let out = tempfile::tempdir().unwrap();
-    let path = root().join(config);
-    let r = place(&path, out.path(), &[]);
+///
+/// The `place` run and the prepared scene are shared with the other tests
+/// that read them (`real_scenes`, `medial_axis`).
+fn place_and_check(config: &str) -> (&'static serde_json::Value, f64) {
+    let run = shared_job("place", config, &[]);
+    let (out, r) = (&run.dir, &run.report);
 
-    let cfg = Config::load(&path).unwrap();
+    let (cfg, prepared) = prepared(config);
     let progress = Progress::hidden();
-    let prepared = stages::prepare(&cfg, &path, &progress).unwrap();
-    let svo = Svo::read(&out.path().join("svo.bin")).unwrap();
+    let svo = Svo::read(&out.join("svo.bin")).unwrap();
     let scene = &prepared.scene;
-    let probes: Vec<DVec3> = read_json(&out.path().join("probes.json"))["probes"]
+    let probes: Vec<DVec3> = read_json(&out.join("probes.json"))["probes"]
         .as_array()
         .unwrap()
         .iter()
@@ -40,7 +38,7 @@ fn place_and_check(config: &str) -> (serde_json::Value, f64) {
     assert_eq!(svo.probe_count as usize, probes.len());
 
     let s = &r["svo"];
-    let file_bytes = std::fs::metadata(out.path().join("svo.bin")).unwrap().len();
+    let file_bytes = std::fs::metadata(out.join("svo.bin")).unwrap().len();
     assert_eq!(s["bytes"].as_u64().unwrap(), file_bytes);
     assert_eq!(s["nodes"].as_u64().unwrap() as usize, svo.nodes());
     assert_eq!(s["leaves"].as_u64().unwrap() as usize, svo.leaves());
@@ -95,13 +93,9 @@ fn dabrovic_sponza_first_probes_see_their_points() {
 
 #[test]
 fn inspect_summarizes_an_output_directory() {
-    let out = tempfile::tempdir().unwrap();
-    let r = place(
-        &root().join("configs/cornell.ron"),
-        out.path(),
-        &["--no-refine"],
-    );
-    for target in [out.path().to_path_buf(), out.path().join("svo.bin")] {
+    let run = shared_job("place", "configs/cornell.ron", &["--no-refine"]);
+    let r = &run.report;
+    for target in [run.dir.clone(), run.dir.join("svo.bin")] {
         let o = probeplace(&["inspect", target.to_str().unwrap()]);
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
         let text = String::from_utf8_lossy(&o.stdout);

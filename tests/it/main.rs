@@ -1,0 +1,20 @@
+//! The integration tests, in one binary (as ripgrep's): every module below
+//! was a binary of its own, and each linked the whole crate, wgpu included.
+//! `cargo test --release -- MODULE::` runs one module, e.g.
+//! `cargo test --release -- refine:: --nocapture`.
+
+mod common;
+
+mod bad_input;
+mod compare;
+mod generality;
+mod gpu;
+mod jobs;
+mod lightfield;
+mod medial_axis;
+mod place;
+mod real_scenes;
+mod refine;
+mod render;
+mod svo;
+mod translation;
