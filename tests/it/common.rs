@@ -99,7 +99,13 @@ pub fn shared_dir(key: &str) -> PathBuf {
     });
     let name: String = key
         .chars()
-        .map(|c| if c.is_ascii_alphanumeric() || c == '-' { c } else { '_' })
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '-' {
+                c
+            } else {
+                '_'
+            }
+        })
         .collect();
     let dir = base.join(name);
     std::fs::create_dir_all(&dir).unwrap();
@@ -118,7 +124,12 @@ pub struct Shared {
 /// at full quality), asserting it succeeds; every test asking for the same
 /// job reads its outputs. Tests must not write into `dir`: copy it first.
 pub fn shared_job(command: &str, config: &str, extra: &[&str]) -> &'static Shared {
-    let key = [command, config].iter().chain(extra).copied().collect::<Vec<_>>().join(" ");
+    let key = [command, config]
+        .iter()
+        .chain(extra)
+        .copied()
+        .collect::<Vec<_>>()
+        .join(" ");
     shared(&key, || {
         let dir = shared_dir(&key);
         let report = match command {
@@ -270,8 +281,11 @@ pub const TEST_BAKE: &str = "(resolution: 16, irradiance_resolution: 8, samples:
 
 /// The test-quality reference image, set inside the config's own
 /// `reference` (so its camera stays).
-pub const TEST_REFERENCE: [(&str, &str); 3] =
-    [("width", "64"), ("height", "48"), ("samples_per_pixel", "8")];
+pub const TEST_REFERENCE: [(&str, &str); 3] = [
+    ("width", "64"),
+    ("height", "48"),
+    ("samples_per_pixel", "8"),
+];
 
 /// The test-quality `compare`, set inside the config's own `compare`.
 pub const TEST_COMPARE: [(&str, &str); 1] = [("glossy_rays", "2")];
@@ -319,8 +333,8 @@ impl Overlay {
 /// load as a config whose scene exists, or this panics showing it.
 pub fn overlay(config: &str, set: &[(&str, &str)]) -> Overlay {
     let source = root().join(config);
-    let text = std::fs::read_to_string(&source)
-        .unwrap_or_else(|e| panic!("{}: {e}", source.display()));
+    let text =
+        std::fs::read_to_string(&source).unwrap_or_else(|e| panic!("{}: {e}", source.display()));
     let base = source.parent().unwrap();
     let mut fields: Vec<(&str, String)> = Vec::new();
     for key in ["scene", "output"] {
@@ -373,7 +387,10 @@ pub fn test_quality(config: &str, set: &[(&str, &str)]) -> Overlay {
 /// those names (so that its camera, coverage target and the like stay).
 pub fn test_quality_fields(text: &str) -> Vec<(&'static str, String)> {
     let within = |field: &str, values: &[(&str, &str)]| {
-        set_ron_fields(&ron_field(text, field).unwrap_or_else(|| "()".into()), values)
+        set_ron_fields(
+            &ron_field(text, field).unwrap_or_else(|| "()".into()),
+            values,
+        )
     };
     vec![
         ("bake", TEST_BAKE.to_string()),
@@ -539,7 +556,9 @@ fn ron_struct(text: &str) -> (Vec<RonField>, usize) {
         .position(|t| t.0 == Tok::Open)
         .unwrap_or_else(|| panic!("not a RON struct: {text}"));
     assert!(
-        open <= 1 && toks[..open].iter().all(|t| t.0 == Tok::Ident) && &text[toks[open].1..toks[open].2] == "(",
+        open <= 1
+            && toks[..open].iter().all(|t| t.0 == Tok::Ident)
+            && &text[toks[open].1..toks[open].2] == "(",
         "not a RON struct: {text}"
     );
     let tok = |k: usize| {
@@ -578,7 +597,10 @@ fn ron_struct(text: &str) -> (Vec<RonField>, usize) {
             value_end = te;
             k += 1;
         }
-        assert!(value_end > value_start, "field {name} has no value in {text}");
+        assert!(
+            value_end > value_start,
+            "field {name} has no value in {text}"
+        );
         let (comma, end) = match tok(k) {
             (Tok::Comma, _, ce) => {
                 k += 1;
@@ -621,7 +643,9 @@ pub fn set_ron_fields(text: &str, set: &[(&str, &str)]) -> String {
     // A field alone on its line goes with its line.
     let whole_line = |f: &RonField| {
         let from = text[..f.start].rfind('\n').map_or(0, |n| n + 1);
-        let to = text[f.end..].find('\n').map_or(text.len(), |n| f.end + n + 1);
+        let to = text[f.end..]
+            .find('\n')
+            .map_or(text.len(), |n| f.end + n + 1);
         let blank = |s: &str| s.trim().is_empty();
         match blank(&text[from..f.start]) && blank(&text[f.end..to]) {
             true => (from, to),
@@ -679,25 +703,45 @@ fn set_ron_fields_replaces_adds_and_keeps_the_rest() {
     assert_eq!(ron_field(&out, "voxel_size").as_deref(), Some("0.5"));
     assert_eq!(ron_field(&out, "label").as_deref(), Some("\"x)y,z: [\""));
     assert_eq!(ron_field(&out, "seed").as_deref(), Some("1"));
-    assert!(out.contains("// b: (c") && out.starts_with("// a (comment)"), "{out}");
+    assert!(
+        out.contains("// b: (c") && out.starts_with("// a (comment)"),
+        "{out}"
+    );
     assert_eq!(out.matches("bake:").count(), 1, "{out}");
     // Nested: the same operation on a field's own struct.
     let reference = ron_field(text, "reference").unwrap();
     let smaller = set_ron_fields(&reference, &[("samples_per_pixel", "8"), ("width", "64")]);
-    assert_eq!(ron_field(&smaller, "samples_per_pixel").as_deref(), Some("8"));
+    assert_eq!(
+        ron_field(&smaller, "samples_per_pixel").as_deref(),
+        Some("8")
+    );
     assert_eq!(ron_field(&smaller, "width").as_deref(), Some("64"));
     assert_eq!(
         ron_field(&smaller, "camera").as_deref(),
         Some("(position: (0, 1, 2), look_at: (0, 1, 0))")
     );
     // One line, and a last field without its comma.
-    let one = set_ron_fields("Config(scene: \"a.obj\", seed: 3)", &[("seed", "4"), ("up", "Z")]);
+    let one = set_ron_fields(
+        "Config(scene: \"a.obj\", seed: 3)",
+        &[("seed", "4"), ("up", "Z")],
+    );
     let parsed = probeplace::config::Config::parse(&one, Path::new("one.ron")).unwrap();
-    assert_eq!((parsed.seed, parsed.up), (4, probeplace::config::UpAxis::Z), "{one}");
+    assert_eq!(
+        (parsed.seed, parsed.up),
+        (4, probeplace::config::UpAxis::Z),
+        "{one}"
+    );
     let kept = set_ron_fields("(scene: \"a.obj\", seed: 3)", &[("up", "Z")]);
     let parsed = probeplace::config::Config::parse(&kept, Path::new("kept.ron")).unwrap();
-    assert_eq!((parsed.seed, parsed.up), (3, probeplace::config::UpAxis::Z), "{kept}");
-    assert_eq!(set_ron_fields("()", &[("width", "64")]).replace(' ', ""), "(width:64,)");
+    assert_eq!(
+        (parsed.seed, parsed.up),
+        (3, probeplace::config::UpAxis::Z),
+        "{kept}"
+    );
+    assert_eq!(
+        set_ron_fields("()", &[("width", "64")]).replace(' ', ""),
+        "(width:64,)"
+    );
 }
 
 /// Every shipped config's test-quality overlay is the shipped config but for
@@ -724,7 +768,11 @@ fn test_quality_overlays_change_only_what_they_set() {
         assert_eq!(c.compare.glossy_rays.0, 2, "{name}");
         assert_eq!(c.seed, 7, "{name}");
         (c.bake, c.seed) = (shipped.bake, shipped.seed);
-        (c.reference.width, c.reference.height, c.reference.samples_per_pixel) = (
+        (
+            c.reference.width,
+            c.reference.height,
+            c.reference.samples_per_pixel,
+        ) = (
             shipped.reference.width,
             shipped.reference.height,
             shipped.reference.samples_per_pixel,

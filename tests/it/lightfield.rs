@@ -139,7 +139,10 @@ fn assert_bake_outputs(config: &str, r: &serde_json::Value, dir: &Path) {
 /// is a run with the config's own seed (1), shared with other tests; the
 /// run with seed 2 is made here. Returns the first run's report.
 fn bake_converges(config: &str, first: &'static Shared) -> &'static serde_json::Value {
-    assert_eq!(first.report["seed"], 1, "{config}: the first run has seed 1");
+    assert_eq!(
+        first.report["seed"], 1,
+        "{config}: the first run has seed 1"
+    );
     let b = tempfile::tempdir().unwrap();
     let ra = &first.report;
     let rb = run_job("bake", &root().join(config), b.path(), &["--seed", "2"]);

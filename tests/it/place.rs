@@ -180,7 +180,9 @@ fn one_thread_and_the_default_pool_give_identical_outputs() {
     // The default pool's run is the shared one of `real_scenes` unless the
     // environment sets the pool's size.
     let b = match std::env::var_os("RAYON_NUM_THREADS") {
-        None => shared_job("place", "configs/cornell-glossy.ron", &[]).dir.clone(),
+        None => shared_job("place", "configs/cornell-glossy.ron", &[])
+            .dir
+            .clone(),
         Some(_) => {
             run(b.path(), None);
             b.path().to_path_buf()
@@ -203,10 +205,7 @@ fn one_thread_and_the_default_pool_give_identical_outputs() {
         r["timings_ms"] = serde_json::Value::Null;
         r
     };
-    assert_eq!(
-        untimed(ra),
-        untimed(read_json(&b.join("report.json")))
-    );
+    assert_eq!(untimed(ra), untimed(read_json(&b.join("report.json"))));
 }
 
 #[test]
@@ -215,7 +214,11 @@ fn seed_changes_the_coverage_samples_not_the_validity() {
     let b = tempfile::tempdir().unwrap();
     let ra = &shared_job("place", "configs/cornell.ron", &[]).report;
     assert_eq!(ra["seed"], 1);
-    let rb = place(&root().join("configs/cornell.ron"), b.path(), &["--seed", "2"]);
+    let rb = place(
+        &root().join("configs/cornell.ron"),
+        b.path(),
+        &["--seed", "2"],
+    );
     assert_eq!(rb["seed"], 2);
     assert_ne!(
         ra["coverage_detail"]["covered_samples"],
