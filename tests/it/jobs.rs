@@ -4,7 +4,7 @@
 
 
 
-use crate::common::{probeplace, read_json, root};
+use crate::common::{probeplace, read_json, root, test_quality, Overlay};
 use std::collections::BTreeMap;
 use std::path::Path;
 use std::process::Command;
@@ -55,11 +55,17 @@ fn alone(parent: &Path) {
     assert_eq!(names, ["out"], "left beside the output: {names:?}");
 }
 
+/// Our Cornell box at test quality (the jobs' plumbing, not its figures).
+fn cornell() -> Overlay {
+    test_quality("configs/cornell.ron", &[])
+}
+
 #[test]
 fn place_then_bake_then_render_from_equals_one_render() {
     let d = tempfile::tempdir().unwrap();
     let (chain, once) = (d.path().join("chain"), d.path().join("once"));
-    let config = root().join("configs/cornell.ron");
+    let quality = cornell();
+    let config = quality.path().to_path_buf();
     ok(&["place", s(&config), "--out", s(&chain), "-q"]);
     ok(&["bake", "--from", s(&chain), "-q"]);
     let bake = read_json(&chain.join("report.json"));
@@ -106,7 +112,8 @@ fn from_a_run_of_another_seed_or_config_is_refused_in_one_line() {
 fn place_over_an_old_bake_leaves_none_of_its_files() {
     let d = tempfile::tempdir().unwrap();
     let out = d.path().join("out");
-    let config = root().join("configs/cornell.ron");
+    let quality = cornell();
+    let config = quality.path().to_path_buf();
     ok(&["bake", s(&config), "--out", s(&out), "--method", "grid:2x2x2", "--no-refine", "-q"]);
     assert!(out.join("lightfield.bin").is_file() && out.join("reference.exr").is_file());
     ok(&["place", s(&config), "--out", s(&out), "--method", "grid:3x3x3", "--no-refine", "-q"]);
@@ -236,7 +243,8 @@ fn a_kill_at_any_step_of_the_commit_leaves_the_old_set_or_the_new() {
 fn probes_from_a_file_are_scored_and_read_back_exactly() {
     let d = tempfile::tempdir().unwrap();
     let (first, again) = (d.path().join("first"), d.path().join("again"));
-    let config = root().join("configs/cornell.ron");
+    let quality = cornell();
+    let config = quality.path().to_path_buf();
     ok(&["place", s(&config), "--out", s(&first), "-q"]);
     ok(&["place", s(&config), "--out", s(&again), "--probes", s(&first.join("probes.json")), "-q"]);
     let (a, b) = (read_json(&first.join("probes.json")), read_json(&again.join("probes.json")));
@@ -284,4 +292,42 @@ fn inputs_in_the_output_and_foreign_directories_are_refused() {
     let o = probeplace(&["place", s(&cfg), "--out", s(&photos)]);
     assert_eq!(o.status.code(), Some(2));
     assert!(photos.join("holiday.jpg").is_file());
+}
+
+#[test]
+fn compare_from_a_bake_reuses_it_and_scores_given_probes_beside_ours() {
+    let d = tempfile::tempdir().unwrap();
+    let (baked, from, given) = (d.path().join("baked"), d.path().join("from"), d.path().join("given"));
+    let quality = cornell();
+    let config = quality.path().to_path_buf();
+    ok(&["bake", s(&config), "--out", s(&baked), "-q"]);
+    ok(&["compare", "--from", s(&baked), "--cpu", "--out", s(&from), "-q"]);
+    let probes = baked.join("probes.json");
+    ok(&["compare", s(&config), "--cpu", "--out", s(&given), "--probes", s(&probes), "-q"]);
+    let (a, b) = (read_json(&from.join("compare.json")), read_json(&given.join("compare.json")));
+    let reused = a["reused"].as_array().unwrap();
+    for f in ["probes.json", "lightfield.bin", "reference.exr"] {
+        assert!(reused.iter().any(|r| r == f), "{f} not reused: {reused:?}");
+    }
+    // Reusing changes no figure: every row of the reusing run is the fresh
+    // run's row of the same name.
+    let rows = |v: &serde_json::Value| -> BTreeMap<String, serde_json::Value> {
+        v["placements"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|p| (p["name"].as_str().unwrap().to_string(), steady(p)))
+            .collect()
+    };
+    let (ra, rb) = (rows(&a), rows(&b));
+    for (name, row) in &ra {
+        assert_eq!(Some(row), rb.get(name), "{name}");
+    }
+    // The given probes are the baked run's refined sdf-skeleton: scored as
+    // given, they cover what that row covers.
+    let file = &rb["file"];
+    assert_eq!(file["family"], "given");
+    assert_eq!(file["probes"], rb["sdf-skeleton"]["probes"]);
+    assert_eq!(file["coverage"], rb["sdf-skeleton"]["coverage"]);
+    assert_eq!(file["mse_glossy"], rb["sdf-skeleton"]["mse_glossy"]);
 }
