@@ -9,8 +9,8 @@
 //! [`crate::placement::cubic_grid_sweep`] (up to [`GRID_SWEEP_CELLS`] cells
 //! along the longest axis) for the smallest one that reaches the same
 //! coverage, by the same coverage measure (same samples, same seed).
-//! `tests/generality.rs` asserts on its rows; `cargo run --release
-//! --example generality` writes them as JSON and as the README's table.
+//! `tests/it/generality.rs` asserts on its rows; `cargo run --release
+//! --example generality` writes them as JSON, which `examples/results.rs` turns into docs/results.md.
 
 use crate::config::Config;
 use crate::error::Result;
@@ -127,7 +127,7 @@ pub fn run(
     Ok(row)
 }
 
-/// The rows as a Markdown table (the README's).
+/// The rows as a Markdown table (what the generality test prints).
 pub fn markdown_table(rows: &[GeneralityRow]) -> String {
     let mut out = String::from(
         "| scene | method | triangles | voxel | probes | coverage | in solid | below clearance | smallest grid reaching it |\n|---|---|---:|---:|---:|---:|---:|---:|---|\n",

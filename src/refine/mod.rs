@@ -17,7 +17,7 @@
 //! same most-visible spots and the fitness says nothing about what the
 //! *union* sees. The saturating variant credits each texel once, to its best
 //! view, so a probe gains only by seeing what others miss or see worse. The
-//! README records both on the same scenes; saturating is the default.
+//! docs/method.md describes both; saturating is the default.
 
 pub mod atlas;
 pub mod fitness;

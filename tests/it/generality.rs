@@ -5,7 +5,7 @@
 //! grid that reaches the same coverage (or no grid of the sweep reaching it).
 //!
 //! `cargo run --release --example generality` writes the same rows as
-//! JSON and the README's table.
+//! JSON, which examples/results.rs turns into docs/results.md.
 
 use crate::common::*;
 use probeplace::config::{Config, VoxelSize};

@@ -4,7 +4,7 @@
 //! McGuire et al. 2017 would use at the same coverage target.
 //!
 //! `cargo test --release -- refine:: --nocapture` prints the table the
-//! README quotes.
+//! docs/method.md quotes.
 
 use crate::common::*;
 use probeplace::config::Config;
