@@ -321,28 +321,20 @@ mod tests {
         s
     }
 
+    /// A set that marks its directory as ours, with one more file.
+    fn ours(name: &str, bytes: &str) -> OutputSet {
+        set(&[
+            ("report.json", "{\"format\":\"probeplace.report\"}"),
+            (name, bytes),
+        ])
+    }
+
     #[test]
     fn a_commit_replaces_the_whole_directory_and_leaves_no_staging() {
         let root = tempfile::tempdir().unwrap();
         let out = root.path().join("out");
-        commit(
-            &out,
-            &set(&[
-                ("report.json", "{\"format\":\"probeplace.report\"}"),
-                ("lightfield.bin", "old"),
-            ]),
-            &[],
-        )
-        .unwrap();
-        commit(
-            &out,
-            &set(&[
-                ("report.json", "{\"format\":\"probeplace.report\"}"),
-                ("svo.bin", "new"),
-            ]),
-            &[],
-        )
-        .unwrap();
+        commit(&out, &ours("lightfield.bin", "old"), &[]).unwrap();
+        commit(&out, &ours("svo.bin", "new"), &[]).unwrap();
         let names: Vec<String> = listing(&out).into_iter().map(|(n, _)| n).collect();
         assert_eq!(names, ["report.json", "svo.bin"]);
         assert_eq!(std::fs::read_dir(root.path()).unwrap().count(), 1);
@@ -352,15 +344,7 @@ mod tests {
     fn a_carried_file_keeps_its_bytes_after_its_directory_is_replaced() {
         let root = tempfile::tempdir().unwrap();
         let out = root.path().join("out");
-        commit(
-            &out,
-            &set(&[
-                ("report.json", "{\"format\":\"probeplace.report\"}"),
-                ("probes.json", "P"),
-            ]),
-            &[],
-        )
-        .unwrap();
+        commit(&out, &ours("probes.json", "P"), &[]).unwrap();
         let mut s = set(&[("report.json", "{\"format\":\"probeplace.report\"}")]);
         s.carry("probes.json", out.join("probes.json"));
         commit(&out, &s, &[]).unwrap();
@@ -385,10 +369,7 @@ mod tests {
     fn a_file_that_cannot_be_written_leaves_the_previous_output_whole() {
         let root = tempfile::tempdir().unwrap();
         let out = root.path().join("out");
-        let old = set(&[
-            ("report.json", "{\"format\":\"probeplace.report\"}"),
-            ("svo.bin", "old"),
-        ]);
+        let old = ours("svo.bin", "old");
         commit(&out, &old, &[]).unwrap();
         let before = listing(&out);
         let bad = set(&[("svo.bin", "new"), ("no/such/dir/report.json", "x")]);

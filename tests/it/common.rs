@@ -744,11 +744,9 @@ fn set_ron_fields_replaces_adds_and_keeps_the_rest() {
     );
 }
 
-/// Every shipped config's test-quality overlay is the shipped config but for
-/// the fields it sets: same scene (read from the overlay's directory), same
-/// camera, lights, placement and output.
-#[test]
-fn test_quality_overlays_change_only_what_they_set() {
+/// Every config in `configs/`, sorted (at least ten; the real scenes among
+/// them need ../shared).
+pub fn shipped_configs() -> Vec<PathBuf> {
     shared_scenes();
     let mut configs: Vec<_> = std::fs::read_dir(root().join("configs"))
         .unwrap()
@@ -757,7 +755,15 @@ fn test_quality_overlays_change_only_what_they_set() {
         .collect();
     configs.sort();
     assert!(configs.len() >= 10);
-    for path in configs {
+    configs
+}
+
+/// Every shipped config's test-quality overlay is the shipped config but for
+/// the fields it sets: same scene (read from the overlay's directory), same
+/// camera, lights, placement and output.
+#[test]
+fn test_quality_overlays_change_only_what_they_set() {
+    for path in shipped_configs() {
         let name = format!("configs/{}", path.file_name().unwrap().to_string_lossy());
         let shipped = probeplace::config::Config::load(&path).unwrap();
         let o = test_quality(&name, &[("seed", "7")]);

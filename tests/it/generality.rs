@@ -96,14 +96,7 @@ fn generated_scenes_are_covered_by_the_stock_config() {
 
 #[test]
 fn every_shipped_config_holds_without_its_voxel_size() {
-    shared_scenes();
-    let mut configs: Vec<_> = std::fs::read_dir(root().join("configs"))
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .filter(|p| p.extension().is_some_and(|e| e == "ron"))
-        .collect();
-    configs.sort();
-    assert!(configs.len() >= 10);
+    let configs = shipped_configs();
     let rows: Vec<GeneralityRow> = configs
         .iter()
         .map(|path| {
