@@ -422,7 +422,9 @@ fn command_line_mistakes_are_one_line_and_exit_2() {
         let lines: Vec<&str> = stderr.trim_end().lines().collect();
         assert!(lines[0].starts_with("error: "), "{args:?}: {stderr}");
         assert!(
-            lines[1..].iter().all(|l| l.trim_start().starts_with("tip:")),
+            lines[1..]
+                .iter()
+                .all(|l| l.trim_start().starts_with("tip:")),
             "{args:?}: {stderr}"
         );
     }

@@ -34,7 +34,14 @@ fn cornell_glossy() -> &'static Shared {
         let render = shared_job("render", "configs/cornell-glossy.ron", &[]);
         let dir = shared_dir(key);
         let from = render.dir.to_str().unwrap();
-        let o = probeplace(&["compare", "--from", from, "--out", dir.to_str().unwrap(), "-q"]);
+        let o = probeplace(&[
+            "compare",
+            "--from",
+            from,
+            "--out",
+            dir.to_str().unwrap(),
+            "-q",
+        ]);
         let stderr = String::from_utf8_lossy(&o.stderr);
         assert!(o.status.success(), "compare --from {from} failed: {stderr}");
         let report = read_json(&dir.join("compare.json"));

@@ -6,8 +6,8 @@
 
 use crate::common::*;
 use probeplace::gpu::{kind, twin, ProbeTracer, Query, Record, SelectionKind};
-use probeplace::lightfield::LightField;
 use probeplace::jobs::place::PlaceRun;
+use probeplace::lightfield::LightField;
 use probeplace::sampling::uniform_direction;
 use probeplace::svo;
 use probeplace::trace::check::padded_bounds;

@@ -2,8 +2,6 @@
 //! sets committed whole (a directory taken by a name, a full disk, SIGKILL
 //! at every step of the commit), `--probes`, and the destination checks.
 
-
-
 use crate::common::{probeplace, read_json, root, test_quality, Overlay};
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -15,8 +13,15 @@ fn files(dir: &Path) -> BTreeMap<String, Vec<u8>> {
         .unwrap()
         .map(|e| {
             let e = e.unwrap();
-            assert!(e.file_type().unwrap().is_file(), "{:?} is not a file", e.path());
-            (e.file_name().to_string_lossy().into_owned(), std::fs::read(e.path()).unwrap())
+            assert!(
+                e.file_type().unwrap().is_file(),
+                "{:?} is not a file",
+                e.path()
+            );
+            (
+                e.file_name().to_string_lossy().into_owned(),
+                std::fs::read(e.path()).unwrap(),
+            )
         })
         .collect()
 }
@@ -38,7 +43,11 @@ fn steady(v: &serde_json::Value) -> serde_json::Value {
 
 fn ok(args: &[&str]) -> std::process::Output {
     let o = probeplace(args);
-    assert!(o.status.success(), "{args:?}: {}", String::from_utf8_lossy(&o.stderr));
+    assert!(
+        o.status.success(),
+        "{args:?}: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
     o
 }
 
@@ -70,23 +79,49 @@ fn place_then_bake_then_render_from_equals_one_render() {
     ok(&["place", s(&config), "--out", s(&chain), "-q"]);
     ok(&["bake", "--from", s(&chain), "-q"]);
     let bake = read_json(&chain.join("report.json"));
-    let reused: Vec<&str> = bake["reused"].as_array().unwrap().iter().map(|v| v.as_str().unwrap()).collect();
-    assert!(reused.contains(&"probes.json") && reused.contains(&"svo.bin"), "{reused:?}");
+    let reused: Vec<&str> = bake["reused"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_str().unwrap())
+        .collect();
+    assert!(
+        reused.contains(&"probes.json") && reused.contains(&"svo.bin"),
+        "{reused:?}"
+    );
     // The reused stages took no time in this run.
-    assert!(bake["timings_ms"].get("refine").is_none(), "{}", bake["timings_ms"]);
+    assert!(
+        bake["timings_ms"].get("refine").is_none(),
+        "{}",
+        bake["timings_ms"]
+    );
     ok(&["render", "--from", s(&chain), "--cpu", "-q"]);
     let render = read_json(&chain.join("report.json"));
-    assert!(render["reused"].as_array().unwrap().iter().any(|v| v == "lightfield.bin"));
-    assert!(render["timings_ms"].get("bake").is_none(), "{}", render["timings_ms"]);
+    assert!(render["reused"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .any(|v| v == "lightfield.bin"));
+    assert!(
+        render["timings_ms"].get("bake").is_none(),
+        "{}",
+        render["timings_ms"]
+    );
     ok(&["render", s(&config), "--cpu", "--out", s(&once), "-q"]);
     let (a, b) = (files(&chain), files(&once));
     assert_eq!(a.keys().collect::<Vec<_>>(), b.keys().collect::<Vec<_>>());
     for (name, bytes) in &a {
         if name != "report.json" {
-            assert!(bytes == &b[name], "{name} differs between the chain and one run");
+            assert!(
+                bytes == &b[name],
+                "{name} differs between the chain and one run"
+            );
         }
     }
-    assert_eq!(steady(&render), steady(&read_json(&once.join("report.json"))));
+    assert_eq!(
+        steady(&render),
+        steady(&read_json(&once.join("report.json")))
+    );
 }
 
 #[test]
@@ -94,7 +129,16 @@ fn from_a_run_of_another_seed_or_config_is_refused_in_one_line() {
     let d = tempfile::tempdir().unwrap();
     let out = d.path().join("out");
     let config = root().join("configs/cornell.ron");
-    ok(&["place", s(&config), "--out", s(&out), "--method", "grid:2x2x2", "--no-refine", "-q"]);
+    ok(&[
+        "place",
+        s(&config),
+        "--out",
+        s(&out),
+        "--method",
+        "grid:2x2x2",
+        "--no-refine",
+        "-q",
+    ]);
     let before = files(&out);
     let o = probeplace(&["bake", "--from", s(&out), "--seed", "77"]);
     let err = String::from_utf8_lossy(&o.stderr);
@@ -102,7 +146,15 @@ fn from_a_run_of_another_seed_or_config_is_refused_in_one_line() {
     assert_eq!(err.trim_end().lines().count(), 1, "{err}");
     assert!(err.contains("seed 1") && err.contains("seed 77"), "{err}");
     let other = root().join("configs/cornell-glossy.ron");
-    let o = probeplace(&["bake", s(&other), "--from", s(&out), "--method", "grid:2x2x2", "--no-refine"]);
+    let o = probeplace(&[
+        "bake",
+        s(&other),
+        "--from",
+        s(&out),
+        "--method",
+        "grid:2x2x2",
+        "--no-refine",
+    ]);
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(2), "{err}");
     assert!(err.contains("scene") || err.contains("config"), "{err}");
@@ -115,11 +167,32 @@ fn place_over_an_old_bake_leaves_none_of_its_files() {
     let out = d.path().join("out");
     let quality = cornell();
     let config = quality.path().to_path_buf();
-    ok(&["bake", s(&config), "--out", s(&out), "--method", "grid:2x2x2", "--no-refine", "-q"]);
+    ok(&[
+        "bake",
+        s(&config),
+        "--out",
+        s(&out),
+        "--method",
+        "grid:2x2x2",
+        "--no-refine",
+        "-q",
+    ]);
     assert!(out.join("lightfield.bin").is_file() && out.join("reference.exr").is_file());
-    ok(&["place", s(&config), "--out", s(&out), "--method", "grid:3x3x3", "--no-refine", "-q"]);
+    ok(&[
+        "place",
+        s(&config),
+        "--out",
+        s(&out),
+        "--method",
+        "grid:3x3x3",
+        "--no-refine",
+        "-q",
+    ]);
     let names: Vec<String> = files(&out).into_keys().collect();
-    assert_eq!(names, ["placement.png", "probes.json", "report.json", "svo.bin"]);
+    assert_eq!(
+        names,
+        ["placement.png", "probes.json", "report.json", "svo.bin"]
+    );
     alone(d.path());
     ok(&["inspect", s(&out), "-q"]);
 }
@@ -130,8 +203,26 @@ fn earlier_and_later(parent: &Path) -> (BTreeMap<String, Vec<u8>>, Vec<String>) 
     let out = parent.join("out");
     let config = parent.join("cornell.ron");
     std::fs::copy(cornell().path(), &config).unwrap();
-    ok(&["place", s(&config), "--out", s(&out), "--method", "grid:2x2x2", "--no-refine", "-q"]);
-    let later = ["place", s(&config), "--out", s(&out), "--method", "grid:3x2x3", "--no-refine", "-q"];
+    ok(&[
+        "place",
+        s(&config),
+        "--out",
+        s(&out),
+        "--method",
+        "grid:2x2x2",
+        "--no-refine",
+        "-q",
+    ]);
+    let later = [
+        "place",
+        s(&config),
+        "--out",
+        s(&out),
+        "--method",
+        "grid:3x2x3",
+        "--no-refine",
+        "-q",
+    ];
     (files(&out), later.iter().map(|a| a.to_string()).collect())
 }
 
@@ -166,12 +257,20 @@ if "$2" place "$3" --out "$1/out" --method grid:4x4x4 --no-refine -q 2>"$1/../st
 diff -r "$1/out" "$1/../before"
 rm "$1/filler"
 ls -A "$1"
-"#
+"#,
     );
     let mnt = d.path().join("mnt");
     std::fs::create_dir(&mnt).unwrap();
     let o = Command::new("unshare")
-        .args(["-m", "sh", "-c", &script, "sh", s(&mnt), env!("CARGO_BIN_EXE_probeplace")])
+        .args([
+            "-m",
+            "sh",
+            "-c",
+            &script,
+            "sh",
+            s(&mnt),
+            env!("CARGO_BIN_EXE_probeplace"),
+        ])
         .arg(root().join("configs/cornell.ron"))
         .output()
         .expect("unshare runs (util-linux)");
@@ -182,7 +281,11 @@ ls -A "$1"
         String::from_utf8_lossy(&o.stderr),
         std::fs::read_to_string(d.path().join("stderr")).unwrap_or_default()
     );
-    assert_eq!(stdout.trim(), "out", "the tmpfs after the failed run holds only the old output");
+    assert_eq!(
+        stdout.trim(),
+        "out",
+        "the tmpfs after the failed run holds only the old output"
+    );
     let err = std::fs::read_to_string(d.path().join("stderr")).unwrap();
     assert!(err.starts_with("error: "), "{err}");
 }
@@ -224,7 +327,10 @@ fn a_kill_at_any_step_of_the_commit_leaves_the_old_set_or_the_new() {
         } else if now == new_s {
             saw.1 += 1;
         } else {
-            panic!("step {step}: a mix of the old and the new set: {:?}", now.keys());
+            panic!(
+                "step {step}: a mix of the old and the new set: {:?}",
+                now.keys()
+            );
         }
         // Put the old set back for the next step.
         if now != old_s {
@@ -235,7 +341,12 @@ fn a_kill_at_any_step_of_the_commit_leaves_the_old_set_or_the_new() {
             }
         }
     }
-    assert!(saw.0 > 0 && saw.1 > 0, "old {} times, new {} times", saw.0, saw.1);
+    assert!(
+        saw.0 > 0 && saw.1 > 0,
+        "old {} times, new {} times",
+        saw.0,
+        saw.1
+    );
     // The next run sweeps what the killed ones left.
     ok(&later.iter().map(String::as_str).collect::<Vec<_>>());
     alone(d.path());
@@ -248,23 +359,59 @@ fn probes_from_a_file_are_scored_and_read_back_exactly() {
     let quality = cornell();
     let config = quality.path().to_path_buf();
     ok(&["place", s(&config), "--out", s(&first), "-q"]);
-    ok(&["place", s(&config), "--out", s(&again), "--probes", s(&first.join("probes.json")), "-q"]);
-    let (a, b) = (read_json(&first.join("probes.json")), read_json(&again.join("probes.json")));
+    ok(&[
+        "place",
+        s(&config),
+        "--out",
+        s(&again),
+        "--probes",
+        s(&first.join("probes.json")),
+        "-q",
+    ]);
+    let (a, b) = (
+        read_json(&first.join("probes.json")),
+        read_json(&again.join("probes.json")),
+    );
     let positions = |v: &serde_json::Value| -> Vec<serde_json::Value> {
-        v["probes"].as_array().unwrap().iter().map(|p| p["position"].clone()).collect()
+        v["probes"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|p| p["position"].clone())
+            .collect()
     };
-    assert_eq!(positions(&a), positions(&b), "probes.json does not round-trip");
+    assert_eq!(
+        positions(&a),
+        positions(&b),
+        "probes.json does not round-trip"
+    );
     let r = read_json(&again.join("report.json"));
     assert_eq!(r["method"], "file");
-    assert!(r["refine"].is_null(), "a given probe set is scored, not refined");
-    assert_eq!(r["coverage"], read_json(&first.join("report.json"))["coverage"]);
+    assert!(
+        r["refine"].is_null(),
+        "a given probe set is scored, not refined"
+    );
+    assert_eq!(
+        r["coverage"],
+        read_json(&first.join("report.json"))["coverage"]
+    );
     // A hand-made list of points, with a mistake in it.
     let hand = d.path().join("hand.json");
     std::fs::write(&hand, "[[0, 1, 0], [0.2, 1.2]]").unwrap();
-    let o = probeplace(&["place", s(&config), "--out", s(&d.path().join("h")), "--probes", s(&hand)]);
+    let o = probeplace(&[
+        "place",
+        s(&config),
+        "--out",
+        s(&d.path().join("h")),
+        "--probes",
+        s(&hand),
+    ]);
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(2), "{err}");
-    assert!(err.contains("hand.json") && err.contains("probe 1"), "{err}");
+    assert!(
+        err.contains("hand.json") && err.contains("probe 1"),
+        "{err}"
+    );
 }
 
 #[test]
@@ -286,7 +433,10 @@ fn inputs_in_the_output_and_foreign_directories_are_refused() {
     let o = probeplace(&["place", s(&cfg), "--out", s(d.path())]);
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(2), "{err}");
-    assert!(err.contains("run.ron") && err.contains("output directory"), "{err}");
+    assert!(
+        err.contains("run.ron") && err.contains("output directory"),
+        "{err}"
+    );
     assert!(cfg.is_file());
     let photos = d.path().join("photos");
     std::fs::create_dir(&photos).unwrap();
@@ -299,14 +449,38 @@ fn inputs_in_the_output_and_foreign_directories_are_refused() {
 #[test]
 fn compare_from_a_bake_reuses_it_and_scores_given_probes_beside_ours() {
     let d = tempfile::tempdir().unwrap();
-    let (baked, from, given) = (d.path().join("baked"), d.path().join("from"), d.path().join("given"));
+    let (baked, from, given) = (
+        d.path().join("baked"),
+        d.path().join("from"),
+        d.path().join("given"),
+    );
     let quality = cornell();
     let config = quality.path().to_path_buf();
     ok(&["bake", s(&config), "--out", s(&baked), "-q"]);
-    ok(&["compare", "--from", s(&baked), "--cpu", "--out", s(&from), "-q"]);
+    ok(&[
+        "compare",
+        "--from",
+        s(&baked),
+        "--cpu",
+        "--out",
+        s(&from),
+        "-q",
+    ]);
     let probes = baked.join("probes.json");
-    ok(&["compare", s(&config), "--cpu", "--out", s(&given), "--probes", s(&probes), "-q"]);
-    let (a, b) = (read_json(&from.join("compare.json")), read_json(&given.join("compare.json")));
+    ok(&[
+        "compare",
+        s(&config),
+        "--cpu",
+        "--out",
+        s(&given),
+        "--probes",
+        s(&probes),
+        "-q",
+    ]);
+    let (a, b) = (
+        read_json(&from.join("compare.json")),
+        read_json(&given.join("compare.json")),
+    );
     let reused = a["reused"].as_array().unwrap();
     for f in ["probes.json", "lightfield.bin", "reference.exr"] {
         assert!(reused.iter().any(|r| r == f), "{f} not reused: {reused:?}");
