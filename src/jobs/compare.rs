@@ -477,19 +477,10 @@ impl Bench<'_> {
                 (rows, renders, errors, 0, 0)
             }
             svo => {
-                let svo = match svo {
-                    Some(s) => s,
-                    None => {
-                        crate::svo::bake(
-                            &self.config.svo,
-                            probes,
-                            &self
-                                .prepared
-                                .placement_input(self.config.seed, &self.progress),
-                        )?
-                        .svo
-                    }
-                };
+                // The place stage indexes every non-empty probe set.
+                let svo = svo.ok_or_else(|| {
+                    Error::Internal(format!("compare: {name} has probes but no SVO"))
+                })?;
                 let field = match candidate.field {
                     Some(f) => f,
                     None => {

@@ -66,7 +66,7 @@ pub fn run_job(command: &str, config: &Path, out: &Path, extra: &[&str]) -> serd
 pub fn shared<T: Any + Send + Sync>(key: &str, make: impl FnOnce() -> T) -> &'static T {
     type Cell = OnceLock<Box<dyn Any + Send + Sync>>;
     static CELLS: Mutex<BTreeMap<String, &'static Cell>> = Mutex::new(BTreeMap::new());
-    let cell: &'static Cell = *CELLS
+    let cell: &'static Cell = CELLS
         .lock()
         .unwrap_or_else(|e| e.into_inner())
         .entry(key.to_string())

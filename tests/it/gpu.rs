@@ -74,11 +74,11 @@ fn compare(test: &str, config: &str, method: Option<&str>) {
         Some(l) => (Selection::Grid(l), SelectionKind::Grid),
         None => (Selection::Svo(&run.svo), SelectionKind::Svo),
     };
-    let tracer = ProbeTracer::new(&ctx, &field, Some(&run.svo), lattice.as_ref()).unwrap();
-    let queries = rays(&run);
+    let tracer = ProbeTracer::new(&ctx, field, Some(&run.svo), lattice.as_ref()).unwrap();
+    let queries = rays(run);
     let mut gpu = Vec::new();
     for march in [March::BiLevel, March::HiZ] {
-        let cpu = twin::trace_rays(&field, &selection, &queries, march);
+        let cpu = twin::trace_rays(field, &selection, &queries, march);
         let (g, _) = tracer.trace_rays(&queries, march, kind_of).unwrap();
         let rate = agreement(&cpu, &g);
         let hits = g.iter().filter(|r| r.kind == kind::HIT).count();
@@ -122,7 +122,7 @@ fn compare(test: &str, config: &str, method: Option<&str>) {
     assert!(hiz < bilevel, "{config}: Hi-Z should read fewer texels");
 
     // Irradiance at the ray origins, facing along the rays.
-    let cpu = twin::gather_irradiance(&field, &selection, &queries);
+    let cpu = twin::gather_irradiance(field, &selection, &queries);
     let (g, _) = tracer.gather_irradiance(&queries, kind_of).unwrap();
     let close = cpu
         .iter()

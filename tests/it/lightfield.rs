@@ -41,7 +41,7 @@ fn check_scene(config: &str, method: Option<&str>) -> check::Agreement {
         None => Selection::Svo(&run.svo),
     };
     let [a, flat] = [March::HiZ, March::Texel]
-        .map(|m| check::compare(&field, &selection, &p.scene, &p.bvh, &origins, 77, m));
+        .map(|m| check::compare(field, &selection, &p.scene, &p.bvh, &origins, 77, m));
     // Same answers up to rounding: texel spans computed at different levels
     // differ in the last bits, which can tip a ray grazing a texel's edge.
     assert_eq!(a.seen, flat.seen);

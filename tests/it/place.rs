@@ -10,7 +10,7 @@ fn cornell_default_run_meets_the_acceptance_bar() {
     let out = tempfile::tempdir().unwrap();
     copy_dir(&run.dir, out.path());
     assert!(out.path().join("svo.bin").is_file());
-    assert_svo_sound(&r, "cornell");
+    assert_svo_sound(r, "cornell");
     // Issue 4's bar: refinement on by default, full coverage with no more
     // probes than a 2×2×2 grid (the paper places 7).
     assert_eq!(r["method"], "sdf-skeleton+refine");
