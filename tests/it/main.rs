@@ -8,6 +8,7 @@ mod common;
 mod bad_input;
 mod compare;
 mod generality;
+mod hostile;
 mod gpu;
 mod jobs;
 mod lightfield;
