@@ -107,15 +107,43 @@ impl Provenance {
     ) -> Result<Provenance> {
         let mut scene = Fnv::default();
         for (i, file) in input_files(config, overrides).into_iter().enumerate() {
-            let bytes = std::fs::read(&file).map_err(|e| match (i, e.kind()) {
-                (0, std::io::ErrorKind::NotFound) => {
-                    Error::user_file(&file, "scene file not found")
+            let what = match i {
+                0 => "scene file",
+                _ if overrides.probes.as_ref() == Some(&file) => "probe file",
+                _ => "material library",
+            };
+            let (mut f, size) = crate::input::open(&file, what, u64::MAX)?;
+            scene.write(&size.to_le_bytes());
+            let mut chunk = vec![0u8; 1 << 16];
+            let mut read = 0u64;
+            let mut lines = 0usize;
+            while read < size {
+                let n = std::io::Read::read(&mut f, &mut chunk)
+                    .map_err(|e| Error::user_file(&file, format!("cannot read {what}: {e}")))?;
+                if n == 0 {
+                    break;
                 }
-                (_, std::io::ErrorKind::NotFound) => Error::user_file(&file, "not found"),
-                _ => Error::user_file(&file, format!("cannot read: {e}")),
-            })?;
-            scene.write(&(bytes.len() as u64).to_le_bytes());
-            scene.write(&bytes);
+                let n = n.min((size - read) as usize);
+                // A binary scene is refused here, before hashing gigabytes
+                // of it, with the line the loader would name.
+                if let (false, Some(at)) = (
+                    what == "probe file",
+                    chunk[..n].iter().position(|&b| b == 0),
+                ) {
+                    lines += chunk[..at].iter().filter(|&&b| b == b'\n').count();
+                    return Err(Error::User(format!(
+                        "{}:{}: binary data (a NUL byte): not {} text file",
+                        file.display(),
+                        lines + 1,
+                        if i == 0 { "an OBJ" } else { "an MTL" }
+                    )));
+                }
+                if what != "probe file" {
+                    lines += chunk[..n].iter().filter(|&&b| b == b'\n').count();
+                }
+                scene.write(&chunk[..n]);
+                read += n as u64;
+            }
         }
         Ok(Provenance {
             tool: TOOL.to_string(),
@@ -199,20 +227,23 @@ pub fn input_files(config: &Config, overrides: &Overrides) -> Vec<PathBuf> {
 
 /// The `mtllib` files `obj` names that exist, relative to its directory.
 pub fn material_libraries(obj: &Path) -> Vec<PathBuf> {
-    let Ok(bytes) = std::fs::read(obj) else {
+    let Ok((file, _)) = crate::input::open(obj, "scene file", u64::MAX) else {
         return Vec::new();
     };
+    let mut reader = std::io::BufReader::with_capacity(1 << 16, file);
     let dir = obj.parent().unwrap_or(Path::new(""));
     let mut out: Vec<PathBuf> = Vec::new();
-    for line in bytes.split(|&b| b == b'\n') {
-        let line = String::from_utf8_lossy(line);
+    let mut line = Vec::new();
+    // A line too long or binary ends the scan; the loader reports it.
+    while let Ok(Ok(true)) = crate::input::next_line(&mut reader, &mut line) {
+        let line = String::from_utf8_lossy(&line);
         let Some(rest) = line.trim_start().strip_prefix("mtllib") else {
             continue;
         };
         if !rest.starts_with(char::is_whitespace) {
             continue;
         }
-        for name in rest.split_whitespace() {
+        for name in rest.split('#').next().unwrap_or("").split_whitespace() {
             let p = dir.join(name);
             if p.is_file() && !out.contains(&p) {
                 out.push(p);

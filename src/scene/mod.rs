@@ -16,6 +16,7 @@
 //! missing MTL files, degenerate faces. Loading repairs what it can and says
 //! so in warnings; it refuses only files with no usable triangle.
 
+pub mod obj;
 pub mod raycast;
 pub mod watertight;
 
@@ -314,84 +315,32 @@ pub fn world_to_file(p: DVec3, scale: f64, up: UpAxis) -> DVec3 {
 /// Contract: every stage works with geometric normals (the winding's
 /// `(b-a)×(c-a)`), whether or not the file has normals: placement and
 /// coverage need the side a face is seen from, not a smoothed shading normal.
-/// Quads and polygons are fan-triangulated by tobj; negative
-/// indices are resolved; faces are kept in file order; degenerate or
-/// non-finite triangles are dropped and counted in one warning; a missing or
-/// unreadable MTL is a warning and every face gets [`Material::fallback`].
-/// Errors ([`Error::User`], naming the file): unreadable file, malformed OBJ,
-/// no usable triangle.
+/// The file is read by [`obj::read`] (its limits and repairs); quads and
+/// polygons are fan-triangulated; negative indices are resolved; faces
+/// are kept in file order; degenerate or non-finite triangles are dropped
+/// and counted in one warning; a missing MTL is a warning and its faces
+/// get [`Material::fallback`].
+/// Errors ([`Error::User`], naming the file and line): not a regular
+/// file, malformed OBJ, a limit exceeded, no usable triangle.
 pub fn load_obj(path: &Path, scale: f64, up: UpAxis) -> Result<Scene> {
-    if !path.is_file() {
-        return Err(Error::user_file(path, "scene file not found"));
-    }
-    let options = tobj::LoadOptions {
-        triangulate: true,
-        single_index: false,
-        ignore_points: true,
-        ignore_lines: true,
-    };
-    let (models, materials) = quietly(|| tobj::load_obj(path, &options))
-        .ok_or_else(|| Error::user_file(path, "malformed OBJ or MTL (the parser gave up)"))?
-        .map_err(|e| Error::user_file(path, format!("malformed OBJ: {e}")))?;
-    let mut warnings = Vec::new();
-    let materials: Vec<Material> = match materials {
-        Ok(ms) => ms
-            .into_iter()
-            .map(|m| {
-                let rgb = |c: Option<[f64; 3]>, default: f32| {
-                    c.map_or([default; 3], |c| c.map(|v| v as f32))
-                };
-                Material {
-                    name: m.name,
-                    diffuse: rgb(m.diffuse, 0.8),
-                    specular: rgb(m.specular, 0.0),
-                    shininess: m.shininess.map_or(1.0, |s| s as f32),
-                    emission: rgb(m.emissive, 0.0),
-                }
-            })
-            .collect(),
-        Err(e) => {
-            warnings.push(format!(
-                "{}: material library not loaded ({e}); using the default material",
-                path.display()
-            ));
-            Vec::new()
-        }
-    };
-    let triangles = models.iter().flat_map(|model| {
-        let mesh = &model.mesh;
-        let material = mesh.material_id.map_or(u32::MAX, |m| m as u32);
-        let vertex = move |i: u32| {
-            let i = i as usize * 3;
-            file_to_world(
-                DVec3::new(
-                    mesh.positions[i],
-                    mesh.positions[i + 1],
-                    mesh.positions[i + 2],
-                ),
-                scale,
-                up,
-            )
-        };
-        mesh.indices
-            .chunks_exact(3)
-            .map(move |f| ([vertex(f[0]), vertex(f[1]), vertex(f[2])], material))
-    });
+    let obj::ObjFile {
+        positions,
+        triangles,
+        materials,
+        mut warnings,
+    } = obj::read(path)?;
+    let world: Vec<DVec3> = positions
+        .iter()
+        .map(|&p| file_to_world(p, scale, up))
+        .collect();
+    drop(positions);
+    let triangles = triangles
+        .into_iter()
+        .map(|(t, material)| (t.map(|i| world[i as usize]), material));
     let mut scene = Scene::from_world_triangles(path.to_path_buf(), triangles, materials)?;
     warnings.append(&mut scene.warnings);
     scene.warnings = warnings;
     Ok(scene)
-}
-
-/// Runs `f`, turning a panic inside the OBJ/MTL parser into `None` without
-/// printing it: tobj 4 unwraps on some malformed MTL lines (e.g. `Ke 1 2`),
-/// and a user mistake must never surface as a panic.
-fn quietly<T>(f: impl FnOnce() -> T + std::panic::UnwindSafe) -> Option<T> {
-    let hook = std::panic::take_hook();
-    std::panic::set_hook(Box::new(|_| {}));
-    let result = std::panic::catch_unwind(f).ok();
-    std::panic::set_hook(hook);
-    result
 }
 
 /// Small analytic scenes shared by the unit tests of several stages.

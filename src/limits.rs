@@ -1,0 +1,225 @@
+//! What this machine can do, read at run time, and the checks every stage
+//! makes *before* it allocates or loops over a number the user chose.
+//!
+//! Memory: the budget is half of the memory available when the run starts
+//! (`MemAvailable`, the cgroup's `memory.max` less its usage, and the
+//! address-space limit `ulimit -v` less what the process already maps,
+//! whichever is least), so that a config asking for more is refused in one
+//! line naming its field instead of dying in the allocator. Work: each
+//! stage estimates its seconds on this machine's threads from measured
+//! per-core rates (BENCHMARKS.md, "Limits") and refuses configs whose
+//! estimate exceeds [`work_limit_seconds`], so that no accepted config
+//! runs for hours. `PROBEPLACE_MEMORY` (bytes, or with a K/M/G suffix)
+//! lowers the memory budget; `PROBEPLACE_WORK_LIMIT` (seconds, `0` for
+//! none) replaces the work limit.
+
+use crate::error::{Error, Result};
+use crate::input::bytes_text;
+use std::sync::OnceLock;
+
+/// Default estimated seconds one stage may take: 5 minutes.
+pub const WORK_LIMIT_SECONDS: f64 = 300.0;
+
+/// The bytes this run may allocate in one stage (module docs), read once.
+pub fn memory_budget() -> u64 {
+    static BUDGET: OnceLock<u64> = OnceLock::new();
+    *BUDGET.get_or_init(|| {
+        let mut available = [
+            meminfo_available(),
+            cgroup_available(),
+            address_space_available(),
+        ]
+        .into_iter()
+        .flatten()
+        .min()
+        .unwrap_or(8 << 30)
+            / 2;
+        if let Some(cap) = std::env::var("PROBEPLACE_MEMORY")
+            .ok()
+            .and_then(|v| parse_bytes(&v))
+        {
+            available = available.min(cap);
+        }
+        available
+    })
+}
+
+/// The estimated seconds a stage may take (module docs); `f64::INFINITY`
+/// when `PROBEPLACE_WORK_LIMIT=0`.
+pub fn work_limit_seconds() -> f64 {
+    match std::env::var("PROBEPLACE_WORK_LIMIT")
+        .ok()
+        .and_then(|v| v.trim().parse::<f64>().ok())
+    {
+        Some(v) if v == 0.0 => f64::INFINITY,
+        Some(v) if v > 0.0 => v,
+        _ => WORK_LIMIT_SECONDS,
+    }
+}
+
+/// Refuses (a user error naming `field`) when `bytes` exceed the
+/// [`memory_budget`]; `what` says what needs them ("the bake of 4096
+/// probes at 512² maps").
+pub fn check_memory(field: &str, what: &str, bytes: f64) -> Result<()> {
+    let budget = memory_budget();
+    if bytes > budget as f64 {
+        return Err(Error::User(format!(
+            "{field}: {what} needs about {} of memory; this run may use {} (half the memory available{}); lower it",
+            bytes_text(bytes.min(u64::MAX as f64) as u64),
+            bytes_text(budget),
+            if std::env::var_os("PROBEPLACE_MEMORY").is_some() {
+                ", capped by PROBEPLACE_MEMORY"
+            } else {
+                ""
+            }
+        )));
+    }
+    Ok(())
+}
+
+/// Refuses (a user error naming `field`) when `work` units at `per_core`
+/// units per second on each of this run's threads would take longer than
+/// [`work_limit_seconds`].
+pub fn check_work(field: &str, what: &str, work: f64, per_core: f64) -> Result<()> {
+    let threads = rayon::current_num_threads().max(1) as f64;
+    let seconds = work / (per_core * threads);
+    let limit = work_limit_seconds();
+    if seconds > limit {
+        return Err(Error::User(format!(
+            "{field}: {what} would take about {} on {} thread(s), over the limit of {} (PROBEPLACE_WORK_LIMIT=0 lifts it); lower it",
+            duration_text(seconds),
+            threads,
+            duration_text(limit)
+        )));
+    }
+    Ok(())
+}
+
+/// Seconds in words: `45 s`, `12 min`, `3.2 h`, `4.1e3 days`.
+pub fn duration_text(seconds: f64) -> String {
+    if !seconds.is_finite() {
+        "forever".into()
+    } else if seconds < 120.0 {
+        format!("{seconds:.0} s")
+    } else if seconds < 7200.0 {
+        format!("{:.0} min", seconds / 60.0)
+    } else if seconds < 172_800.0 {
+        format!("{:.1} h", seconds / 3600.0)
+    } else {
+        let days = seconds / 86_400.0;
+        if days < 1e4 {
+            format!("{days:.0} days")
+        } else {
+            format!("{days:.1e} days")
+        }
+    }
+}
+
+/// `8G`, `512M`, `4096K` or plain bytes.
+fn parse_bytes(text: &str) -> Option<u64> {
+    let t = text.trim();
+    let (digits, shift) = match t.chars().last()? {
+        'K' | 'k' => (&t[..t.len() - 1], 10),
+        'M' | 'm' => (&t[..t.len() - 1], 20),
+        'G' | 'g' => (&t[..t.len() - 1], 30),
+        _ => (t, 0),
+    };
+    digits.trim().parse::<u64>().ok()?.checked_mul(1 << shift)
+}
+
+/// `MemAvailable` of /proc/meminfo, in bytes.
+fn meminfo_available() -> Option<u64> {
+    let text = std::fs::read_to_string("/proc/meminfo").ok()?;
+    kib_field(&text, "MemAvailable:")
+}
+
+fn kib_field(text: &str, name: &str) -> Option<u64> {
+    let line = text.lines().find(|l| l.starts_with(name))?;
+    let kib: u64 = line[name.len()..]
+        .trim()
+        .trim_end_matches("kB")
+        .trim()
+        .parse()
+        .ok()?;
+    Some(kib * 1024)
+}
+
+/// The cgroup v2 limit less the current usage, when a limit is set.
+fn cgroup_available() -> Option<u64> {
+    let max = std::fs::read_to_string("/sys/fs/cgroup/memory.max").ok()?;
+    let max: u64 = max.trim().parse().ok()?;
+    let current: u64 = std::fs::read_to_string("/sys/fs/cgroup/memory.current")
+        .ok()?
+        .trim()
+        .parse()
+        .ok()?;
+    Some(max.saturating_sub(current))
+}
+
+/// `RLIMIT_AS` (what `ulimit -v` sets) less the address space mapped now.
+fn address_space_available() -> Option<u64> {
+    let mut limit = libc::rlimit {
+        rlim_cur: 0,
+        rlim_max: 0,
+    };
+    // SAFETY: getrlimit writes the struct it is given and nothing else.
+    if unsafe { libc::getrlimit(libc::RLIMIT_AS, &mut limit) } != 0
+        || limit.rlim_cur == libc::RLIM_INFINITY
+    {
+        return None;
+    }
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let mapped = kib_field(&status, "VmSize:").unwrap_or(0);
+    Some((limit.rlim_cur as u64).saturating_sub(mapped))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn byte_counts_and_durations_read_as_written() {
+        assert_eq!(parse_bytes("8G"), Some(8 << 30));
+        assert_eq!(parse_bytes("512 M"), Some(512 << 20));
+        assert_eq!(parse_bytes("512M"), Some(512 << 20));
+        assert_eq!(parse_bytes("1000"), Some(1000));
+        assert_eq!(parse_bytes("x"), None);
+        assert_eq!(duration_text(45.0), "45 s");
+        assert_eq!(duration_text(900.0), "15 min");
+        assert_eq!(duration_text(3.0 * 3600.0), "3.0 h");
+        assert_eq!(duration_text(1e12), "1.2e7 days");
+    }
+
+    #[test]
+    fn the_budget_is_positive_and_checks_refuse_beyond_it() {
+        let budget = memory_budget();
+        assert!(budget > 0);
+        assert!(check_memory("bake.resolution", "x", budget as f64 / 2.0).is_ok());
+        let e = check_memory("bake.resolution", "the bake", budget as f64 * 4.0)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.starts_with("bake.resolution: the bake needs about "),
+            "{e}"
+        );
+        let e = check_work("coverage.samples", "coverage", 1e30, 1e6)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.starts_with("coverage.samples: coverage would take about "),
+            "{e}"
+        );
+        assert!(check_work("coverage.samples", "coverage", 1.0, 1e6).is_ok());
+    }
+
+    #[test]
+    fn proc_fields_parse() {
+        assert_eq!(
+            kib_field(
+                "MemTotal: 10 kB\nMemAvailable:   2048 kB\n",
+                "MemAvailable:"
+            ),
+            Some(2048 * 1024)
+        );
+    }
+}

@@ -1,0 +1,531 @@
+//! The Wavefront OBJ and MTL reader: streaming, bounded, and precise about
+//! where a file is wrong.
+//!
+//! Only what the stages use is read: vertex positions (`v`), faces (`f`,
+//! any of the `v`, `v/t`, `v//n`, `v/t/n` forms, negative indices
+//! relative to the vertices read so far), material libraries (`mtllib`)
+//! and switches (`usemtl`); every other statement is skipped, as OBJ
+//! readers do. Polygons are fan-triangulated from their first vertex, the
+//! triangulation tobj and most engines apply, so a quad's two triangles
+//! are `(0,1,2)` and `(0,2,3)`.
+//!
+//! Limits, checked before the work they bound: a line is at most
+//! [`MAX_LINE_BYTES`](crate::input::MAX_LINE_BYTES), a face at most
+//! [`MAX_FACE_VERTICES`] vertices, the file at most four times the memory
+//! budget ([`crate::limits`]), and the vertices and triangles read so far
+//! must fit the budget, checked every [`CHECK_EVERY`] lines. A NUL byte
+//! ends the read at once (a binary file). Errors name the file and line.
+//!
+//! MTL values outside what the BSDF can use are clamped, each with a
+//! warning naming the file, line and material (docs/config.md, "Scenes"):
+//! `Kd` and `Ks` components to [0, 1] (non-finite: the default, 0.8 and
+//! 0); `Ke` components that are negative or non-finite to 0; `Ns`
+//! negative to 0 and non-finite to the default 1.
+
+use super::Material;
+use crate::error::{Error, Result};
+use crate::input::{self, LineError};
+use crate::limits;
+use glam::DVec3;
+use std::collections::HashMap;
+use std::io::BufReader;
+use std::path::{Path, PathBuf};
+
+/// Most vertices one face may have. Fan triangulation is linear in it,
+/// but a longer face is not a modelling polygon: it is a broken export.
+pub const MAX_FACE_VERTICES: usize = 65_536;
+
+/// Largest material library read: 64 MiB of text.
+pub const MAX_MTL_BYTES: u64 = 64 << 20;
+
+/// Lines between two checks of the memory read so far.
+pub const CHECK_EVERY: usize = 1 << 20;
+
+/// Bytes a kept triangle costs from here until the scene's BVH is built:
+/// the face (16), its world-space copy (80), the scene's triangle, normal
+/// and material (52) and its share of the BVH (about 100).
+pub const BYTES_PER_TRIANGLE: f64 = 250.0;
+
+/// Most warnings of one kind listed per file; the rest are counted.
+const LISTED_WARNINGS: usize = 5;
+
+/// An OBJ file as read: vertex positions in file coordinates, triangles
+/// as position indices with a material index (`u32::MAX`: none), the
+/// materials of its libraries, and the warnings raised.
+#[derive(Debug, Default)]
+pub struct ObjFile {
+    /// `v` statements, in file order.
+    pub positions: Vec<DVec3>,
+    /// Triangles (fan-triangulated faces), in file order.
+    pub triangles: Vec<([u32; 3], u32)>,
+    /// Materials of every `mtllib`, in library order.
+    pub materials: Vec<Material>,
+    /// What was repaired or skipped, in words.
+    pub warnings: Vec<String>,
+}
+
+/// Reads the OBJ at `path` and the material libraries it names (relative
+/// to its directory).
+///
+/// Contract: see the module docs for what is read and the limits. A
+/// missing MTL, or a `usemtl` of a material no library defines, is a
+/// warning (those faces get the fallback material); an MTL that exists but
+/// is not a regular file, or is over [`MAX_MTL_BYTES`], is an error, as is
+/// any OBJ line that cannot be read (`file:LINE: problem`).
+pub fn read(path: &Path) -> Result<ObjFile> {
+    let limit = limits::memory_budget().saturating_mul(4);
+    let (file, _) = input::open(path, "scene file", limit)?;
+    let dir = path.parent().unwrap_or(Path::new("")).to_path_buf();
+    parse(
+        BufReader::with_capacity(1 << 16, file),
+        path,
+        &mut |name: &str| read_mtl_file(&dir.join(name)),
+    )
+}
+
+/// What loading one material library gave.
+pub enum Library {
+    /// Its text.
+    Text(PathBuf, String),
+    /// It does not exist or could not be read: a warning.
+    Missing(String),
+}
+
+fn read_mtl_file(path: &Path) -> Result<Library> {
+    if !path.exists() {
+        return Ok(Library::Missing(format!(
+            "{}: material library not found; its materials get the default",
+            path.display()
+        )));
+    }
+    let bytes = input::read(path, "material library", MAX_MTL_BYTES)?;
+    if bytes.contains(&0) {
+        return Err(Error::user_file(
+            path,
+            "holds binary data (a NUL byte): not an MTL text file",
+        ));
+    }
+    Ok(Library::Text(
+        path.to_path_buf(),
+        String::from_utf8_lossy(&bytes).into_owned(),
+    ))
+}
+
+/// Parses OBJ text from `reader` (`name` for messages); `library` loads a
+/// `mtllib` by the name the file gives. See [`read`].
+pub fn parse(
+    mut reader: impl std::io::BufRead,
+    name: &Path,
+    library: &mut dyn FnMut(&str) -> Result<Library>,
+) -> Result<ObjFile> {
+    let mut obj = ObjFile::default();
+    let mut names: HashMap<String, u32> = HashMap::new();
+    let mut loaded: Vec<String> = Vec::new();
+    // Material names in `usemtl` order; resolved once every library is read.
+    let mut used: Vec<String> = Vec::new();
+    let mut current = u32::MAX;
+    let mut line = Vec::new();
+    let mut face: Vec<u32> = Vec::new();
+    let mut n = 0usize;
+    let at = |n: usize, msg: String| Error::User(format!("{}:{n}: {msg}", name.display()));
+    loop {
+        n += 1;
+        let more = input::next_line(&mut reader, &mut line)
+            .map_err(|e| Error::user_file(name, format!("cannot read scene file: {e}")))?;
+        match more {
+            Ok(false) => break,
+            Ok(true) => {}
+            Err(LineError::Binary) => {
+                return Err(at(
+                    n,
+                    "binary data (a NUL byte): not an OBJ text file".into(),
+                ))
+            }
+            Err(LineError::TooLong) => {
+                return Err(at(
+                    n,
+                    format!(
+                        "line longer than {}; not an OBJ a modeller writes",
+                        input::bytes_text(input::MAX_LINE_BYTES as u64)
+                    ),
+                ))
+            }
+        }
+        if n % CHECK_EVERY == 0 {
+            let bytes =
+                obj.positions.len() as f64 * 24.0 + obj.triangles.len() as f64 * BYTES_PER_TRIANGLE;
+            limits::check_memory(
+                "scene",
+                &format!(
+                    "{} after {} lines ({} vertices, {} triangles so far)",
+                    name.display(),
+                    n,
+                    obj.positions.len(),
+                    obj.triangles.len()
+                ),
+                bytes,
+            )?;
+        }
+        let text = String::from_utf8_lossy(&line);
+        let text = text.split('#').next().unwrap_or("");
+        let mut words = text.split_ascii_whitespace();
+        let Some(keyword) = words.next() else {
+            continue;
+        };
+        match keyword {
+            "v" => {
+                let mut c = [0.0f64; 3];
+                for (i, slot) in c.iter_mut().enumerate() {
+                    let w = words
+                        .next()
+                        .ok_or_else(|| at(n, format!("a vertex needs 3 coordinates, found {i}")))?;
+                    *slot = w.parse().map_err(|_| {
+                        at(
+                            n,
+                            format!("vertex coordinate `{}` is not a number", short(w)),
+                        )
+                    })?;
+                }
+                obj.positions.push(DVec3::from_array(c));
+            }
+            "f" => {
+                face.clear();
+                let count = obj.positions.len() as i64;
+                for w in words {
+                    if face.len() == MAX_FACE_VERTICES {
+                        return Err(at(
+                            n,
+                            format!("a face of more than {MAX_FACE_VERTICES} vertices"),
+                        ));
+                    }
+                    let index = w.split('/').next().unwrap_or("");
+                    let i: i64 = index.parse().map_err(|_| {
+                        at(n, format!("face vertex `{}` is not an index", short(w)))
+                    })?;
+                    let resolved = if i > 0 { i - 1 } else { count + i };
+                    if i == 0 || resolved < 0 || resolved >= count {
+                        return Err(at(
+                            n,
+                            format!(
+                                "face vertex index {i} does not name one of the {count} vertices read so far"
+                            ),
+                        ));
+                    }
+                    face.push(resolved as u32);
+                }
+                if face.len() < 3 {
+                    return Err(at(
+                        n,
+                        format!("a face needs at least 3 vertices, found {}", face.len()),
+                    ));
+                }
+                for k in 1..face.len() - 1 {
+                    obj.triangles
+                        .push(([face[0], face[k], face[k + 1]], current));
+                }
+            }
+            "usemtl" => {
+                let m = rest_of(text, keyword);
+                current = match used.iter().position(|u| *u == m) {
+                    Some(i) => i as u32,
+                    None => {
+                        used.push(m.to_string());
+                        (used.len() - 1) as u32
+                    }
+                };
+            }
+            "mtllib" => {
+                for lib in words {
+                    if loaded.iter().any(|l| l == lib) {
+                        continue;
+                    }
+                    loaded.push(lib.to_string());
+                    match library(lib)? {
+                        Library::Missing(w) => obj.warnings.push(w),
+                        Library::Text(path, text) => {
+                            let (materials, mut warnings) = parse_mtl(&text, &path);
+                            for m in materials {
+                                names.insert(m.name.clone(), obj.materials.len() as u32);
+                                obj.materials.push(m);
+                            }
+                            obj.warnings.append(&mut warnings);
+                        }
+                    }
+                }
+            }
+            _ => {}
+        }
+    }
+    // `usemtl` indices point into `used`; map them to library materials.
+    let mut unknown: Vec<&str> = Vec::new();
+    let map: Vec<u32> = used
+        .iter()
+        .map(|u| {
+            names.get(u).copied().unwrap_or_else(|| {
+                unknown.push(u);
+                u32::MAX
+            })
+        })
+        .collect();
+    for (_, m) in obj.triangles.iter_mut() {
+        if *m != u32::MAX {
+            *m = map[*m as usize];
+        }
+    }
+    if !unknown.is_empty() && !obj.materials.is_empty() {
+        obj.warnings.push(format!(
+            "{}: usemtl names material(s) no library defines ({}); those faces get the default",
+            name.display(),
+            listed(&unknown)
+        ));
+    }
+    Ok(obj)
+}
+
+/// `text` after `keyword` and its whitespace, trimmed (names may hold spaces).
+fn rest_of<'a>(text: &'a str, keyword: &str) -> &'a str {
+    text.trim_start()[keyword.len()..].trim()
+}
+
+/// The first [`LISTED_WARNINGS`] of `items`, then how many more.
+fn listed(items: &[&str]) -> String {
+    let mut s = items
+        .iter()
+        .take(LISTED_WARNINGS)
+        .map(|i| format!("`{i}`"))
+        .collect::<Vec<_>>()
+        .join(", ");
+    if items.len() > LISTED_WARNINGS {
+        s.push_str(&format!(" and {} more", items.len() - LISTED_WARNINGS));
+    }
+    s
+}
+
+/// At most 40 characters of a word, for messages about it.
+fn short(word: &str) -> String {
+    if word.chars().count() > 40 {
+        format!("{}…", word.chars().take(40).collect::<String>())
+    } else {
+        word.to_string()
+    }
+}
+
+/// The materials of one MTL text (`path` for messages) and the warnings
+/// its values raised (module docs: what is clamped).
+pub fn parse_mtl(text: &str, path: &Path) -> (Vec<Material>, Vec<String>) {
+    let mut materials: Vec<Material> = Vec::new();
+    let mut warnings: Vec<String> = Vec::new();
+    let mut repaired = 0usize;
+    let mut warn = |w: String| {
+        repaired += 1;
+        if repaired <= LISTED_WARNINGS {
+            warnings.push(w);
+        }
+    };
+    for (i, raw) in text.lines().enumerate() {
+        let line = raw.split('#').next().unwrap_or("");
+        let mut words = line.split_ascii_whitespace();
+        let Some(keyword) = words.next() else {
+            continue;
+        };
+        if keyword == "newmtl" {
+            let mut m = Material::fallback();
+            m.name = rest_of(line, keyword).to_string();
+            materials.push(m);
+            continue;
+        }
+        let Some(m) = materials.last_mut() else {
+            continue;
+        };
+        let here = |what: String| {
+            format!(
+                "{}:{}: material `{}`: {what}",
+                path.display(),
+                i + 1,
+                m.name
+            )
+        };
+        let values: Vec<&str> = words.collect();
+        match keyword {
+            "Kd" | "Ks" | "Ke" => {
+                let Some(rgb) = colour(&values) else {
+                    warn(here(format!(
+                        "{keyword} `{}` is not 1 or 3 numbers; ignored",
+                        short(&values.join(" "))
+                    )));
+                    continue;
+                };
+                let (default, max) = match keyword {
+                    "Kd" => (0.8, 1.0),
+                    "Ks" => (0.0, 1.0),
+                    _ => (0.0, f64::INFINITY),
+                };
+                let mut out = [0.0f32; 3];
+                let mut notes = Vec::new();
+                for (o, v) in out.iter_mut().zip(rgb) {
+                    let fixed = if !v.is_finite() {
+                        if keyword == "Ke" {
+                            0.0
+                        } else {
+                            default
+                        }
+                    } else {
+                        v.clamp(0.0, max)
+                    };
+                    if fixed != v {
+                        notes.push(format!("{v} → {fixed}"));
+                    }
+                    *o = fixed as f32;
+                }
+                if !notes.is_empty() {
+                    warn(here(format!(
+                        "{keyword} out of range ({}); clamped",
+                        notes.join(", ")
+                    )));
+                }
+                match keyword {
+                    "Kd" => m.diffuse = out,
+                    "Ks" => m.specular = out,
+                    _ => m.emission = out,
+                }
+            }
+            "Ns" => match values.first().and_then(|v| v.parse::<f64>().ok()) {
+                Some(v) if v.is_finite() && v >= 0.0 => m.shininess = v as f32,
+                Some(v) => {
+                    let fixed = if v.is_finite() { 0.0 } else { 1.0 };
+                    warn(here(format!("Ns {v} out of range; {fixed} used")));
+                    m.shininess = fixed as f32;
+                }
+                None => warn(here(format!(
+                    "Ns `{}` is not a number; ignored",
+                    short(&values.join(" "))
+                ))),
+            },
+            _ => {}
+        }
+    }
+    if repaired > LISTED_WARNINGS {
+        warnings.push(format!(
+            "{}: and {} more value(s) clamped",
+            path.display(),
+            repaired - LISTED_WARNINGS
+        ));
+    }
+    (materials, warnings)
+}
+
+/// `r g b`, or one value for all three.
+fn colour(values: &[&str]) -> Option<[f64; 3]> {
+    let parsed: Option<Vec<f64>> = values.iter().map(|v| v.parse().ok()).collect();
+    match parsed?.as_slice() {
+        [v] => Some([*v; 3]),
+        [r, g, b] => Some([*r, *g, *b]),
+        _ => None,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn parse_text(text: &str, mtl: &str) -> Result<ObjFile> {
+        let mtl = mtl.to_string();
+        parse(
+            std::io::Cursor::new(text.as_bytes().to_vec()),
+            Path::new("t.obj"),
+            &mut |name: &str| {
+                Ok(if name == "t.mtl" {
+                    Library::Text(PathBuf::from("t.mtl"), mtl.clone())
+                } else {
+                    Library::Missing(format!("{name}: not found"))
+                })
+            },
+        )
+    }
+
+    fn error(text: &str) -> String {
+        parse_text(text, "").unwrap_err().to_string()
+    }
+
+    #[test]
+    fn polygons_fan_from_their_first_vertex_and_indices_resolve() {
+        let o = parse_text(
+            "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1/1/1 2//2 3/3 4\nf -4 -3 -2\n",
+            "",
+        )
+        .unwrap();
+        let tris: Vec<[u32; 3]> = o.triangles.iter().map(|t| t.0).collect();
+        assert_eq!(tris, [[0, 1, 2], [0, 2, 3], [0, 1, 2]]);
+        assert!(o.triangles.iter().all(|t| t.1 == u32::MAX));
+    }
+
+    #[test]
+    fn materials_resolve_by_name_and_bad_values_are_clamped_with_a_warning() {
+        let mtl = "newmtl red\nKd 5 0.5 NaN\nKe inf 1 -2\nNs -5\nnewmtl shiny\nKs 0.5\nNs 200\n";
+        let o = parse_text(
+            "mtllib t.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl shiny\nf 1 2 3\nusemtl red\nf 1 2 3\nusemtl nope\nf 1 2 3\n",
+            mtl,
+        )
+        .unwrap();
+        let ids: Vec<u32> = o.triangles.iter().map(|t| t.1).collect();
+        assert_eq!(ids, [1, 0, u32::MAX]);
+        let red = &o.materials[0];
+        assert_eq!(red.diffuse, [1.0, 0.5, 0.8]);
+        assert_eq!(red.emission, [0.0, 1.0, 0.0]);
+        assert_eq!(red.shininess, 0.0);
+        assert_eq!(o.materials[1].specular, [0.5; 3]);
+        assert_eq!(o.materials[1].shininess, 200.0);
+        let w = o.warnings.join("\n");
+        assert!(
+            w.contains("t.mtl:2: material `red`: Kd out of range"),
+            "{w}"
+        );
+        assert!(w.contains("t.mtl:3: material `red`: Ke"), "{w}");
+        assert!(w.contains("t.mtl:4: material `red`: Ns -5"), "{w}");
+        assert!(w.contains("`nope`"), "{w}");
+    }
+
+    #[test]
+    fn mistakes_name_their_line() {
+        assert_eq!(
+            error("v 0 0 0\nv 1 x 0\n"),
+            "t.obj:2: vertex coordinate `x` is not a number"
+        );
+        assert_eq!(
+            error("v 0 0\n"),
+            "t.obj:1: a vertex needs 3 coordinates, found 2"
+        );
+        assert!(error("v 0 0 0\nf 1 2 3\n").starts_with("t.obj:2: face vertex index 2"));
+        assert!(error("v 0 0 0\n# c\nf 1 0 1\n").starts_with("t.obj:3: face vertex index 0"));
+        assert_eq!(
+            error("v 0 0 0\nf 1 1\n"),
+            "t.obj:2: a face needs at least 3 vertices, found 2"
+        );
+        assert!(error("v 0 0 0\nf a b c\n").contains("`a` is not an index"));
+        assert!(error("# ok\n\0\0\0").starts_with("t.obj:2: binary data"));
+    }
+
+    #[test]
+    fn a_huge_face_is_refused_without_triangulating_it() {
+        let mut text = String::from("v 0 0 0\nv 1 0 0\nv 0 1 0\nf");
+        for i in 0..MAX_FACE_VERTICES + 1 {
+            text.push_str(&format!(" {}", i % 3 + 1));
+        }
+        let e = error(&text);
+        assert!(
+            e.starts_with("t.obj:4: a face of more than 65536 vertices"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn statements_the_stages_do_not_use_are_skipped() {
+        let o = parse_text(
+            "# c\no a\ng b\ns 1\nvt 0 0\nvn 0 0 1\nv 0 0 0 1\nv 1 0 0 0.5 0.5 0.5\nv 0 1 0\nl 1 2\np 1\nf 1 2 3 # tail\n",
+            "",
+        )
+        .unwrap();
+        assert_eq!(o.positions.len(), 3);
+        assert_eq!(o.triangles.len(), 1);
+    }
+}
