@@ -176,7 +176,7 @@ impl<const MAX: u32> TryFrom<u64> for Count<MAX> {
 /// Most grid cells along one axis.
 pub const MAX_GRID_CELLS_PER_AXIS: u32 = 1024;
 /// Most probes a grid may have.
-pub const MAX_GRID_PROBES: u64 = 1 << 20;
+pub const MAX_GRID_PROBES: u64 = crate::limits::MAX_PROBES as u64;
 
 /// An angle in degrees, strictly between 0 and 90.
 #[derive(Debug, Clone, Copy, PartialEq, Deserialize)]

@@ -49,6 +49,38 @@ use std::num::NonZero;
 /// (module docs); no placement method puts a probe nearer.
 pub const REFERENCE_MIN_CLEARANCE_VOXELS: f32 = 1.0;
 
+/// Share of sample-reference pairs the reference's visibility search
+/// tests, on average: samples stop at the first reference that sees them
+/// (most within the [`NEAREST_FIRST`] nearest), but uncoverable ones try
+/// every reference. A quarter bounds what was measured on the scenes in
+/// configs/ (BENCHMARKS.md, "Limits").
+const TESTED_SHARE: f64 = 0.25;
+
+/// Refuses coverage parameters whose reference would take longer than
+/// [`crate::limits::work_limit_seconds`] over a domain of `voxels` SDF
+/// voxels (at most that many reference points exist): samples ×
+/// references × [`TESTED_SHARE`] segments.
+pub fn check_work(params: &CoverageParams, voxels: f64) -> crate::error::Result<()> {
+    let references = (params.reference_points.0 as f64).min(voxels);
+    let segments = params.samples.0 as f64 * references * TESTED_SHARE;
+    crate::limits::check_work(
+        "coverage.samples",
+        &format!(
+            "the coverage reference ({} samples × {} reference points)",
+            params.samples.0, references as u64
+        ),
+        segments,
+        crate::limits::rate::COVERAGE_SEGMENTS,
+    )
+}
+
+/// The estimated work of scoring `probes` probes against `params.samples`
+/// samples (each tries its nearest probes first, then the others):
+/// segments, for [`crate::limits::check_work`].
+pub fn evaluation_segments(params: &CoverageParams, probes: usize) -> f64 {
+    params.samples.0 as f64 * probes as f64 * TESTED_SHARE
+}
+
 /// Nearest references tried first for each sample, before all others.
 const NEAREST_FIRST: usize = 32;
 

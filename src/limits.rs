@@ -17,6 +17,11 @@ use crate::error::{Error, Result};
 use crate::input::bytes_text;
 use std::sync::OnceLock;
 
+/// Most probes a placement may hand to the later stages (refinement,
+/// coverage, SVO, bake): 2¹⁶. A grid of 2²⁰ probes took over five minutes
+/// in the SVO and coverage stages alone (BENCHMARKS.md, "Limits").
+pub const MAX_PROBES: usize = 65_536;
+
 /// Default estimated seconds one stage may take: 5 minutes.
 pub const WORK_LIMIT_SECONDS: f64 = 300.0;
 
@@ -93,6 +98,48 @@ pub fn check_work(field: &str, what: &str, work: f64, per_core: f64) -> Result<(
         )));
     }
     Ok(())
+}
+
+/// Per-core rates of the stages' inner loops, measured on this project's
+/// 2-core VM in release builds (BENCHMARKS.md, "Limits": the runs and
+/// commands). Each is taken on the slower of Dabrovic Sponza (66k
+/// triangles) and the Cornell box, then halved, so that estimates err
+/// towards refusing less than a twice slower scene would need.
+pub mod rate {
+    /// SDF voxels classified per core-second (Sponza: 591k voxels in
+    /// 2.39 s on 2 threads).
+    pub const SDF_VOXELS: f64 = 6.0e4;
+    /// SVO leaves ranked per core-second (Sponza: 464k cells, 1.95 s).
+    pub const SVO_CELLS: f64 = 6.0e4;
+    /// Probe-influence rays of the SVO per core-second (Cornell: 16 384
+    /// probes × 32² directions, 4.4 s).
+    pub const SVO_PROBE_RAYS: f64 = 1.0e6;
+    /// Coverage sample-to-viewer segments per core-second (Sponza: 26.8 M
+    /// segments, 0.6 s).
+    pub const COVERAGE_SEGMENTS: f64 = 1.0e7;
+    /// Path vertices (paths × (1 + bounces)) of the probe bake and the
+    /// reference per core-second (Sponza: 9.8 M in 9.3 s, and 19.7 M in
+    /// 27.3 s).
+    pub const PATH_VERTICES: f64 = 1.8e5;
+    /// Irradiance and moment convolution terms (probes × irradiance texels
+    /// × radiance texels) per core-second (Sponza: 8.4e8 in 2.0 s).
+    pub const CONVOLUTION_TERMS: f64 = 1.0e8;
+    /// Refinement units, `N^1.5 × iterations × directions² × max(1,
+    /// texels / 4216)` (Gibbs proposals grow in cost with the probes
+    /// around them), per core-second (Cornell: 1 024 probes, 20 sweeps,
+    /// 32², 32.7 s).
+    pub const REFINE_UNITS: f64 = 5.0e6;
+}
+
+/// A count in words: whole numbers up to a million as written, larger
+/// ones in short scientific form (`1.7e14`), so a message never prints
+/// a 300-digit number.
+pub fn count_text(v: f64) -> String {
+    if v.is_finite() && v.abs() < 1e6 {
+        format!("{}", v.round())
+    } else {
+        format!("{v:.1e}")
+    }
 }
 
 /// Seconds in words: `45 s`, `12 min`, `3.2 h`, `4.1e3 days`.
@@ -188,6 +235,8 @@ mod tests {
         assert_eq!(duration_text(900.0), "15 min");
         assert_eq!(duration_text(3.0 * 3600.0), "3.0 h");
         assert_eq!(duration_text(1e12), "1.2e7 days");
+        assert_eq!(count_text(4096.0), "4096");
+        assert_eq!(count_text(1.7e300), "1.7e300");
     }
 
     #[test]

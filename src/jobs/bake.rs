@@ -40,10 +40,33 @@ pub(crate) const REFERENCE_FILES: [&str; 4] = [
 /// (and a bake already there) is reused. On error nothing changes.
 pub fn bake(options: &RunOptions) -> Result<Outcome> {
     let mut job = Job::new(options)?;
+    precheck(&job)?;
     let prepared = job.prepare()?;
     let mut placement = place::placement(&mut job, &prepared)?;
     bake_stage(&mut job, &prepared, &mut placement)?;
     job.finish("report.json", placement.report)
+}
+
+/// The bake's and the reference's limits, checked before any stage runs
+/// with the probe count the config fixes (a grid's cells; any other
+/// method at least one probe), so that settings no probe count could
+/// bake are refused at once; [`bake_stage`] checks again with the count
+/// placement gave.
+pub(crate) fn precheck(job: &Job) -> Result<()> {
+    let config = &job.config;
+    let given = job.provenance.overrides.probes.is_some();
+    let probes = match (&config.placement, given) {
+        (_, true) => 1,
+        (crate::config::Placement::Grid(g), false) => {
+            (g.cells.0 .0 as usize) * (g.cells.1 .0 as usize) * (g.cells.2 .0 as usize)
+        }
+        _ => 1,
+    };
+    stages::bake::check(config, probes).map_err(|e| e.in_file(&job.config_path))?;
+    if config.reference.camera.is_some() {
+        validate::check_reference(config, 1).map_err(|e| e.in_file(&job.config_path))?;
+    }
+    Ok(())
 }
 
 /// What the bake hands on to the validation render.
@@ -65,8 +88,12 @@ pub(crate) fn bake_stage(
         return Ok(b);
     }
     let config = &job.config;
-    let mut watch = job.progress.stopwatch();
     let positions = placement.probes.positions();
+    stages::bake::check(config, positions.len()).map_err(|e| e.in_file(&job.config_path))?;
+    if config.reference.camera.is_some() {
+        validate::check_reference(config, 1).map_err(|e| e.in_file(&job.config_path))?;
+    }
+    let mut watch = job.progress.stopwatch();
     let baked = stages::bake(config, prepared, &positions, &job.progress);
     watch.absorb(&baked.timings);
     let mut field = baked.field;

@@ -73,6 +73,8 @@ pub fn compare(options: &RunOptions) -> Result<Outcome> {
             "reference.camera: compare needs a camera (placements are rendered from it and measured against the reference)",
         ));
     }
+    validate::check_reference(&job.config, cameras.len())
+        .map_err(|e| e.in_file(&job.config_path))?;
     let prepared = job.prepare()?;
     let mut warnings = prepared.scene.warnings.clone();
     let views = views(&mut job, &prepared, &cameras)?;
@@ -93,6 +95,7 @@ pub fn compare(options: &RunOptions) -> Result<Outcome> {
     );
     let mut bench = Bench {
         config: job.config.clone(),
+        config_path: job.config_path.clone(),
         prepared: &prepared,
         coverage: &coverage,
         views: &views,
@@ -306,6 +309,8 @@ struct Candidate {
 /// What every placement is measured with, and the rows so far.
 struct Bench<'a> {
     config: Config,
+    /// The config file, which errors about its fields name.
+    config_path: std::path::PathBuf,
     prepared: &'a Prepared,
     coverage: &'a CoverageReference,
     views: &'a [View],
@@ -484,6 +489,8 @@ impl Bench<'_> {
                 let field = match candidate.field {
                     Some(f) => f,
                     None => {
+                        stages::bake::check(&self.config, positions.len())
+                            .map_err(|e| e.in_file(&self.config_path))?;
                         stages::bake(&self.config, self.prepared, &positions, &self.progress).field
                     }
                 };

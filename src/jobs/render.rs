@@ -54,6 +54,7 @@ pub fn render(options: &RunOptions) -> Result<Outcome> {
     } else {
         options.variants.clone()
     };
+    bake::precheck(&job)?;
     let prepared = job.prepare()?;
     let mut placement = place::placement(&mut job, &prepared)?;
     let baked = bake::bake_stage(&mut job, &prepared, &mut placement)?;

@@ -202,6 +202,25 @@ pub fn may_stand(sdf: &Sdf, domain: &Bounds, min_clearance: f32, p: Vec3) -> boo
 /// coverage measure's `reference`: sweeps of Gibbs sampling over the atlas
 /// fitness, then filling and pruning against the coverage measure.
 ///
+/// Refuses a refinement of `probes` probes over an atlas of `texels`
+/// texels whose estimate ([`crate::limits::rate::REFINE_UNITS`]) exceeds
+/// the work limit, before the first sweep.
+fn check_work(params: &RefineParams, probes: usize, texels: usize) -> Result<()> {
+    let units = (probes as f64).powf(1.5)
+        * params.iterations.0 as f64
+        * (params.directions.0 as f64).powi(2)
+        * (texels as f64 / 4216.0).max(1.0);
+    crate::limits::check_work(
+        "refine",
+        &format!(
+            "refining {probes} probes ({} sweeps, {}² directions, {texels} atlas texels)",
+            params.iterations.0, params.directions.0
+        ),
+        units,
+        crate::limits::rate::REFINE_UNITS,
+    )
+}
+
 /// Contract: deterministic for the same inputs and `input.seed`; no probe
 /// moves to or is added at a position where [`may_stand`] fails, and no
 /// probe moves through a surface; if the input probes, or filling, reach
@@ -215,6 +234,7 @@ pub fn refine(
 ) -> Result<Refined> {
     let r = Resolved::new(params, &probes, input);
     let atlas = Atlas::new(input.scene, r.texel_size)?;
+    check_work(params, probes.probes.len(), atlas.len())?;
     let min_cos = reference.min_cos();
     let viewer = Viewer::new(
         input.scene,

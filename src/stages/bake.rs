@@ -5,7 +5,9 @@
 
 use super::Prepared;
 use crate::config::Config;
+use crate::error::Result;
 use crate::lightfield::LightField;
+use crate::limits;
 use crate::progress::{Progress, Stopwatch};
 use crate::render::Renderer;
 use crate::sampling::Sampler;
@@ -31,6 +33,42 @@ pub struct Baked {
     pub warnings: Vec<String>,
     /// `geometry`, `radiance`, `pyramid`, `irradiance`.
     pub timings: Stopwatch,
+}
+
+/// Refuses, before any of it is allocated or traced, a bake of `probes`
+/// probes that would not fit the memory budget or would run longer than
+/// the work limit ([`limits`]; errors name `bake.resolution` or
+/// `bake.samples`, unprefixed).
+///
+/// Memory: the maps in f32 (radiance, normal, distance, the distance
+/// pyramid's 4/3, irradiance and moments), half as much again for the
+/// working copies, and the encoded file. Work: `probes × n² × samples`
+/// paths of `1 + bounces` vertices, and the irradiance and moment
+/// convolutions, `probes × m² × n²` terms.
+pub fn check(config: &Config, probes: usize) -> Result<()> {
+    let b = &config.bake;
+    let (n, m) = (b.resolution.0 as f64, b.irradiance_resolution.0 as f64);
+    let p = probes as f64;
+    let maps = p * (34.7 * n * n + 20.0 * m * m);
+    let file =
+        crate::lightfield::format::file_bytes(probes, b.resolution.0, b.irradiance_resolution.0)
+            as f64;
+    limits::check_memory(
+        "bake.resolution",
+        &format!("the bake of {probes} probes at {}² maps", b.resolution.0),
+        1.5 * maps + file,
+    )?;
+    let vertices = p * n * n * b.samples.0 as f64 * (1.0 + b.bounces.0 as f64);
+    let convolution = p * m * m * n * n;
+    limits::check_work(
+        "bake.samples",
+        &format!(
+            "the bake of {probes} probes at {}² maps, {} paths per texel, {} bounces",
+            b.resolution.0, b.samples.0, b.bounces.0
+        ),
+        vertices / limits::rate::PATH_VERTICES + convolution / limits::rate::CONVOLUTION_TERMS,
+        1.0,
+    )
 }
 
 /// Bakes the probes at `positions` with `config.bake`.

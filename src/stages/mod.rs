@@ -21,6 +21,7 @@ pub use place::{place, Placed};
 
 use crate::config::{Config, Domain, VoxelSize};
 use crate::error::{Error, Result};
+use crate::limits;
 use crate::placement::PlacementInput;
 use crate::progress::{Progress, Stopwatch};
 use crate::resolution::{self, Resolution};
@@ -75,6 +76,7 @@ pub fn prepare(config: &Config, config_path: &Path, progress: &Progress) -> Resu
     let resolution = timings.time("resolution", || {
         resolve_voxel_size(config, &scene, &bvh, &domain)
     });
+    check_work(config, &domain, resolution.voxel_size).map_err(|e| e.in_file(config_path))?;
     let sdf = timings
         .try_time("sdf", || {
             sdf::build(
@@ -96,6 +98,21 @@ pub fn prepare(config: &Config, config_path: &Path, progress: &Progress) -> Resu
         resolution,
         timings,
     })
+}
+
+/// Refuses, before any of it runs, an SDF or a coverage reference whose
+/// estimated work exceeds [`limits::work_limit_seconds`] (errors name the
+/// field, unprefixed).
+fn check_work(config: &Config, domain: &Bounds, voxel_size: f32) -> Result<()> {
+    let dims = sdf::grid_dims(domain, voxel_size)?;
+    let voxels = dims.x as f64 * dims.y as f64 * dims.z as f64;
+    limits::check_work(
+        "voxel_size",
+        &format!("the SDF of {} voxels", limits::count_text(voxels)),
+        voxels,
+        limits::rate::SDF_VOXELS,
+    )?;
+    crate::coverage::check_work(&config.coverage, voxels)
 }
 
 /// The voxel size of `config` for `domain` of `scene`: the config's, or

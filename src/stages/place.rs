@@ -5,7 +5,8 @@
 use super::Prepared;
 use crate::config::Config;
 use crate::coverage::{self, Coverage, CoverageReference, ProbeHealth};
-use crate::error::Result;
+use crate::error::{Error, Result};
+use crate::limits;
 use crate::placement::{self, ProbeSet};
 use crate::progress::{Progress, Stopwatch};
 use crate::refine::{self, RefineReport};
@@ -52,6 +53,7 @@ pub fn place(
         Some(p) => p,
         None => timings.try_time("placement", || placement::place(&config.placement, &input))?,
     };
+    check_probes(config, probes.probes.len())?;
     let (probes, refined) = if refine_it {
         let out = timings.try_time("refine", || {
             refine::refine(&config.refine, probes, &input, reference)
@@ -60,6 +62,7 @@ pub fn place(
     } else {
         (probes, None)
     };
+    check_probes(config, probes.probes.len())?;
     let positions = probes.positions();
     let ((coverage, holes), health) = timings.time("coverage", || {
         (
@@ -82,4 +85,25 @@ pub fn place(
         svo,
         timings,
     })
+}
+
+/// Refuses a probe set of more than [`limits::MAX_PROBES`] probes, or one
+/// whose scoring would take longer than the work limit, before the stages
+/// that grow with it run (refinement and the SVO check their own work).
+fn check_probes(config: &Config, n: usize) -> Result<()> {
+    if n > limits::MAX_PROBES {
+        return Err(Error::User(format!(
+            "placement: {n} probes, over the limit of {} that the later stages finish in minutes; use a coarser placement",
+            limits::MAX_PROBES
+        )));
+    }
+    limits::check_work(
+        "coverage.samples",
+        &format!(
+            "scoring {n} probes against {} samples",
+            config.coverage.samples.0
+        ),
+        coverage::evaluation_segments(&config.coverage, n),
+        limits::rate::COVERAGE_SEGMENTS,
+    )
 }

@@ -32,6 +32,33 @@ fn camera_seed(config: &Config, index: usize) -> u64 {
     config.seed ^ (index as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15)
 }
 
+/// Refuses reference images that would not fit the memory budget or
+/// would run past the work limit, for `views` cameras ([`crate::limits`];
+/// errors name the `reference` field, unprefixed). Memory: the RGB f32
+/// images (full, glossy indirect, the G-buffer) at about 64 bytes a pixel.
+/// Work: `width × height × samples_per_pixel` paths of `1 + bounces`
+/// vertices per view.
+pub fn check_reference(config: &Config, views: usize) -> crate::error::Result<()> {
+    let r = &config.reference;
+    let pixels = r.width.0 as f64 * r.height.0 as f64;
+    crate::limits::check_memory(
+        "reference.width",
+        &format!("a {}×{} reference", r.width.0, r.height.0),
+        pixels * 64.0,
+    )?;
+    let vertices =
+        views as f64 * pixels * r.samples_per_pixel.0 as f64 * (1.0 + r.bounces.0 as f64);
+    crate::limits::check_work(
+        "reference.samples_per_pixel",
+        &format!(
+            "{views} reference image(s) of {}×{} pixels, {} paths each, {} bounces",
+            r.width.0, r.height.0, r.samples_per_pixel.0, r.bounces.0
+        ),
+        vertices,
+        crate::limits::rate::PATH_VERTICES,
+    )
+}
+
 /// The path-traced reference of camera `index` (`camera`), at the config's
 /// `reference` size, paths and bounces.
 ///

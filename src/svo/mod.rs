@@ -214,6 +214,25 @@ pub struct Baked {
     pub report: SvoReport,
 }
 
+/// Refuses an octree whose leaves and probe-influence rays would take
+/// longer than the work limit to bake ([`crate::limits::rate`]).
+fn check_work(params: &SvoParams, dims: glam::UVec3, probes: usize) -> Result<()> {
+    let cells = dims.x as f64 * dims.y as f64 * dims.z as f64;
+    let rays = probes as f64 * (params.directions.0 as f64).powi(2);
+    let seconds_units =
+        cells / crate::limits::rate::SVO_CELLS + rays / crate::limits::rate::SVO_PROBE_RAYS;
+    crate::limits::check_work(
+        "svo",
+        &format!(
+            "the octree of {} leaves for {probes} probes ({}² directions each)",
+            crate::limits::count_text(cells),
+            params.directions.0
+        ),
+        seconds_units,
+        1.0,
+    )
+}
+
 /// Bakes the SVO of `probes` over the input's domain (module docs).
 ///
 /// Contract: every leaf-size cell holding free space lists at least one
@@ -232,6 +251,7 @@ pub fn bake(params: &SvoParams, probes: &ProbeSet, input: &PlacementInput) -> Re
     })?;
     let depth = dims.max_element().next_power_of_two().trailing_zeros();
     let positions = probes.positions();
+    check_work(params, dims, positions.len())?;
     let influence = influence::influences(
         input.scene,
         input.bvh,
