@@ -19,7 +19,8 @@ pub struct Positive(pub f32);
 impl TryFrom<f64> for Positive {
     type Error = String;
     fn try_from(v: f64) -> Result<Self, String> {
-        if v.is_finite() && v > 0.0 && v <= f32::MAX as f64 {
+        // Stored in f32: a value that rounds to 0 there is not positive.
+        if v.is_finite() && v >= f32::MIN_POSITIVE as f64 && v <= f32::MAX as f64 {
             Ok(Positive(v as f32))
         } else {
             Err(format!("must be a finite number greater than 0, got {v}"))

@@ -284,10 +284,21 @@ pub fn thin(points: &[Vec3], radius: f32, keep: usize) -> Vec<usize> {
 /// ascending voxel order; deterministic for a given `input.seed` (which
 /// only matters when candidates exceed [`MAX_CANDIDATES`]). Stats:
 /// `candidates`, `candidates_used`, `removed`, `target`; params: `spacing`,
-/// `voxel_size`. Errors ([`Error::User`]) when there is no candidate.
+/// `voxel_size`. Errors ([`Error::User`]) when there is no candidate, or
+/// when ρ is below the voxel size.
 pub fn greedy(params: &GreedyParams, input: &PlacementInput) -> Result<ProbeSet> {
     let sdf = input.sdf;
     let rho = params.spacing.0;
+    // Candidates are voxel centres; a kernel narrower than one voxel sees
+    // no neighbour, removes nothing, and keeps every candidate as a probe.
+    if rho < sdf.voxel_size {
+        return Err(Error::User(format!(
+            "placement.spacing: greedy:{} is below the voxel size {}, where the kernel of eq. 10 reaches no neighbouring candidate and every candidate would be kept; use a spacing of at least {}",
+            if rho < 1e-4 { format!("{rho:e}") } else { format!("{rho}") },
+            sdf.voxel_size,
+            sdf.voxel_size
+        )));
+    }
     let all = candidates(sdf);
     if all.is_empty() {
         return Err(Error::User(format!(
