@@ -174,6 +174,10 @@ impl<const MAX: u32> TryFrom<u64> for Count<MAX> {
     }
 }
 
+/// Largest config file read: 16 MiB (a config is a page of text; its
+/// longest lists, cameras and grids, are a few hundred lines).
+pub const MAX_CONFIG_BYTES: u64 = 16 << 20;
+
 /// Most grid cells along one axis.
 pub const MAX_GRID_CELLS_PER_AXIS: u32 = 1024;
 /// Most probes a grid may have.
@@ -1055,8 +1059,7 @@ impl Config {
     /// Reads and parses the config at `file`, then resolves `scene` and
     /// `output` against the config file's directory.
     pub fn load(file: &Path) -> Result<Config> {
-        let text = std::fs::read_to_string(file)
-            .map_err(|e| Error::user_file(file, format!("cannot read config: {e}")))?;
+        let text = crate::input::read_text(file, "config", MAX_CONFIG_BYTES)?;
         Config::from_text(&text, file)
     }
 

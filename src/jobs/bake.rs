@@ -227,7 +227,7 @@ pub(crate) fn load(
 pub(crate) fn read_reference(e: &super::Earlier) -> Result<Reference> {
     let read = |name: &str| {
         let path = e.path(name);
-        let bytes = std::fs::read(&path).map_err(|x| Error::user_file(&path, x))?;
+        let bytes = crate::input::read(&path, "reference image", crate::limits::memory_budget())?;
         exr::decode_rgb(&bytes).map_err(|m| Error::user_file(&path, m))
     };
     let (width, height, full) = read("reference.exr")?;

@@ -146,7 +146,7 @@ pub fn inspect(path: &Path) -> Result<Inspection> {
 fn check_one_run(file: &Path, svo: &Svo) -> Result<()> {
     for name in ["report.json", "probes.json", "compare.json"] {
         let path = file.with_file_name(name);
-        let Ok(bytes) = std::fs::read(&path) else {
+        let Ok(bytes) = crate::input::read(&path, name, crate::limits::memory_budget()) else {
             continue;
         };
         let value: Value = serde_json::from_slice(&bytes)

@@ -113,7 +113,10 @@ impl Earlier {
             return Err(Error::user_file(dir, "--from: no such output directory"));
         }
         let read = |name: &str| -> Option<Value> {
-            serde_json::from_slice(&std::fs::read(dir.join(name)).ok()?).ok()
+            serde_json::from_slice(
+                &crate::input::read(&dir.join(name), name, crate::limits::memory_budget()).ok()?,
+            )
+            .ok()
         };
         let report = read("report.json");
         let main = report
@@ -183,8 +186,8 @@ impl Job {
         let earlier = options.from.as_deref().map(Earlier::open).transpose()?;
         let (config_path, text, mut overrides) = match (&options.config, &earlier) {
             (Some(path), _) => {
-                let text = std::fs::read_to_string(path)
-                    .map_err(|e| Error::user_file(path, format!("cannot read config: {e}")))?;
+                let text =
+                    crate::input::read_text(path, "config", crate::config::MAX_CONFIG_BYTES)?;
                 (path.clone(), text, Overrides::default())
             }
             (None, Some(e)) => (

@@ -173,15 +173,17 @@ pub(crate) fn load(job: &mut Job, prepared: &Prepared) -> Result<Option<Placemen
     let probes_path = e.path("probes.json");
     let method = report["method"].as_str().unwrap_or("file").to_string();
     let probes = placement::file::read(&probes_path, &prepared.scene, &method)?;
-    let probes_json: Value = serde_json::from_slice(
-        &std::fs::read(&probes_path).map_err(|x| Error::io(&probes_path, x))?,
-    )
+    let probes_json: Value = serde_json::from_slice(&crate::input::read(
+        &probes_path,
+        "probes.json",
+        crate::limits::memory_budget(),
+    )?)
     .map_err(|x| Error::user_file(&probes_path, x))?;
     if probes_json["provenance"] != report["provenance"] {
         return Err(mixed(&probes_path));
     }
     let svo_path = e.path("svo.bin");
-    let bytes = std::fs::read(&svo_path).map_err(|x| Error::user_file(&svo_path, x))?;
+    let bytes = crate::input::read(&svo_path, "svo.bin", crate::limits::memory_budget())?;
     let mut svo = svo::format::from_bytes(&bytes).map_err(|m| Error::user_file(&svo_path, m))?;
     if svo.provenance != job.provenance.to_bytes()
         || svo.probe_count as usize != probes.probes.len()

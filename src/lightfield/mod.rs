@@ -79,8 +79,7 @@ impl LightField {
     /// Reads and checks a `lightfield.bin` file; problems are user errors
     /// naming the file.
     pub fn read(path: &Path) -> Result<LightField> {
-        let bytes =
-            std::fs::read(path).map_err(|e| Error::user_file(path, format!("cannot read: {e}")))?;
+        let bytes = crate::input::read(path, "lightfield.bin", crate::limits::memory_budget())?;
         format::from_bytes(&bytes).map_err(|m| Error::user_file(path, m))
     }
 

@@ -163,8 +163,7 @@ impl Svo {
     /// Contract: a missing, truncated, corrupted or wrong-version file is an
     /// [`Error::User`] naming `path` and the problem; never a panic.
     pub fn read(path: &Path) -> Result<Svo> {
-        let bytes =
-            std::fs::read(path).map_err(|e| Error::user_file(path, format!("cannot read: {e}")))?;
+        let bytes = crate::input::read(path, "svo.bin", crate::limits::memory_budget())?;
         format::from_bytes(&bytes).map_err(|m| Error::user_file(path, m))
     }
 
