@@ -19,12 +19,56 @@ pub struct Positive(pub f32);
 impl TryFrom<f64> for Positive {
     type Error = String;
     fn try_from(v: f64) -> Result<Self, String> {
-        if v.is_finite() && v > 0.0 && v <= f32::MAX as f64 {
-            Ok(Positive(v as f32))
-        } else {
-            Err(format!("must be a finite number greater than 0, got {v}"))
+        if !(v.is_finite() && v > 0.0) {
+            return Err(format!(
+                "must be a finite number greater than 0, got {}",
+                short(v)
+            ));
         }
+        single(v).map(Positive)
     }
+}
+
+/// `v` (finite, nonzero) in single precision, where the stages compute:
+/// a value whose f32 would be infinite, or zero or subnormal (a length of
+/// 1e-300 would become a voxel of 0), is refused rather than rounded.
+fn single(v: f64) -> Result<f32, String> {
+    let f = v as f32;
+    if f.is_finite() && f.abs() >= f32::MIN_POSITIVE {
+        Ok(f)
+    } else {
+        Err(format!(
+            "must lie within single precision, about 1.2e-38 to 3.4e38 in size, got {}",
+            short(v)
+        ))
+    }
+}
+
+/// `v` as messages print a user's number: plainly when of moderate size
+/// (`0.25`, `-5`, `1200`), in exponent form when very large or very small
+/// (`1e300`, `1.5e-12`), so that `voxel_size: 1e300` is not echoed as 301
+/// digits. Takes f32 or f64 and prints the shortest digits that read back
+/// as the same value of that type (an f32's `0.1` stays `0.1`).
+pub fn short<T>(v: T) -> String
+where
+    T: Copy + Into<f64> + std::fmt::Display + std::fmt::LowerExp,
+{
+    let x: f64 = v.into();
+    let a = x.abs();
+    if a.is_finite() && (a >= 1e6 || (a > 0.0 && a < 1e-4)) {
+        format!("{v:e}")
+    } else {
+        format!("{v}")
+    }
+}
+
+/// Numbers as [`short`] prints them, in RON's tuple form: `(0, 1e300, 2.5)`.
+pub fn short_all<T>(v: &[T]) -> String
+where
+    T: Copy + Into<f64> + std::fmt::Display + std::fmt::LowerExp,
+{
+    let parts: Vec<String> = v.iter().map(|&x| short(x)).collect();
+    format!("({})", parts.join(", "))
 }
 
 /// The SDF's voxel edge: chosen from the scene (`Auto`, the default; see
@@ -119,7 +163,10 @@ impl TryFrom<f64> for Scale {
         if v.is_finite() && v > 0.0 {
             Ok(Scale(v))
         } else {
-            Err(format!("must be a finite number greater than 0, got {v}"))
+            Err(format!(
+                "must be a finite number greater than 0, got {}",
+                short(v)
+            ))
         }
     }
 }
@@ -135,7 +182,7 @@ impl TryFrom<f64> for Fraction {
         if (0.0..=1.0).contains(&v) {
             Ok(Fraction(v as f32))
         } else {
-            Err(format!("must lie in [0, 1], got {v}"))
+            Err(format!("must lie in [0, 1], got {}", short(v)))
         }
     }
 }
@@ -151,7 +198,10 @@ impl TryFrom<f64> for NonNegative {
         if v.is_finite() && v >= 0.0 && v <= f32::MAX as f64 {
             Ok(NonNegative(v as f32))
         } else {
-            Err(format!("must be a finite number of at least 0, got {v}"))
+            Err(format!(
+                "must be a finite number of at least 0 (and below 3e38), got {}",
+                short(v)
+            ))
         }
     }
 }
@@ -186,11 +236,14 @@ pub struct Degrees(pub f32);
 impl TryFrom<f64> for Degrees {
     type Error = String;
     fn try_from(v: f64) -> Result<Self, String> {
-        if v > 0.0 && v < 90.0 {
-            Ok(Degrees(v as f32))
+        // Checked in single precision too: 1e-300 degrees is 0 as an f32.
+        let f = v as f32;
+        if v > 0.0 && v < 90.0 && f > 0.0 && f < 90.0 {
+            Ok(Degrees(f))
         } else {
             Err(format!(
-                "must lie strictly between 0 and 90 degrees, got {v}"
+                "must lie strictly between 0 and 90 degrees, got {}",
+                short(v)
             ))
         }
     }
@@ -227,8 +280,9 @@ pub struct BoxDomain {
     pub max: [f64; 3],
 }
 
+/// Named as the type it becomes, which messages name.
 #[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(deny_unknown_fields, rename = "BoxDomain")]
 struct RawBox {
     min: [f64; 3],
     max: [f64; 3],
@@ -237,11 +291,16 @@ struct RawBox {
 impl TryFrom<RawBox> for BoxDomain {
     type Error = String;
     fn try_from(b: RawBox) -> Result<Self, String> {
-        let finite = b.min.iter().chain(&b.max).all(|v| v.is_finite());
+        let finite = b
+            .min
+            .iter()
+            .chain(&b.max)
+            .all(|v| v.is_finite() && v.abs() <= f32::MAX as f64);
         if !finite || (0..3).any(|i| b.min[i] >= b.max[i]) {
             return Err(format!(
-                "box needs finite min < max on every axis, got min {:?} max {:?}",
-                b.min, b.max
+                "box needs finite min < max on every axis (below 3e38 in size), got min {} max {}",
+                short_all(&b.min),
+                short_all(&b.max)
             ));
         }
         Ok(BoxDomain {
@@ -342,8 +401,9 @@ pub struct GridParams {
     ),
 }
 
+/// Named as the type it becomes, which messages name.
 #[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(deny_unknown_fields, rename = "GridParams")]
 struct RawGrid {
     cells: (
         Count<MAX_GRID_CELLS_PER_AXIS>,
@@ -449,7 +509,7 @@ impl Placement {
             Placement::MedialAxis(_) => "medial-axis".into(),
             Placement::Grid(g) => format!("grid:{}", g.dims_text()),
             Placement::Relocated(g) => format!("relocated:{}", g.dims_text()),
-            Placement::Greedy(g) => format!("greedy:{}", g.spacing.0),
+            Placement::Greedy(g) => format!("greedy:{}", short(g.spacing.0)),
         }
     }
 
@@ -667,7 +727,10 @@ impl TryFrom<[f64; 3]> for Point3 {
         {
             Ok(Point3(v))
         } else {
-            Err(format!("must be three finite numbers, got {v:?}"))
+            Err(format!(
+                "must be three finite numbers (below 3e38 in size), got {}",
+                short_all(&v)
+            ))
         }
     }
 }
@@ -685,7 +748,8 @@ impl TryFrom<[f64; 3]> for Direction {
             Ok(Direction(v.map(|c| (c / len) as f32)))
         } else {
             Err(format!(
-                "must be three finite numbers, not all zero, got {v:?}"
+                "must be three finite numbers, not all zero, got {}",
+                short_all(&v)
             ))
         }
     }
@@ -705,7 +769,8 @@ impl TryFrom<[f64; 3]> for Rgb {
             Ok(Rgb(v.map(|c| c as f32)))
         } else {
             Err(format!(
-                "must be three finite numbers of at least 0, got {v:?}"
+                "must be three finite numbers of at least 0 (and below 3e38), got {}",
+                short_all(&v)
             ))
         }
     }
@@ -748,7 +813,10 @@ impl<const MIN: u32, const MAX: u32> TryFrom<u64> for PowerOfTwo<MIN, MAX> {
 
 /// A light for the lighting stages (probe bake, reference render). Emissive
 /// materials (`Ke`) of the scene are area lights in addition to these.
+/// Unknown fields are refused as in every struct: a misspelt optional field
+/// (`edge_degree`) would otherwise leave its default in force unnoticed.
 #[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub enum Light {
     /// A point light at `position` with RGB radiant `intensity` (W/sr).
     Point {
@@ -805,8 +873,9 @@ pub struct CameraParams {
     pub fov_degrees: f32,
 }
 
+/// Named as the type it becomes, which messages name.
 #[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(deny_unknown_fields, rename = "CameraParams")]
 struct RawCamera {
     position: Point3,
     look_at: Point3,
@@ -841,17 +910,18 @@ impl TryFrom<RawCamera> for CameraParams {
         if cross.iter().map(|c| c * c).sum::<f64>().sqrt() < 1e-4 * len {
             return Err("up must not be parallel to the view direction".into());
         }
-        if r.fov_degrees.is_nan() || r.fov_degrees <= 0.0 || r.fov_degrees >= 180.0 {
+        let fov = r.fov_degrees as f32;
+        if r.fov_degrees.is_nan() || !(fov > 0.0 && fov < 180.0) {
             return Err(format!(
                 "fov_degrees must lie strictly between 0 and 180, got {}",
-                r.fov_degrees
+                short(r.fov_degrees)
             ));
         }
         Ok(CameraParams {
             position: r.position,
             look_at: r.look_at,
             up: r.up,
-            fov_degrees: r.fov_degrees as f32,
+            fov_degrees: fov,
         })
     }
 }
@@ -948,6 +1018,7 @@ impl Default for CompareParams {
 #[serde(deny_unknown_fields)]
 pub struct Config {
     /// OBJ file, relative to the config file.
+    #[serde(deserialize_with = "non_empty_path")]
     pub scene: PathBuf,
     /// Multiplies every coordinate of the file; all other lengths are in these scaled units.
     #[serde(default = "unit_scale")]
@@ -969,7 +1040,7 @@ pub struct Config {
     #[serde(default)]
     pub seed: u64,
     /// Output directory, relative to the config file.
-    #[serde(default = "default_output")]
+    #[serde(default = "default_output", deserialize_with = "non_empty_path")]
     pub output: PathBuf,
     /// SDF classification parameters.
     #[serde(default)]
@@ -1005,6 +1076,17 @@ fn default_output() -> PathBuf {
     PathBuf::from("out")
 }
 
+/// A path field that must name something: `""` resolves to the config's
+/// own directory, which as `output` the run would replace and as `scene`
+/// is no file, so it is refused where it is written.
+fn non_empty_path<'de, D: serde::Deserializer<'de>>(d: D) -> Result<PathBuf, D::Error> {
+    let p = PathBuf::deserialize(d)?;
+    if p.as_os_str().is_empty() {
+        return Err(serde::de::Error::custom("must not be empty"));
+    }
+    Ok(p)
+}
+
 impl Config {
     /// Parses `text` (the contents of `file`). Relative paths stay relative;
     /// [`Config::load`] resolves them against the config's directory.
@@ -1012,6 +1094,7 @@ impl Config {
     /// Errors are [`Error::User`] lines of the form
     /// `file:LINE:COL: field.path: problem`.
     pub fn parse(text: &str, file: &Path) -> Result<Config> {
+        let text = strip_bom(text);
         let located = |span: ron::error::Span, path: &str, msg: &dyn std::fmt::Display| {
             let field = if path.is_empty() || path == "." {
                 String::new()
@@ -1070,6 +1153,13 @@ impl Config {
         config.output = normalize(&dir.join(&config.output));
         Ok(config)
     }
+}
+
+/// `text` without the UTF-8 byte-order mark some Windows editors put
+/// first. The parser would see it as a stray character before `(`; lines
+/// and columns count from after it, as editors show them.
+pub fn strip_bom(text: &str) -> &str {
+    text.strip_prefix('\u{feff}').unwrap_or(text)
 }
 
 /// Removes `.` and resolvable `..` components without touching the file
@@ -1359,5 +1449,127 @@ mod tests {
             "placement: Relocated((cells: (4, 4)))",
         );
         assert!(user_message(parse(&text)).contains("placement"));
+    }
+
+    /// Every struct and every struct variant of the config, each with an
+    /// unknown field `bogus` on line 3, and the path the message must name.
+    const UNKNOWN_FIELD_CASES: [(&str, &str); 23] = [
+        ("bogus: 1,", "bogus"),
+        ("domain: Box((min: (0, 0, 0), max: (1, 1, 1), bogus: 1)),", "domain.Box.bogus"),
+        ("placement: SdfSkeleton((bogus: 1)),", "placement.SdfSkeleton.bogus"),
+        ("placement: MedialAxis((bogus: 1)),", "placement.MedialAxis.bogus"),
+        ("placement: Grid((cells: (1, 1, 1), bogus: 1)),", "placement.Grid.bogus"),
+        ("placement: Relocated((cells: (1, 1, 1), bogus: 1)),", "placement.Relocated.bogus"),
+        ("placement: Greedy((spacing: 1, bogus: 1)),", "placement.Greedy.bogus"),
+        ("sdf: (bogus: 1),", "sdf.bogus"),
+        ("coverage: (bogus: 1),", "coverage.bogus"),
+        ("refine: (bogus: 1),", "refine.bogus"),
+        ("svo: (bogus: 1),", "svo.bogus"),
+        ("bake: (bogus: 1),", "bake.bogus"),
+        ("reference: (bogus: 1),", "reference.bogus"),
+        ("reference: (camera: (position: (0, 0, 0), look_at: (1, 1, 1), bogus: 1)),", "reference.camera.bogus"),
+        ("compare: (bogus: 1),", "compare.bogus"),
+        ("compare: (grids: [(cells: (1, 1, 1), bogus: 1)]),", "compare.grids[0].bogus"),
+        ("compare: (cameras: [(position: (0, 0, 0), look_at: (1, 1, 1), bogus: 1)]),", "compare.cameras[0].bogus"),
+        ("lights: [Point(position: (0, 0, 0), intensity: (1, 1, 1), bogus: 1)],", "lights[0].Point.bogus"),
+        ("lights: [Spot(position: (0, 0, 0), direction: (0, -1, 0), intensity: (1, 1, 1), cone_degrees: 30, edge_degree: 20)],", "lights[0].Spot.edge_degree"),
+        ("lights: [Sky(radiance: (1, 1, 1)), Spot(position: (0, 0, 0), direction: (0, -1, 0), intensity: (1, 1, 1), cone_degrees: 30, bogus: 1)],", "lights[1].Spot.bogus"),
+        ("lights: [Directional(direction: (0, -1, 0), irradiance: (1, 1, 1), bogus: 1)],", "lights[0].Directional.bogus"),
+        ("lights: [Sky(radiance: (1, 1, 1), bogus: 1)],", "lights[0].Sky.bogus"),
+        ("lights: [Sky(radiance: (1, 1, 1)), Sky(radiance: (1, 1, 1), bogus: 1)],", "lights[1].Sky.bogus"),
+    ];
+
+    #[test]
+    fn every_struct_and_variant_refuses_unknown_fields() {
+        for (field, path) in UNKNOWN_FIELD_CASES {
+            let text = format!("(\n    scene: \"a.obj\",\n    {field}\n)");
+            let m = user_message(parse(&text));
+            let name = path.rsplit('.').next().unwrap();
+            assert!(m.contains(&format!("{path}: ")), "{field}: {m}");
+            assert!(m.contains(&format!("`{name}`")), "{field}: {m}");
+            assert!(m.starts_with("c.ron:3:"), "{field}: {m}");
+        }
+    }
+
+    #[test]
+    fn a_byte_order_mark_is_skipped_and_columns_count_after_it() {
+        let plain = parse(MINIMAL).unwrap();
+        assert_eq!(parse(&format!("\u{feff}{MINIMAL}")).unwrap(), plain);
+        let bad = "(scene: \"a.obj\", voxel_size: -1)";
+        let without = user_message(parse(bad));
+        let with = user_message(parse(&format!("\u{feff}{bad}")));
+        assert!(without.starts_with("c.ron:1:"), "{without}");
+        assert_eq!(with, without);
+        // A mark anywhere else is no mark: still an error.
+        assert!(parse(&format!(" \u{feff}{MINIMAL}")).is_err());
+    }
+
+    #[test]
+    fn empty_paths_are_refused_where_written() {
+        let text = "(\n    scene: \"a.obj\",\n    output: \"\",\n)";
+        let m = user_message(parse(text));
+        assert!(m.starts_with("c.ron:3:"), "{m}");
+        assert!(m.ends_with("output: must not be empty"), "{m}");
+        let m = user_message(parse("(\n    scene: \"\",\n)"));
+        assert!(
+            m.starts_with("c.ron:2:") && m.ends_with("scene: must not be empty"),
+            "{m}"
+        );
+        assert_eq!(
+            parse("(scene: \"a.obj\", output: \"o\")").unwrap().output,
+            Path::new("o")
+        );
+    }
+
+    #[test]
+    fn short_numbers() {
+        assert_eq!(short(1e300), "1e300");
+        assert_eq!(short(1e-300), "1e-300");
+        assert_eq!(short(-5.0), "-5");
+        assert_eq!(short(0.25), "0.25");
+        assert_eq!(short(1.5e-12), "1.5e-12");
+        assert_eq!(short(-2.5e7), "-2.5e7");
+        assert_eq!(short(999_999.0), "999999");
+        assert_eq!(short(1e6), "1e6");
+        assert_eq!(short(0.0001), "0.0001");
+        assert_eq!(short(0.00005), "5e-5");
+        assert_eq!(short(0.0), "0");
+        assert_eq!(short(f64::INFINITY), "inf");
+        assert_eq!(short(f64::NEG_INFINITY), "-inf");
+        assert_eq!(short(f64::NAN), "NaN");
+        // An f32 prints its own shortest digits, not its f64 widening's.
+        assert_eq!(short(0.1f32), "0.1");
+        assert_eq!(short(3e38f32), "3e38");
+        assert_eq!(short_all(&[0.0, 1e300, 2.5]), "(0, 1e300, 2.5)");
+    }
+
+    #[test]
+    fn huge_and_tiny_numbers_are_refused_in_short_form() {
+        for (value, shown) in [
+            ("1e300", "1e300"),
+            ("1e-300", "1e-300"),
+            ("-1e300", "-1e300"),
+        ] {
+            let m = user_message(parse(&MINIMAL.replace("0.1", value)));
+            assert!(m.starts_with("c.ron:3:") && m.contains("voxel_size"), "{m}");
+            assert!(m.ends_with(&format!("got {shown}")), "{m}");
+            assert!(m.len() < 160, "{m}");
+        }
+        // An angle that single precision rounds to 0 is no angle.
+        let text = MINIMAL.replace(
+            "placement: SdfSkeleton(())",
+            "placement: MedialAxis((precluster_angle_deg: 1e-300))",
+        );
+        let m = user_message(parse(&text));
+        assert!(
+            m.contains("precluster_angle_deg") && m.ends_with("got 1e-300"),
+            "{m}"
+        );
+        let text = MINIMAL.replace(
+            "voxel_size: 0.1,",
+            "voxel_size: 0.1, domain: Box((min: (0, 0, 0), max: (1, 1e300, 1))),",
+        );
+        let m = user_message(parse(&text));
+        assert!(m.contains("(1, 1e300, 1)") && m.len() < 200, "{m}");
     }
 }

@@ -19,7 +19,7 @@ pub mod validate;
 pub use bake::{bake, Baked};
 pub use place::{place, Placed};
 
-use crate::config::{Config, Domain, VoxelSize};
+use crate::config::{short_all, Config, Domain, VoxelSize};
 use crate::error::{Error, Result};
 use crate::placement::PlacementInput;
 use crate::progress::{Progress, Stopwatch};
@@ -126,11 +126,11 @@ pub fn resolve_domain(domain: &Domain, scene: &Scene) -> Result<Bounds> {
                 d.min.cmplt(scene.bounds.max).all() && d.max.cmpgt(scene.bounds.min).all();
             if !overlap {
                 return Err(Error::User(format!(
-                    "domain: box {:?}..{:?} does not overlap the scene bounds {:?}..{:?}",
-                    b.min,
-                    b.max,
-                    scene.to_world(scene.bounds.min).to_array(),
-                    scene.to_world(scene.bounds.max).to_array()
+                    "domain: box {}..{} does not overlap the scene bounds {}..{}",
+                    short_all(&b.min),
+                    short_all(&b.max),
+                    short_all(&scene.to_world(scene.bounds.min).to_array()),
+                    short_all(&scene.to_world(scene.bounds.max).to_array())
                 )));
             }
             Ok(d)
