@@ -1183,6 +1183,302 @@ pub fn normalize(path: &Path) -> PathBuf {
     }
 }
 
+/// One step of a field path: a field's name, the name of a variant (or
+/// struct) written before its `(`, or a list index.
+#[derive(Debug, Clone, PartialEq)]
+enum Step {
+    Name(String),
+    Variant(String),
+    Index(usize),
+}
+
+/// What [`locate`] reads RON as: names, punctuation, and values (numbers,
+/// strings, chars) it only steps over.
+#[derive(Debug, PartialEq)]
+enum Tok {
+    Ident(String),
+    Punct(char),
+    Value,
+}
+
+/// The tokens of `text` with their line and column (1-based, in
+/// characters, as RON's own errors count), comments left out.
+fn tokens(text: &str) -> Vec<(Tok, usize, usize)> {
+    let chars: Vec<char> = text.chars().collect();
+    let mut out = Vec::new();
+    let (mut i, mut line, mut col) = (0, 1, 1);
+    // Moves past `n` characters, counting lines.
+    let advance = |i: &mut usize, line: &mut usize, col: &mut usize, n: usize| {
+        for _ in 0..n {
+            if *i >= chars.len() {
+                return;
+            }
+            if chars[*i] == '\n' {
+                *line += 1;
+                *col = 1;
+            } else {
+                *col += 1;
+            }
+            *i += 1;
+        }
+    };
+    let at = |k: usize| chars.get(k).copied();
+    while i < chars.len() {
+        let c = chars[i];
+        let (l0, c0) = (line, col);
+        if c.is_whitespace() {
+            advance(&mut i, &mut line, &mut col, 1);
+        } else if c == '/' && at(i + 1) == Some('/') {
+            while i < chars.len() && chars[i] != '\n' {
+                advance(&mut i, &mut line, &mut col, 1);
+            }
+        } else if c == '/' && at(i + 1) == Some('*') {
+            // RON's block comments nest.
+            let mut depth = 0;
+            while i < chars.len() {
+                if chars[i] == '/' && at(i + 1) == Some('*') {
+                    depth += 1;
+                    advance(&mut i, &mut line, &mut col, 2);
+                } else if chars[i] == '*' && at(i + 1) == Some('/') {
+                    depth -= 1;
+                    advance(&mut i, &mut line, &mut col, 2);
+                    if depth == 0 {
+                        break;
+                    }
+                } else {
+                    advance(&mut i, &mut line, &mut col, 1);
+                }
+            }
+        } else if c == '"' || c == '\'' || (c == 'b' && matches!(at(i + 1), Some('"' | '\''))) {
+            // A string or char, escapes stepped over.
+            let quote = if c == 'b' {
+                advance(&mut i, &mut line, &mut col, 1);
+                chars[i]
+            } else {
+                c
+            };
+            advance(&mut i, &mut line, &mut col, 1);
+            while i < chars.len() && chars[i] != quote {
+                let n = if chars[i] == '\\' { 2 } else { 1 };
+                advance(&mut i, &mut line, &mut col, n);
+            }
+            advance(&mut i, &mut line, &mut col, 1);
+            out.push((Tok::Value, l0, c0));
+        } else if let Some(skip) = raw_string_start(&chars, i) {
+            // `r"…"`, `r#"…"#`, `br"…"`: ends at `"` and as many `#`.
+            let hashes = skip - if c == 'b' { 3 } else { 2 };
+            advance(&mut i, &mut line, &mut col, skip);
+            while i < chars.len() {
+                let closes = chars[i] == '"' && (1..=hashes).all(|k| at(i + k) == Some('#'));
+                if closes {
+                    advance(&mut i, &mut line, &mut col, 1 + hashes);
+                    break;
+                }
+                advance(&mut i, &mut line, &mut col, 1);
+            }
+            out.push((Tok::Value, l0, c0));
+        } else if c.is_alphabetic() || c == '_' {
+            // A name; `r#name` is a raw identifier.
+            if c == 'r' && at(i + 1) == Some('#') {
+                advance(&mut i, &mut line, &mut col, 2);
+            }
+            let start = i;
+            while i < chars.len() && (chars[i].is_alphanumeric() || chars[i] == '_') {
+                advance(&mut i, &mut line, &mut col, 1);
+            }
+            out.push((Tok::Ident(chars[start..i].iter().collect()), l0, c0));
+        } else if c.is_ascii_digit() || c == '-' || c == '+' || c == '.' {
+            // A number: digits, `.`, `_`, an exponent and its sign, `inf`.
+            advance(&mut i, &mut line, &mut col, 1);
+            while i < chars.len() {
+                let d = chars[i];
+                let sign_of_exponent = matches!(d, '+' | '-') && matches!(chars[i - 1], 'e' | 'E');
+                if d.is_alphanumeric() || d == '.' || d == '_' || sign_of_exponent {
+                    advance(&mut i, &mut line, &mut col, 1);
+                } else {
+                    break;
+                }
+            }
+            out.push((Tok::Value, l0, c0));
+        } else {
+            advance(&mut i, &mut line, &mut col, 1);
+            out.push((Tok::Punct(c), l0, c0));
+        }
+    }
+    out
+}
+
+/// When a raw string starts at `chars[i]`, how many characters its opening
+/// (`r`, `b`, the `#`s and `"`) takes.
+fn raw_string_start(chars: &[char], i: usize) -> Option<usize> {
+    let mut k = i;
+    if chars.get(k) == Some(&'b') {
+        k += 1;
+    }
+    if chars.get(k) != Some(&'r') {
+        return None;
+    }
+    k += 1;
+    while chars.get(k) == Some(&'#') {
+        k += 1;
+    }
+    (chars.get(k) == Some(&'"')).then_some(k + 1 - i)
+}
+
+/// `path` as messages write it (`placement.Grid.cells`, `lights[2]`,
+/// `compare.cameras[0].fov_degrees`) in steps; `None` when it is not one.
+fn path_steps(path: &str) -> Option<Vec<Step>> {
+    let mut steps = Vec::new();
+    for part in path.split('.') {
+        let (name, mut rest) = part.split_at(part.find('[').unwrap_or(part.len()));
+        let ident = |s: &str| {
+            s.chars()
+                .next()
+                .is_some_and(|c| c.is_alphabetic() || c == '_')
+                && s.chars().all(|c| c.is_alphanumeric() || c == '_')
+        };
+        if !ident(name) {
+            return None;
+        }
+        steps.push(Step::Name(name.to_string()));
+        while !rest.is_empty() {
+            let close = rest.find(']')?;
+            steps.push(Step::Index(rest.get(1..close)?.parse().ok()?));
+            rest = &rest[close + 1..];
+            if !rest.is_empty() && !rest.starts_with('[') {
+                return None;
+            }
+        }
+    }
+    Some(steps)
+}
+
+/// Whether the path `written` in the text is the one `wanted` names. A
+/// variant may be left out of `wanted`: messages name `placement.min_radius`
+/// for `placement: MedialAxis((min_radius: …))`, and `Some(…)` is a variant
+/// too.
+fn same_path(wanted: &[Step], written: &[Step]) -> bool {
+    let mut w = wanted.iter().peekable();
+    for step in written {
+        let matched = match (w.peek(), step) {
+            (Some(Step::Name(a)), Step::Name(b) | Step::Variant(b)) => a == b,
+            (Some(Step::Index(a)), Step::Index(b)) => a == b,
+            _ => false,
+        };
+        if matched {
+            w.next();
+        } else if !matches!(step, Step::Variant(_)) {
+            return false;
+        }
+    }
+    w.next().is_none()
+}
+
+/// An open `(`, `[` or `{` of the text [`locate`] walks.
+struct Frame {
+    /// The path of what the brackets hold.
+    base: Vec<Step>,
+    /// A list: its elements are indexed.
+    list: bool,
+    /// The element under way (lists).
+    index: usize,
+    /// Whether the element under way has begun (lists).
+    started: bool,
+    /// The path of the field whose value is under way (structs).
+    key: Option<Vec<Step>>,
+}
+
+impl Frame {
+    fn new(base: Vec<Step>, list: bool) -> Frame {
+        Frame {
+            base,
+            list,
+            index: 0,
+            started: false,
+            key: None,
+        }
+    }
+}
+
+/// Where the RON `text` writes the field `path`, as the messages of the
+/// stages name it (`voxel_size`, `placement.min_distance`,
+/// `placement.Grid.cells`, `reference.camera`, `lights[2]`): the line and
+/// column (1-based, in characters) of the field's name, or of a list
+/// element's first character. `None` when the text does not write it (its
+/// default is in force), so that a message points only at what the user
+/// wrote. Comments and strings are skipped; a leading byte-order mark is
+/// not counted ([`strip_bom`]).
+pub fn locate(text: &str, path: &str) -> Option<(usize, usize)> {
+    let wanted = path_steps(path)?;
+    let toks = tokens(strip_bom(text));
+    let mut stack: Vec<Frame> = Vec::new();
+    // The path of a value starting now, in the innermost frame.
+    let value_path = |stack: &[Frame]| match stack.last() {
+        None => Vec::new(),
+        Some(f) if f.list => {
+            let mut p = f.base.clone();
+            p.push(Step::Index(f.index));
+            p
+        }
+        Some(f) => f.key.clone().unwrap_or_else(|| f.base.clone()),
+    };
+    let mut i = 0;
+    while i < toks.len() {
+        let (tok, line, col) = &toks[i];
+        let next = toks.get(i + 1).map(|t| &t.0);
+        if let Some(f) = stack.last_mut() {
+            if f.list && !f.started && !matches!(tok, Tok::Punct(',' | ']')) {
+                f.started = true;
+                let mut p = f.base.clone();
+                p.push(Step::Index(f.index));
+                if same_path(&wanted, &p) {
+                    return Some((*line, *col));
+                }
+            }
+        }
+        match tok {
+            Tok::Ident(name) if next == Some(&Tok::Punct(':')) => {
+                if let Some(f) = stack.last_mut().filter(|f| !f.list) {
+                    let mut p = f.base.clone();
+                    p.push(Step::Name(name.clone()));
+                    if same_path(&wanted, &p) {
+                        return Some((*line, *col));
+                    }
+                    f.key = Some(p);
+                }
+                i += 1;
+            }
+            Tok::Ident(name) if next == Some(&Tok::Punct('(')) => {
+                let mut base = value_path(&stack);
+                // At the top, a name before `(` is the config struct's own.
+                if !stack.is_empty() {
+                    base.push(Step::Variant(name.clone()));
+                }
+                stack.push(Frame::new(base, false));
+                i += 1;
+            }
+            Tok::Punct('(' | '{') => stack.push(Frame::new(value_path(&stack), false)),
+            Tok::Punct('[') => stack.push(Frame::new(value_path(&stack), true)),
+            Tok::Punct(')' | ']' | '}') => {
+                stack.pop()?;
+            }
+            Tok::Punct(',') => {
+                if let Some(f) = stack.last_mut() {
+                    if f.list {
+                        f.index += 1;
+                        f.started = false;
+                    } else {
+                        f.key = None;
+                    }
+                }
+            }
+            _ => {}
+        }
+        i += 1;
+    }
+    None
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -1487,7 +1783,17 @@ mod tests {
             let name = path.rsplit('.').next().unwrap();
             assert!(m.contains(&format!("{path}: ")), "{field}: {m}");
             assert!(m.contains(&format!("`{name}`")), "{field}: {m}");
-            assert!(m.starts_with("c.ron:3:"), "{field}: {m}");
+            // The column RON reports lies on the unknown name (where it
+            // stands after reading it), which the locator finds too.
+            let (line, col) = locate(&text, path).expect(path);
+            assert_eq!(line, 3, "{path}");
+            let end = col + name.chars().count();
+            let at = m.strip_prefix("c.ron:3:").expect(&m);
+            let reported: usize = at.split(':').next().unwrap().parse().expect(&m);
+            assert!(
+                (col..=end).contains(&reported),
+                "{path}: {m}, name at {col}"
+            );
         }
     }
 
@@ -1500,6 +1806,10 @@ mod tests {
         let with = user_message(parse(&format!("\u{feff}{bad}")));
         assert!(without.starts_with("c.ron:1:"), "{without}");
         assert_eq!(with, without);
+        assert_eq!(
+            locate(&format!("\u{feff}{bad}"), "voxel_size"),
+            Some((1, 18))
+        );
         // A mark anywhere else is no mark: still an error.
         assert!(parse(&format!(" \u{feff}{MINIMAL}")).is_err());
     }
@@ -1571,5 +1881,116 @@ mod tests {
         );
         let m = user_message(parse(&text));
         assert!(m.contains("(1, 1e300, 1)") && m.len() < 200, "{m}");
+    }
+
+    /// A config with comments, strings holding brackets and field names,
+    /// nested variants, lists and raw strings, for [`locate`].
+    const TRICKY: &str = r##"// voxel_size: 1 in a comment
+(
+    /* placement: Grid((cells: (1, 1, 1))), /* nested */ still a comment */
+    scene: "room(.obj: [x",
+    voxel_size: 0.1,
+    placement: SdfSkeleton((
+        min_distance: 0.4,
+    )),
+    output: r#"out"put: ("#,
+    lights: [
+        Sky(radiance: (1, 1, 1)),
+        Spot(position: (0, 1.5e-3, -2), direction: (0, -1, 0), intensity: (1, 1, 1), cone_degrees: 30),
+    ],
+    reference: (camera: Some((position: (0, 0, 0), look_at: (1, 1, 1)))),
+    compare: (grids: [(cells: (1, 2, 3))], cameras: []),
+)
+"##;
+
+    #[test]
+    fn locate_finds_fields_as_messages_name_them() {
+        assert_eq!(locate(TRICKY, "voxel_size"), Some((5, 5)));
+        assert_eq!(locate(TRICKY, "scene"), Some((4, 5)));
+        assert_eq!(locate(TRICKY, "placement"), Some((6, 5)));
+        assert_eq!(locate(TRICKY, "placement.min_distance"), Some((7, 9)));
+        assert_eq!(
+            locate(TRICKY, "placement.SdfSkeleton.min_distance"),
+            Some((7, 9))
+        );
+        assert_eq!(locate(TRICKY, "output"), Some((9, 5)));
+        assert_eq!(locate(TRICKY, "lights"), Some((10, 5)));
+        assert_eq!(locate(TRICKY, "lights[0]"), Some((11, 9)));
+        assert_eq!(locate(TRICKY, "lights[1]"), Some((12, 9)));
+        assert_eq!(
+            locate(TRICKY, "lights[1].Spot.cone_degrees"),
+            Some((12, 86))
+        );
+        assert_eq!(locate(TRICKY, "lights[1].cone_degrees"), Some((12, 86)));
+        assert_eq!(locate(TRICKY, "lights[0].radiance"), Some((11, 13)));
+        assert_eq!(locate(TRICKY, "reference.camera"), Some((14, 17)));
+        assert_eq!(locate(TRICKY, "reference.camera.look_at"), Some((14, 52)));
+        assert_eq!(locate(TRICKY, "compare.grids[0].cells"), Some((15, 24)));
+        assert_eq!(locate(TRICKY, "compare.cameras"), Some((15, 44)));
+    }
+
+    #[test]
+    fn locate_finds_nothing_that_is_not_written() {
+        // Defaults, fields only in comments or strings, wrong nesting.
+        for path in [
+            "seed",
+            "domain",
+            "refine.texel_size",
+            "placement.Grid.cells",
+            "placement.cluster_radius",
+            "lights[2]",
+            "lights[0].position",
+            "min_distance",
+            "cells",
+            "reference.width",
+            "compare.cameras[0]",
+            "",
+            "voxel_size.",
+            "lights[x]",
+            "lights]",
+        ] {
+            assert_eq!(locate(TRICKY, path), None, "{path}");
+        }
+        assert_eq!(locate("(", "scene"), None);
+        assert_eq!(locate("(scene: \"unterminated", "voxel_size"), None);
+    }
+
+    #[test]
+    fn the_locator_agrees_with_the_parser_on_every_shipped_config() {
+        // Each top-level field the parser read from a shipped config is
+        // found on the line that writes `NAME:`, ignoring comments.
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("configs");
+        let mut checked = 0;
+        for entry in std::fs::read_dir(dir).unwrap() {
+            let path = entry.unwrap().path();
+            if path.extension().is_none_or(|e| e != "ron") {
+                continue;
+            }
+            let text = std::fs::read_to_string(&path).unwrap();
+            parse(&text).unwrap();
+            for field in [
+                "scene",
+                "voxel_size",
+                "placement",
+                "output",
+                "lights",
+                "reference",
+            ] {
+                let written = text.lines().enumerate().find(|(_, l)| {
+                    let code = l.split("//").next().unwrap();
+                    code.trim_start().starts_with(&format!("{field}:"))
+                });
+                let found = locate(&text, field);
+                match written {
+                    Some((n, l)) => {
+                        let col = l.len() - l.trim_start().len() + 1;
+                        assert_eq!(found, Some((n + 1, col)), "{}: {field}", path.display());
+                        checked += 1;
+                    }
+                    None => assert_eq!(found, None, "{}: {field}", path.display()),
+                }
+            }
+        }
+        assert!(checked > 5, "{checked}");
     }
 }

@@ -68,10 +68,9 @@ pub fn compare(options: &RunOptions) -> Result<Outcome> {
         .copied()
         .collect();
     if cameras.is_empty() {
-        return Err(Error::user_file(
-            &job.config_path,
-            "reference.camera: compare needs a camera (placements are rendered from it and measured against the reference)",
-        ));
+        return Err(job.config_error(Error::User(
+            "reference.camera: compare needs a camera (placements are rendered from it and measured against the reference)".into(),
+        )));
     }
     let prepared = job.prepare()?;
     let mut warnings = prepared.scene.warnings.clone();
@@ -333,7 +332,7 @@ impl Bench<'_> {
                 None => {
                     let placed =
                         stages::place(&c, self.prepared, self.coverage, None, &self.progress)
-                            .map_err(|e| e.in_file(&job.config_path))?;
+                            .map_err(|e| job.config_error_of(e, &c.placement))?;
                     let mut stats = stats_of(&placed.probes);
                     if let Some((r, _)) = &placed.refined {
                         stats.insert("refine_coverage_final".into(), r.coverage_final);
@@ -369,7 +368,8 @@ impl Bench<'_> {
             self.coverage,
             Some(probes),
             &self.progress,
-        )?;
+        )
+        .map_err(|e| job.config_error(e))?;
         self.measure("file", Family::Given, candidate_of(placed))?;
         job.watch.record("file", t.elapsed().as_secs_f64() * 1e3);
         Ok(())

@@ -113,7 +113,7 @@ fn compute_placed(job: &mut Job, prepared: &Prepared) -> Result<(CoverageReferen
         None => None,
     };
     let placed = stages::place(config, prepared, &reference, given, &progress)
-        .map_err(|e| e.in_file(&job.config_path))?;
+        .map_err(|e| job.config_error(e))?;
     job.watch.absorb(&placed.timings);
     Ok((reference, placed))
 }

@@ -61,16 +61,24 @@ impl Prepared {
 }
 
 /// The stages before placement (load, domain, BVH, SDF) for `config`, read
-/// from `config_path`.
+/// from `config_path`, whose contents are `config_text`.
 ///
 /// Contract: errors of the stages that read config fields (domain, SDF) are
-/// prefixed with `config_path`; scene errors name the scene file themselves.
-pub fn prepare(config: &Config, config_path: &Path, progress: &Progress) -> Result<Prepared> {
+/// prefixed with `config_path` and the line and column of the field in
+/// `config_text` ([`Error::in_config`]); scene errors name the scene file
+/// themselves.
+pub fn prepare(
+    config: &Config,
+    config_path: &Path,
+    config_text: &str,
+    progress: &Progress,
+) -> Result<Prepared> {
     let mut timings = progress.stopwatch();
     let scene = timings.try_time("load", || {
         scene::load_obj(&config.scene, config.scale.0, config.up)
     })?;
-    let domain = resolve_domain(&config.domain, &scene).map_err(|e| e.in_file(config_path))?;
+    let in_config = |e: Error| e.in_config(config_path, config_text);
+    let domain = resolve_domain(&config.domain, &scene).map_err(in_config)?;
     let bvh = timings.time("bvh", || SceneBvh::new(&scene));
     let resolution = timings.time("resolution", || {
         resolve_voxel_size(config, &scene, &bvh, &domain)
@@ -87,7 +95,7 @@ pub fn prepare(config: &Config, config_path: &Path, progress: &Progress) -> Resu
                 progress,
             )
         })
-        .map_err(|e| e.in_file(config_path))?;
+        .map_err(in_config)?;
     Ok(Prepared {
         scene,
         domain,
