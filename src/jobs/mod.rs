@@ -221,6 +221,9 @@ impl Job {
             }
         }
         let out_dir = match (&options.out, &earlier) {
+            (Some(o), _) if o.as_os_str().is_empty() => {
+                return Err(Error::User("--out: must not be empty".into()))
+            }
             (Some(o), _) => o.clone(),
             (None, Some(e)) => e.dir.clone(),
             (None, None) => config.output.clone(),
