@@ -298,7 +298,7 @@ fn views(job: &mut Job, prepared: &Prepared, cameras: &[CameraParams]) -> Result
 struct Candidate {
     probes: ProbeSet,
     stats: BTreeMap<String, f64>,
-    svo: Option<Svo>,
+    svo: Svo,
     field: Option<LightField>,
 }
 
@@ -340,7 +340,7 @@ impl Bench<'_> {
                     Candidate {
                         probes: placed.probes,
                         stats,
-                        svo: placed.svo.map(|(s, _)| s),
+                        svo: placed.svo.0,
                         field: None,
                     }
                 }
@@ -467,42 +467,27 @@ impl Bench<'_> {
             .evaluate_with_holes(bvh, &positions, &self.progress);
         let health = crate::coverage::probe_health(sdf, domain, &positions);
         let views_png = report::placement_views(scene, domain, &positions, &holes, VIEW_SIZE);
-        let mut tracer_name = "none";
-        let (cameras, renders, errors, probe_bytes, svo_bytes) = match candidate.svo {
-            _ if positions.is_empty() => {
-                self.warnings.push(format!(
-                    "compare: {name} placed no probes; its renders are black"
-                ));
-                let (rows, renders, errors) = self.render_each(|view| Ok(validate::dark(view)))?;
-                (rows, renders, errors, 0, 0)
-            }
-            svo => {
-                // The place stage indexes every non-empty probe set.
-                let svo = svo.ok_or_else(|| {
-                    Error::Internal(format!("compare: {name} has probes but no SVO"))
-                })?;
-                let field = match candidate.field {
-                    Some(f) => f,
-                    None => {
-                        stages::bake(&self.config, self.prepared, &positions, &self.progress).field
-                    }
-                };
-                // Grids are traced as engines trace them today (McGuire et al.
-                // 2017: bi-level march, the cell's eight probes); the rest with
-                // Wang et al. 2019's Hi-Z march and SVO selection.
-                let lattice = match family {
-                    Family::Grid => Lattice::from_positions(&field.positions),
-                    _ => None,
-                };
-                tracer_name = if lattice.is_some() {
-                    "bilevel+grid"
-                } else {
-                    "hiz+svo"
-                };
-                let (rows, renders, errors) = self.render(name, &field, &svo, lattice.as_ref())?;
-                (rows, renders, errors, field.bytes() as u64, svo.bytes())
-            }
+        // The place stage refuses an empty probe set, so every candidate
+        // has probes and their SVO.
+        let svo = candidate.svo;
+        let field = match candidate.field {
+            Some(f) => f,
+            None => stages::bake(&self.config, self.prepared, &positions, &self.progress).field,
         };
+        // Grids are traced as engines trace them today (McGuire et al.
+        // 2017: bi-level march, the cell's eight probes); the rest with
+        // Wang et al. 2019's Hi-Z march and SVO selection.
+        let lattice = match family {
+            Family::Grid => Lattice::from_positions(&field.positions),
+            _ => None,
+        };
+        let tracer_name = if lattice.is_some() {
+            "bilevel+grid"
+        } else {
+            "hiz+svo"
+        };
+        let (cameras, renders, errors) = self.render(name, &field, &svo, lattice.as_ref())?;
+        let (probe_bytes, svo_bytes) = (field.bytes() as u64, svo.bytes());
         let mean = |f: fn(&CameraRow) -> f64| {
             cameras.iter().map(f).sum::<f64>() / cameras.len().max(1) as f64
         };
@@ -586,7 +571,7 @@ fn candidate_of(placed: Placed) -> Candidate {
     Candidate {
         stats: stats_of(&placed.probes),
         probes: placed.probes,
-        svo: placed.svo.map(|(s, _)| s),
+        svo: placed.svo.0,
         field: None,
     }
 }
@@ -622,7 +607,7 @@ fn reuse(job: &mut Job, method: &str, prepared: &Prepared) -> Result<Option<Cand
     Ok(Some(Candidate {
         probes: placement.probes,
         stats,
-        svo: Some(placement.svo),
+        svo: placement.svo,
         field: bake.map(|b| b.field),
     }))
 }
