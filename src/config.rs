@@ -19,13 +19,56 @@ pub struct Positive(pub f32);
 impl TryFrom<f64> for Positive {
     type Error = String;
     fn try_from(v: f64) -> Result<Self, String> {
-        // Stored in f32: a value that rounds to 0 there is not positive.
-        if v.is_finite() && v >= f32::MIN_POSITIVE as f64 && v <= f32::MAX as f64 {
-            Ok(Positive(v as f32))
-        } else {
-            Err(format!("must be a finite number greater than 0, got {v}"))
+        if !(v.is_finite() && v > 0.0) {
+            return Err(format!(
+                "must be a finite number greater than 0, got {}",
+                short(v)
+            ));
         }
+        single(v).map(Positive)
     }
+}
+
+/// `v` (finite, nonzero) in single precision, where the stages compute:
+/// a value whose f32 would be infinite, or zero or subnormal (a length of
+/// 1e-300 would become a voxel of 0), is refused rather than rounded.
+fn single(v: f64) -> Result<f32, String> {
+    let f = v as f32;
+    if f.is_finite() && f.abs() >= f32::MIN_POSITIVE {
+        Ok(f)
+    } else {
+        Err(format!(
+            "must lie within single precision, about 1.2e-38 to 3.4e38 in size, got {}",
+            short(v)
+        ))
+    }
+}
+
+/// `v` as messages print a user's number: plainly when of moderate size
+/// (`0.25`, `-5`, `1200`), in exponent form when very large or very small
+/// (`1e300`, `1.5e-12`), so that `voxel_size: 1e300` is not echoed as 301
+/// digits. Takes f32 or f64 and prints the shortest digits that read back
+/// as the same value of that type (an f32's `0.1` stays `0.1`).
+pub fn short<T>(v: T) -> String
+where
+    T: Copy + Into<f64> + std::fmt::Display + std::fmt::LowerExp,
+{
+    let x: f64 = v.into();
+    let a = x.abs();
+    if a.is_finite() && (a >= 1e6 || (a > 0.0 && a < 1e-4)) {
+        format!("{v:e}")
+    } else {
+        format!("{v}")
+    }
+}
+
+/// Numbers as [`short`] prints them, in RON's tuple form: `(0, 1e300, 2.5)`.
+pub fn short_all<T>(v: &[T]) -> String
+where
+    T: Copy + Into<f64> + std::fmt::Display + std::fmt::LowerExp,
+{
+    let parts: Vec<String> = v.iter().map(|&x| short(x)).collect();
+    format!("({})", parts.join(", "))
 }
 
 /// The SDF's voxel edge: chosen from the scene (`Auto`, the default; see
@@ -120,7 +163,10 @@ impl TryFrom<f64> for Scale {
         if v.is_finite() && v > 0.0 {
             Ok(Scale(v))
         } else {
-            Err(format!("must be a finite number greater than 0, got {v}"))
+            Err(format!(
+                "must be a finite number greater than 0, got {}",
+                short(v)
+            ))
         }
     }
 }
@@ -136,7 +182,7 @@ impl TryFrom<f64> for Fraction {
         if (0.0..=1.0).contains(&v) {
             Ok(Fraction(v as f32))
         } else {
-            Err(format!("must lie in [0, 1], got {v}"))
+            Err(format!("must lie in [0, 1], got {}", short(v)))
         }
     }
 }
@@ -152,7 +198,10 @@ impl TryFrom<f64> for NonNegative {
         if v.is_finite() && v >= 0.0 && v <= f32::MAX as f64 {
             Ok(NonNegative(v as f32))
         } else {
-            Err(format!("must be a finite number of at least 0, got {v}"))
+            Err(format!(
+                "must be a finite number of at least 0 (and below 3e38), got {}",
+                short(v)
+            ))
         }
     }
 }
@@ -191,11 +240,14 @@ pub struct Degrees(pub f32);
 impl TryFrom<f64> for Degrees {
     type Error = String;
     fn try_from(v: f64) -> Result<Self, String> {
-        if v > 0.0 && v < 90.0 {
-            Ok(Degrees(v as f32))
+        // Checked in single precision too: 1e-300 degrees is 0 as an f32.
+        let f = v as f32;
+        if v > 0.0 && v < 90.0 && f > 0.0 && f < 90.0 {
+            Ok(Degrees(f))
         } else {
             Err(format!(
-                "must lie strictly between 0 and 90 degrees, got {v}"
+                "must lie strictly between 0 and 90 degrees, got {}",
+                short(v)
             ))
         }
     }
@@ -232,8 +284,9 @@ pub struct BoxDomain {
     pub max: [f64; 3],
 }
 
+/// Named as the type it becomes, which messages name.
 #[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(deny_unknown_fields, rename = "BoxDomain")]
 struct RawBox {
     min: [f64; 3],
     max: [f64; 3],
@@ -242,11 +295,16 @@ struct RawBox {
 impl TryFrom<RawBox> for BoxDomain {
     type Error = String;
     fn try_from(b: RawBox) -> Result<Self, String> {
-        let finite = b.min.iter().chain(&b.max).all(|v| v.is_finite());
+        let finite = b
+            .min
+            .iter()
+            .chain(&b.max)
+            .all(|v| v.is_finite() && v.abs() <= f32::MAX as f64);
         if !finite || (0..3).any(|i| b.min[i] >= b.max[i]) {
             return Err(format!(
-                "box needs finite min < max on every axis, got min {:?} max {:?}",
-                b.min, b.max
+                "box needs finite min < max on every axis (below 3e38 in size), got min {} max {}",
+                short_all(&b.min),
+                short_all(&b.max)
             ));
         }
         Ok(BoxDomain {
@@ -347,8 +405,9 @@ pub struct GridParams {
     ),
 }
 
+/// Named as the type it becomes, which messages name.
 #[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(deny_unknown_fields, rename = "GridParams")]
 struct RawGrid {
     cells: (
         Count<MAX_GRID_CELLS_PER_AXIS>,
@@ -454,7 +513,7 @@ impl Placement {
             Placement::MedialAxis(_) => "medial-axis".into(),
             Placement::Grid(g) => format!("grid:{}", g.dims_text()),
             Placement::Relocated(g) => format!("relocated:{}", g.dims_text()),
-            Placement::Greedy(g) => format!("greedy:{}", g.spacing.0),
+            Placement::Greedy(g) => format!("greedy:{}", short(g.spacing.0)),
         }
     }
 
@@ -672,7 +731,10 @@ impl TryFrom<[f64; 3]> for Point3 {
         {
             Ok(Point3(v))
         } else {
-            Err(format!("must be three finite numbers, got {v:?}"))
+            Err(format!(
+                "must be three finite numbers (below 3e38 in size), got {}",
+                short_all(&v)
+            ))
         }
     }
 }
@@ -690,7 +752,8 @@ impl TryFrom<[f64; 3]> for Direction {
             Ok(Direction(v.map(|c| (c / len) as f32)))
         } else {
             Err(format!(
-                "must be three finite numbers, not all zero, got {v:?}"
+                "must be three finite numbers, not all zero, got {}",
+                short_all(&v)
             ))
         }
     }
@@ -710,7 +773,8 @@ impl TryFrom<[f64; 3]> for Rgb {
             Ok(Rgb(v.map(|c| c as f32)))
         } else {
             Err(format!(
-                "must be three finite numbers of at least 0, got {v:?}"
+                "must be three finite numbers of at least 0 (and below 3e38), got {}",
+                short_all(&v)
             ))
         }
     }
@@ -753,7 +817,10 @@ impl<const MIN: u32, const MAX: u32> TryFrom<u64> for PowerOfTwo<MIN, MAX> {
 
 /// A light for the lighting stages (probe bake, reference render). Emissive
 /// materials (`Ke`) of the scene are area lights in addition to these.
+/// Unknown fields are refused as in every struct: a misspelt optional field
+/// (`edge_degree`) would otherwise leave its default in force unnoticed.
 #[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub enum Light {
     /// A point light at `position` with RGB radiant `intensity` (W/sr).
     Point {
@@ -810,8 +877,9 @@ pub struct CameraParams {
     pub fov_degrees: f32,
 }
 
+/// Named as the type it becomes, which messages name.
 #[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(deny_unknown_fields, rename = "CameraParams")]
 struct RawCamera {
     position: Point3,
     look_at: Point3,
@@ -846,17 +914,18 @@ impl TryFrom<RawCamera> for CameraParams {
         if cross.iter().map(|c| c * c).sum::<f64>().sqrt() < 1e-4 * len {
             return Err("up must not be parallel to the view direction".into());
         }
-        if r.fov_degrees.is_nan() || r.fov_degrees <= 0.0 || r.fov_degrees >= 180.0 {
+        let fov = r.fov_degrees as f32;
+        if r.fov_degrees.is_nan() || !(fov > 0.0 && fov < 180.0) {
             return Err(format!(
                 "fov_degrees must lie strictly between 0 and 180, got {}",
-                r.fov_degrees
+                short(r.fov_degrees)
             ));
         }
         Ok(CameraParams {
             position: r.position,
             look_at: r.look_at,
             up: r.up,
-            fov_degrees: r.fov_degrees as f32,
+            fov_degrees: fov,
         })
     }
 }
@@ -953,6 +1022,7 @@ impl Default for CompareParams {
 #[serde(deny_unknown_fields)]
 pub struct Config {
     /// OBJ file, relative to the config file.
+    #[serde(deserialize_with = "non_empty_path")]
     pub scene: PathBuf,
     /// Multiplies every coordinate of the file; all other lengths are in these scaled units.
     #[serde(default = "unit_scale")]
@@ -974,7 +1044,7 @@ pub struct Config {
     #[serde(default)]
     pub seed: u64,
     /// Output directory, relative to the config file.
-    #[serde(default = "default_output")]
+    #[serde(default = "default_output", deserialize_with = "non_empty_path")]
     pub output: PathBuf,
     /// SDF classification parameters.
     #[serde(default)]
@@ -1010,6 +1080,17 @@ fn default_output() -> PathBuf {
     PathBuf::from("out")
 }
 
+/// A path field that must name something: `""` resolves to the config's
+/// own directory, which as `output` the run would replace and as `scene`
+/// is no file, so it is refused where it is written.
+fn non_empty_path<'de, D: serde::Deserializer<'de>>(d: D) -> Result<PathBuf, D::Error> {
+    let p = PathBuf::deserialize(d)?;
+    if p.as_os_str().is_empty() {
+        return Err(serde::de::Error::custom("must not be empty"));
+    }
+    Ok(p)
+}
+
 impl Config {
     /// Parses `text` (the contents of `file`). Relative paths stay relative;
     /// [`Config::load`] resolves them against the config's directory.
@@ -1017,6 +1098,7 @@ impl Config {
     /// Errors are [`Error::User`] lines of the form
     /// `file:LINE:COL: field.path: problem`.
     pub fn parse(text: &str, file: &Path) -> Result<Config> {
+        let text = strip_bom(text);
         let located = |span: ron::error::Span, path: &str, msg: &dyn std::fmt::Display| {
             let field = if path.is_empty() || path == "." {
                 String::new()
@@ -1076,6 +1158,13 @@ impl Config {
     }
 }
 
+/// `text` without the UTF-8 byte-order mark some Windows editors put
+/// first. The parser would see it as a stray character before `(`; lines
+/// and columns count from after it, as editors show them.
+pub fn strip_bom(text: &str) -> &str {
+    text.strip_prefix('\u{feff}').unwrap_or(text)
+}
+
 /// Removes `.` and resolvable `..` components without touching the file
 /// system, so messages say `fixtures/a.obj` rather than `configs/../fixtures/a.obj`.
 pub fn normalize(path: &Path) -> PathBuf {
@@ -1095,6 +1184,302 @@ pub fn normalize(path: &Path) -> PathBuf {
     } else {
         out.iter().collect()
     }
+}
+
+/// One step of a field path: a field's name, the name of a variant (or
+/// struct) written before its `(`, or a list index.
+#[derive(Debug, Clone, PartialEq)]
+enum Step {
+    Name(String),
+    Variant(String),
+    Index(usize),
+}
+
+/// What [`locate`] reads RON as: names, punctuation, and values (numbers,
+/// strings, chars) it only steps over.
+#[derive(Debug, PartialEq)]
+enum Tok {
+    Ident(String),
+    Punct(char),
+    Value,
+}
+
+/// The tokens of `text` with their line and column (1-based, in
+/// characters, as RON's own errors count), comments left out.
+fn tokens(text: &str) -> Vec<(Tok, usize, usize)> {
+    let chars: Vec<char> = text.chars().collect();
+    let mut out = Vec::new();
+    let (mut i, mut line, mut col) = (0, 1, 1);
+    // Moves past `n` characters, counting lines.
+    let advance = |i: &mut usize, line: &mut usize, col: &mut usize, n: usize| {
+        for _ in 0..n {
+            if *i >= chars.len() {
+                return;
+            }
+            if chars[*i] == '\n' {
+                *line += 1;
+                *col = 1;
+            } else {
+                *col += 1;
+            }
+            *i += 1;
+        }
+    };
+    let at = |k: usize| chars.get(k).copied();
+    while i < chars.len() {
+        let c = chars[i];
+        let (l0, c0) = (line, col);
+        if c.is_whitespace() {
+            advance(&mut i, &mut line, &mut col, 1);
+        } else if c == '/' && at(i + 1) == Some('/') {
+            while i < chars.len() && chars[i] != '\n' {
+                advance(&mut i, &mut line, &mut col, 1);
+            }
+        } else if c == '/' && at(i + 1) == Some('*') {
+            // RON's block comments nest.
+            let mut depth = 0;
+            while i < chars.len() {
+                if chars[i] == '/' && at(i + 1) == Some('*') {
+                    depth += 1;
+                    advance(&mut i, &mut line, &mut col, 2);
+                } else if chars[i] == '*' && at(i + 1) == Some('/') {
+                    depth -= 1;
+                    advance(&mut i, &mut line, &mut col, 2);
+                    if depth == 0 {
+                        break;
+                    }
+                } else {
+                    advance(&mut i, &mut line, &mut col, 1);
+                }
+            }
+        } else if c == '"' || c == '\'' || (c == 'b' && matches!(at(i + 1), Some('"' | '\''))) {
+            // A string or char, escapes stepped over.
+            let quote = if c == 'b' {
+                advance(&mut i, &mut line, &mut col, 1);
+                chars[i]
+            } else {
+                c
+            };
+            advance(&mut i, &mut line, &mut col, 1);
+            while i < chars.len() && chars[i] != quote {
+                let n = if chars[i] == '\\' { 2 } else { 1 };
+                advance(&mut i, &mut line, &mut col, n);
+            }
+            advance(&mut i, &mut line, &mut col, 1);
+            out.push((Tok::Value, l0, c0));
+        } else if let Some(skip) = raw_string_start(&chars, i) {
+            // `r"…"`, `r#"…"#`, `br"…"`: ends at `"` and as many `#`.
+            let hashes = skip - if c == 'b' { 3 } else { 2 };
+            advance(&mut i, &mut line, &mut col, skip);
+            while i < chars.len() {
+                let closes = chars[i] == '"' && (1..=hashes).all(|k| at(i + k) == Some('#'));
+                if closes {
+                    advance(&mut i, &mut line, &mut col, 1 + hashes);
+                    break;
+                }
+                advance(&mut i, &mut line, &mut col, 1);
+            }
+            out.push((Tok::Value, l0, c0));
+        } else if c.is_alphabetic() || c == '_' {
+            // A name; `r#name` is a raw identifier.
+            if c == 'r' && at(i + 1) == Some('#') {
+                advance(&mut i, &mut line, &mut col, 2);
+            }
+            let start = i;
+            while i < chars.len() && (chars[i].is_alphanumeric() || chars[i] == '_') {
+                advance(&mut i, &mut line, &mut col, 1);
+            }
+            out.push((Tok::Ident(chars[start..i].iter().collect()), l0, c0));
+        } else if c.is_ascii_digit() || c == '-' || c == '+' || c == '.' {
+            // A number: digits, `.`, `_`, an exponent and its sign, `inf`.
+            advance(&mut i, &mut line, &mut col, 1);
+            while i < chars.len() {
+                let d = chars[i];
+                let sign_of_exponent = matches!(d, '+' | '-') && matches!(chars[i - 1], 'e' | 'E');
+                if d.is_alphanumeric() || d == '.' || d == '_' || sign_of_exponent {
+                    advance(&mut i, &mut line, &mut col, 1);
+                } else {
+                    break;
+                }
+            }
+            out.push((Tok::Value, l0, c0));
+        } else {
+            advance(&mut i, &mut line, &mut col, 1);
+            out.push((Tok::Punct(c), l0, c0));
+        }
+    }
+    out
+}
+
+/// When a raw string starts at `chars[i]`, how many characters its opening
+/// (`r`, `b`, the `#`s and `"`) takes.
+fn raw_string_start(chars: &[char], i: usize) -> Option<usize> {
+    let mut k = i;
+    if chars.get(k) == Some(&'b') {
+        k += 1;
+    }
+    if chars.get(k) != Some(&'r') {
+        return None;
+    }
+    k += 1;
+    while chars.get(k) == Some(&'#') {
+        k += 1;
+    }
+    (chars.get(k) == Some(&'"')).then_some(k + 1 - i)
+}
+
+/// `path` as messages write it (`placement.Grid.cells`, `lights[2]`,
+/// `compare.cameras[0].fov_degrees`) in steps; `None` when it is not one.
+fn path_steps(path: &str) -> Option<Vec<Step>> {
+    let mut steps = Vec::new();
+    for part in path.split('.') {
+        let (name, mut rest) = part.split_at(part.find('[').unwrap_or(part.len()));
+        let ident = |s: &str| {
+            s.chars()
+                .next()
+                .is_some_and(|c| c.is_alphabetic() || c == '_')
+                && s.chars().all(|c| c.is_alphanumeric() || c == '_')
+        };
+        if !ident(name) {
+            return None;
+        }
+        steps.push(Step::Name(name.to_string()));
+        while !rest.is_empty() {
+            let close = rest.find(']')?;
+            steps.push(Step::Index(rest.get(1..close)?.parse().ok()?));
+            rest = &rest[close + 1..];
+            if !rest.is_empty() && !rest.starts_with('[') {
+                return None;
+            }
+        }
+    }
+    Some(steps)
+}
+
+/// Whether the path `written` in the text is the one `wanted` names. A
+/// variant may be left out of `wanted`: messages name `placement.min_radius`
+/// for `placement: MedialAxis((min_radius: …))`, and `Some(…)` is a variant
+/// too.
+fn same_path(wanted: &[Step], written: &[Step]) -> bool {
+    let mut w = wanted.iter().peekable();
+    for step in written {
+        let matched = match (w.peek(), step) {
+            (Some(Step::Name(a)), Step::Name(b) | Step::Variant(b)) => a == b,
+            (Some(Step::Index(a)), Step::Index(b)) => a == b,
+            _ => false,
+        };
+        if matched {
+            w.next();
+        } else if !matches!(step, Step::Variant(_)) {
+            return false;
+        }
+    }
+    w.next().is_none()
+}
+
+/// An open `(`, `[` or `{` of the text [`locate`] walks.
+struct Frame {
+    /// The path of what the brackets hold.
+    base: Vec<Step>,
+    /// A list: its elements are indexed.
+    list: bool,
+    /// The element under way (lists).
+    index: usize,
+    /// Whether the element under way has begun (lists).
+    started: bool,
+    /// The path of the field whose value is under way (structs).
+    key: Option<Vec<Step>>,
+}
+
+impl Frame {
+    fn new(base: Vec<Step>, list: bool) -> Frame {
+        Frame {
+            base,
+            list,
+            index: 0,
+            started: false,
+            key: None,
+        }
+    }
+}
+
+/// Where the RON `text` writes the field `path`, as the messages of the
+/// stages name it (`voxel_size`, `placement.min_distance`,
+/// `placement.Grid.cells`, `reference.camera`, `lights[2]`): the line and
+/// column (1-based, in characters) of the field's name, or of a list
+/// element's first character. `None` when the text does not write it (its
+/// default is in force), so that a message points only at what the user
+/// wrote. Comments and strings are skipped; a leading byte-order mark is
+/// not counted ([`strip_bom`]).
+pub fn locate(text: &str, path: &str) -> Option<(usize, usize)> {
+    let wanted = path_steps(path)?;
+    let toks = tokens(strip_bom(text));
+    let mut stack: Vec<Frame> = Vec::new();
+    // The path of a value starting now, in the innermost frame.
+    let value_path = |stack: &[Frame]| match stack.last() {
+        None => Vec::new(),
+        Some(f) if f.list => {
+            let mut p = f.base.clone();
+            p.push(Step::Index(f.index));
+            p
+        }
+        Some(f) => f.key.clone().unwrap_or_else(|| f.base.clone()),
+    };
+    let mut i = 0;
+    while i < toks.len() {
+        let (tok, line, col) = &toks[i];
+        let next = toks.get(i + 1).map(|t| &t.0);
+        if let Some(f) = stack.last_mut() {
+            if f.list && !f.started && !matches!(tok, Tok::Punct(',' | ']')) {
+                f.started = true;
+                let mut p = f.base.clone();
+                p.push(Step::Index(f.index));
+                if same_path(&wanted, &p) {
+                    return Some((*line, *col));
+                }
+            }
+        }
+        match tok {
+            Tok::Ident(name) if next == Some(&Tok::Punct(':')) => {
+                if let Some(f) = stack.last_mut().filter(|f| !f.list) {
+                    let mut p = f.base.clone();
+                    p.push(Step::Name(name.clone()));
+                    if same_path(&wanted, &p) {
+                        return Some((*line, *col));
+                    }
+                    f.key = Some(p);
+                }
+                i += 1;
+            }
+            Tok::Ident(name) if next == Some(&Tok::Punct('(')) => {
+                let mut base = value_path(&stack);
+                // At the top, a name before `(` is the config struct's own.
+                if !stack.is_empty() {
+                    base.push(Step::Variant(name.clone()));
+                }
+                stack.push(Frame::new(base, false));
+                i += 1;
+            }
+            Tok::Punct('(' | '{') => stack.push(Frame::new(value_path(&stack), false)),
+            Tok::Punct('[') => stack.push(Frame::new(value_path(&stack), true)),
+            Tok::Punct(')' | ']' | '}') => {
+                stack.pop()?;
+            }
+            Tok::Punct(',') => {
+                if let Some(f) = stack.last_mut() {
+                    if f.list {
+                        f.index += 1;
+                        f.started = false;
+                    } else {
+                        f.key = None;
+                    }
+                }
+            }
+            _ => {}
+        }
+        i += 1;
+    }
+    None
 }
 
 #[cfg(test)]
@@ -1261,7 +1646,8 @@ mod tests {
         assert!(Placement::parse_cli("voronoi", &base).is_err());
         assert!(Placement::parse_cli("grid:2000x1x1", &base).is_err());
         assert!(Placement::parse_cli("grid:1024x1024x2", &base).is_err());
-        assert!(Placement::parse_cli("grid:1024x1024x1", &base).is_ok());
+        assert!(Placement::parse_cli("grid:256x256x1", &base).is_ok());
+        assert!(Placement::parse_cli("grid:1024x1024x1", &base).is_err());
         assert_eq!(Placement::parse_cli("sdf-skeleton", &g).unwrap(), base);
         let m = Placement::parse_cli("medial-axis", &base).unwrap();
         assert_eq!(m, Placement::MedialAxis(MedialAxisParams::default()));
@@ -1363,5 +1749,252 @@ mod tests {
             "placement: Relocated((cells: (4, 4)))",
         );
         assert!(user_message(parse(&text)).contains("placement"));
+    }
+
+    /// Every struct and every struct variant of the config, each with an
+    /// unknown field `bogus` on line 3, and the path the message must name.
+    const UNKNOWN_FIELD_CASES: [(&str, &str); 23] = [
+        ("bogus: 1,", "bogus"),
+        ("domain: Box((min: (0, 0, 0), max: (1, 1, 1), bogus: 1)),", "domain.Box.bogus"),
+        ("placement: SdfSkeleton((bogus: 1)),", "placement.SdfSkeleton.bogus"),
+        ("placement: MedialAxis((bogus: 1)),", "placement.MedialAxis.bogus"),
+        ("placement: Grid((cells: (1, 1, 1), bogus: 1)),", "placement.Grid.bogus"),
+        ("placement: Relocated((cells: (1, 1, 1), bogus: 1)),", "placement.Relocated.bogus"),
+        ("placement: Greedy((spacing: 1, bogus: 1)),", "placement.Greedy.bogus"),
+        ("sdf: (bogus: 1),", "sdf.bogus"),
+        ("coverage: (bogus: 1),", "coverage.bogus"),
+        ("refine: (bogus: 1),", "refine.bogus"),
+        ("svo: (bogus: 1),", "svo.bogus"),
+        ("bake: (bogus: 1),", "bake.bogus"),
+        ("reference: (bogus: 1),", "reference.bogus"),
+        ("reference: (camera: (position: (0, 0, 0), look_at: (1, 1, 1), bogus: 1)),", "reference.camera.bogus"),
+        ("compare: (bogus: 1),", "compare.bogus"),
+        ("compare: (grids: [(cells: (1, 1, 1), bogus: 1)]),", "compare.grids[0].bogus"),
+        ("compare: (cameras: [(position: (0, 0, 0), look_at: (1, 1, 1), bogus: 1)]),", "compare.cameras[0].bogus"),
+        ("lights: [Point(position: (0, 0, 0), intensity: (1, 1, 1), bogus: 1)],", "lights[0].Point.bogus"),
+        ("lights: [Spot(position: (0, 0, 0), direction: (0, -1, 0), intensity: (1, 1, 1), cone_degrees: 30, edge_degree: 20)],", "lights[0].Spot.edge_degree"),
+        ("lights: [Sky(radiance: (1, 1, 1)), Spot(position: (0, 0, 0), direction: (0, -1, 0), intensity: (1, 1, 1), cone_degrees: 30, bogus: 1)],", "lights[1].Spot.bogus"),
+        ("lights: [Directional(direction: (0, -1, 0), irradiance: (1, 1, 1), bogus: 1)],", "lights[0].Directional.bogus"),
+        ("lights: [Sky(radiance: (1, 1, 1), bogus: 1)],", "lights[0].Sky.bogus"),
+        ("lights: [Sky(radiance: (1, 1, 1)), Sky(radiance: (1, 1, 1), bogus: 1)],", "lights[1].Sky.bogus"),
+    ];
+
+    #[test]
+    fn every_struct_and_variant_refuses_unknown_fields() {
+        for (field, path) in UNKNOWN_FIELD_CASES {
+            let text = format!("(\n    scene: \"a.obj\",\n    {field}\n)");
+            let m = user_message(parse(&text));
+            let name = path.rsplit('.').next().unwrap();
+            assert!(m.contains(&format!("{path}: ")), "{field}: {m}");
+            assert!(m.contains(&format!("`{name}`")), "{field}: {m}");
+            // The column RON reports lies on the unknown name (where it
+            // stands after reading it), which the locator finds too.
+            let (line, col) = locate(&text, path).expect(path);
+            assert_eq!(line, 3, "{path}");
+            let end = col + name.chars().count();
+            let at = m.strip_prefix("c.ron:3:").expect(&m);
+            let reported: usize = at.split(':').next().unwrap().parse().expect(&m);
+            assert!(
+                (col..=end).contains(&reported),
+                "{path}: {m}, name at {col}"
+            );
+        }
+    }
+
+    #[test]
+    fn a_byte_order_mark_is_skipped_and_columns_count_after_it() {
+        let plain = parse(MINIMAL).unwrap();
+        assert_eq!(parse(&format!("\u{feff}{MINIMAL}")).unwrap(), plain);
+        let bad = "(scene: \"a.obj\", voxel_size: -1)";
+        let without = user_message(parse(bad));
+        let with = user_message(parse(&format!("\u{feff}{bad}")));
+        assert!(without.starts_with("c.ron:1:"), "{without}");
+        assert_eq!(with, without);
+        assert_eq!(
+            locate(&format!("\u{feff}{bad}"), "voxel_size"),
+            Some((1, 18))
+        );
+        // A mark anywhere else is no mark: still an error.
+        assert!(parse(&format!(" \u{feff}{MINIMAL}")).is_err());
+    }
+
+    #[test]
+    fn empty_paths_are_refused_where_written() {
+        let text = "(\n    scene: \"a.obj\",\n    output: \"\",\n)";
+        let m = user_message(parse(text));
+        assert!(m.starts_with("c.ron:3:"), "{m}");
+        assert!(m.ends_with("output: must not be empty"), "{m}");
+        let m = user_message(parse("(\n    scene: \"\",\n)"));
+        assert!(
+            m.starts_with("c.ron:2:") && m.ends_with("scene: must not be empty"),
+            "{m}"
+        );
+        assert_eq!(
+            parse("(scene: \"a.obj\", output: \"o\")").unwrap().output,
+            Path::new("o")
+        );
+    }
+
+    #[test]
+    fn short_numbers() {
+        assert_eq!(short(1e300), "1e300");
+        assert_eq!(short(1e-300), "1e-300");
+        assert_eq!(short(-5.0), "-5");
+        assert_eq!(short(0.25), "0.25");
+        assert_eq!(short(1.5e-12), "1.5e-12");
+        assert_eq!(short(-2.5e7), "-2.5e7");
+        assert_eq!(short(999_999.0), "999999");
+        assert_eq!(short(1e6), "1e6");
+        assert_eq!(short(0.0001), "0.0001");
+        assert_eq!(short(0.00005), "5e-5");
+        assert_eq!(short(0.0), "0");
+        assert_eq!(short(f64::INFINITY), "inf");
+        assert_eq!(short(f64::NEG_INFINITY), "-inf");
+        assert_eq!(short(f64::NAN), "NaN");
+        // An f32 prints its own shortest digits, not its f64 widening's.
+        assert_eq!(short(0.1f32), "0.1");
+        assert_eq!(short(3e38f32), "3e38");
+        assert_eq!(short_all(&[0.0, 1e300, 2.5]), "(0, 1e300, 2.5)");
+    }
+
+    #[test]
+    fn huge_and_tiny_numbers_are_refused_in_short_form() {
+        for (value, shown) in [
+            ("1e300", "1e300"),
+            ("1e-300", "1e-300"),
+            ("-1e300", "-1e300"),
+        ] {
+            let m = user_message(parse(&MINIMAL.replace("0.1", value)));
+            assert!(m.starts_with("c.ron:3:") && m.contains("voxel_size"), "{m}");
+            assert!(m.ends_with(&format!("got {shown}")), "{m}");
+            assert!(m.len() < 160, "{m}");
+        }
+        // An angle that single precision rounds to 0 is no angle.
+        let text = MINIMAL.replace(
+            "placement: SdfSkeleton(())",
+            "placement: MedialAxis((precluster_angle_deg: 1e-300))",
+        );
+        let m = user_message(parse(&text));
+        assert!(
+            m.contains("precluster_angle_deg") && m.ends_with("got 1e-300"),
+            "{m}"
+        );
+        let text = MINIMAL.replace(
+            "voxel_size: 0.1,",
+            "voxel_size: 0.1, domain: Box((min: (0, 0, 0), max: (1, 1e300, 1))),",
+        );
+        let m = user_message(parse(&text));
+        assert!(m.contains("(1, 1e300, 1)") && m.len() < 200, "{m}");
+    }
+
+    /// A config with comments, strings holding brackets and field names,
+    /// nested variants, lists and raw strings, for [`locate`].
+    const TRICKY: &str = r##"// voxel_size: 1 in a comment
+(
+    /* placement: Grid((cells: (1, 1, 1))), /* nested */ still a comment */
+    scene: "room(.obj: [x",
+    voxel_size: 0.1,
+    placement: SdfSkeleton((
+        min_distance: 0.4,
+    )),
+    output: r#"out"put: ("#,
+    lights: [
+        Sky(radiance: (1, 1, 1)),
+        Spot(position: (0, 1.5e-3, -2), direction: (0, -1, 0), intensity: (1, 1, 1), cone_degrees: 30),
+    ],
+    reference: (camera: Some((position: (0, 0, 0), look_at: (1, 1, 1)))),
+    compare: (grids: [(cells: (1, 2, 3))], cameras: []),
+)
+"##;
+
+    #[test]
+    fn locate_finds_fields_as_messages_name_them() {
+        assert_eq!(locate(TRICKY, "voxel_size"), Some((5, 5)));
+        assert_eq!(locate(TRICKY, "scene"), Some((4, 5)));
+        assert_eq!(locate(TRICKY, "placement"), Some((6, 5)));
+        assert_eq!(locate(TRICKY, "placement.min_distance"), Some((7, 9)));
+        assert_eq!(
+            locate(TRICKY, "placement.SdfSkeleton.min_distance"),
+            Some((7, 9))
+        );
+        assert_eq!(locate(TRICKY, "output"), Some((9, 5)));
+        assert_eq!(locate(TRICKY, "lights"), Some((10, 5)));
+        assert_eq!(locate(TRICKY, "lights[0]"), Some((11, 9)));
+        assert_eq!(locate(TRICKY, "lights[1]"), Some((12, 9)));
+        assert_eq!(
+            locate(TRICKY, "lights[1].Spot.cone_degrees"),
+            Some((12, 86))
+        );
+        assert_eq!(locate(TRICKY, "lights[1].cone_degrees"), Some((12, 86)));
+        assert_eq!(locate(TRICKY, "lights[0].radiance"), Some((11, 13)));
+        assert_eq!(locate(TRICKY, "reference.camera"), Some((14, 17)));
+        assert_eq!(locate(TRICKY, "reference.camera.look_at"), Some((14, 52)));
+        assert_eq!(locate(TRICKY, "compare.grids[0].cells"), Some((15, 24)));
+        assert_eq!(locate(TRICKY, "compare.cameras"), Some((15, 44)));
+    }
+
+    #[test]
+    fn locate_finds_nothing_that_is_not_written() {
+        // Defaults, fields only in comments or strings, wrong nesting.
+        for path in [
+            "seed",
+            "domain",
+            "refine.texel_size",
+            "placement.Grid.cells",
+            "placement.cluster_radius",
+            "lights[2]",
+            "lights[0].position",
+            "min_distance",
+            "cells",
+            "reference.width",
+            "compare.cameras[0]",
+            "",
+            "voxel_size.",
+            "lights[x]",
+            "lights]",
+        ] {
+            assert_eq!(locate(TRICKY, path), None, "{path}");
+        }
+        assert_eq!(locate("(", "scene"), None);
+        assert_eq!(locate("(scene: \"unterminated", "voxel_size"), None);
+    }
+
+    #[test]
+    fn the_locator_agrees_with_the_parser_on_every_shipped_config() {
+        // Each top-level field the parser read from a shipped config is
+        // found on the line that writes `NAME:`, ignoring comments.
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("configs");
+        let mut checked = 0;
+        for entry in std::fs::read_dir(dir).unwrap() {
+            let path = entry.unwrap().path();
+            if path.extension().is_none_or(|e| e != "ron") {
+                continue;
+            }
+            let text = std::fs::read_to_string(&path).unwrap();
+            parse(&text).unwrap();
+            for field in [
+                "scene",
+                "voxel_size",
+                "placement",
+                "output",
+                "lights",
+                "reference",
+            ] {
+                let written = text.lines().enumerate().find(|(_, l)| {
+                    let code = l.split("//").next().unwrap();
+                    code.trim_start().starts_with(&format!("{field}:"))
+                });
+                let found = locate(&text, field);
+                match written {
+                    Some((n, l)) => {
+                        let col = l.len() - l.trim_start().len() + 1;
+                        assert_eq!(found, Some((n + 1, col)), "{}: {field}", path.display());
+                        checked += 1;
+                    }
+                    None => assert_eq!(found, None, "{}: {field}", path.display()),
+                }
+            }
+        }
+        assert!(checked > 5, "{checked}");
     }
 }

@@ -179,7 +179,8 @@ pub fn grid_dims(domain: &Bounds, voxel_size: f32) -> Result<UVec3> {
     let total = n.x as f64 * n.y as f64 * n.z as f64;
     if !total.is_finite() || total > MAX_VOXELS as f64 {
         return Err(Error::User(format!(
-            "voxel_size: {voxel_size} gives {total:.3e} voxels over a domain of {:.3} x {:.3} x {:.3} (limit {MAX_VOXELS}); use a larger voxel_size",
+            "voxel_size: {} gives {total:.3e} voxels over a domain of {:.3} x {:.3} x {:.3} (limit {MAX_VOXELS}); use a larger voxel_size",
+            crate::config::short(voxel_size),
             domain.size().x,
             domain.size().y,
             domain.size().z

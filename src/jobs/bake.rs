@@ -62,9 +62,9 @@ pub(crate) fn precheck(job: &Job) -> Result<()> {
         }
         _ => 1,
     };
-    stages::bake::check(config, probes).map_err(|e| e.in_file(&job.config_path))?;
+    stages::bake::check(config, probes).map_err(|e| job.config_error(e))?;
     if config.reference.camera.is_some() {
-        validate::check_reference(config, 1).map_err(|e| e.in_file(&job.config_path))?;
+        validate::check_reference(config, 1).map_err(|e| job.config_error(e))?;
     }
     Ok(())
 }
@@ -89,9 +89,9 @@ pub(crate) fn bake_stage(
     }
     let config = &job.config;
     let positions = placement.probes.positions();
-    stages::bake::check(config, positions.len()).map_err(|e| e.in_file(&job.config_path))?;
+    stages::bake::check(config, positions.len()).map_err(|e| job.config_error(e))?;
     if config.reference.camera.is_some() {
-        validate::check_reference(config, 1).map_err(|e| e.in_file(&job.config_path))?;
+        validate::check_reference(config, 1).map_err(|e| job.config_error(e))?;
     }
     let mut watch = job.progress.stopwatch();
     let baked = stages::bake(config, prepared, &positions, &job.progress);

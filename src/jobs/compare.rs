@@ -68,13 +68,11 @@ pub fn compare(options: &RunOptions) -> Result<Outcome> {
         .copied()
         .collect();
     if cameras.is_empty() {
-        return Err(Error::user_file(
-            &job.config_path,
-            "reference.camera: compare needs a camera (placements are rendered from it and measured against the reference)",
-        ));
+        return Err(job.config_error(Error::User(
+            "reference.camera: compare needs a camera (placements are rendered from it and measured against the reference)".into(),
+        )));
     }
-    validate::check_reference(&job.config, cameras.len())
-        .map_err(|e| e.in_file(&job.config_path))?;
+    validate::check_reference(&job.config, cameras.len()).map_err(|e| job.config_error(e))?;
     let prepared = job.prepare()?;
     let mut warnings = prepared.scene.warnings.clone();
     let views = views(&mut job, &prepared, &cameras)?;
@@ -96,6 +94,7 @@ pub fn compare(options: &RunOptions) -> Result<Outcome> {
     let mut bench = Bench {
         config: job.config.clone(),
         config_path: job.config_path.clone(),
+        config_text: job.provenance.config_text.clone(),
         prepared: &prepared,
         coverage: &coverage,
         views: &views,
@@ -302,15 +301,16 @@ fn views(job: &mut Job, prepared: &Prepared, cameras: &[CameraParams]) -> Result
 struct Candidate {
     probes: ProbeSet,
     stats: BTreeMap<String, f64>,
-    svo: Option<Svo>,
+    svo: Svo,
     field: Option<LightField>,
 }
 
 /// What every placement is measured with, and the rows so far.
 struct Bench<'a> {
     config: Config,
-    /// The config file, which errors about its fields name.
+    /// The config file and its text, which errors about its fields name.
     config_path: std::path::PathBuf,
+    config_text: String,
     prepared: &'a Prepared,
     coverage: &'a CoverageReference,
     views: &'a [View],
@@ -338,7 +338,7 @@ impl Bench<'_> {
                 None => {
                     let placed =
                         stages::place(&c, self.prepared, self.coverage, None, &self.progress)
-                            .map_err(|e| e.in_file(&job.config_path))?;
+                            .map_err(|e| job.config_error_of(e, &c.placement))?;
                     let mut stats = stats_of(&placed.probes);
                     if let Some((r, _)) = &placed.refined {
                         stats.insert("refine_coverage_final".into(), r.coverage_final);
@@ -346,7 +346,7 @@ impl Bench<'_> {
                     Candidate {
                         probes: placed.probes,
                         stats,
-                        svo: placed.svo.map(|(s, _)| s),
+                        svo: placed.svo.0,
                         field: None,
                     }
                 }
@@ -374,7 +374,8 @@ impl Bench<'_> {
             self.coverage,
             Some(probes),
             &self.progress,
-        )?;
+        )
+        .map_err(|e| job.config_error(e))?;
         self.measure("file", Family::Given, candidate_of(placed))?;
         job.watch.record("file", t.elapsed().as_secs_f64() * 1e3);
         Ok(())
@@ -472,44 +473,31 @@ impl Bench<'_> {
             .evaluate_with_holes(bvh, &positions, &self.progress);
         let health = crate::coverage::probe_health(sdf, domain, &positions);
         let views_png = report::placement_views(scene, domain, &positions, &holes, VIEW_SIZE);
-        let mut tracer_name = "none";
-        let (cameras, renders, errors, probe_bytes, svo_bytes) = match candidate.svo {
-            _ if positions.is_empty() => {
-                self.warnings.push(format!(
-                    "compare: {name} placed no probes; its renders are black"
-                ));
-                let (rows, renders, errors) = self.render_each(|view| Ok(validate::dark(view)))?;
-                (rows, renders, errors, 0, 0)
-            }
-            svo => {
-                // The place stage indexes every non-empty probe set.
-                let svo = svo.ok_or_else(|| {
-                    Error::Internal(format!("compare: {name} has probes but no SVO"))
-                })?;
-                let field = match candidate.field {
-                    Some(f) => f,
-                    None => {
-                        stages::bake::check(&self.config, positions.len())
-                            .map_err(|e| e.in_file(&self.config_path))?;
-                        stages::bake(&self.config, self.prepared, &positions, &self.progress).field
-                    }
-                };
-                // Grids are traced as engines trace them today (McGuire et al.
-                // 2017: bi-level march, the cell's eight probes); the rest with
-                // Wang et al. 2019's Hi-Z march and SVO selection.
-                let lattice = match family {
-                    Family::Grid => Lattice::from_positions(&field.positions),
-                    _ => None,
-                };
-                tracer_name = if lattice.is_some() {
-                    "bilevel+grid"
-                } else {
-                    "hiz+svo"
-                };
-                let (rows, renders, errors) = self.render(name, &field, &svo, lattice.as_ref())?;
-                (rows, renders, errors, field.bytes() as u64, svo.bytes())
+        // The place stage refuses an empty probe set, so every candidate
+        // has probes and their SVO.
+        let svo = candidate.svo;
+        let field = match candidate.field {
+            Some(f) => f,
+            None => {
+                stages::bake::check(&self.config, positions.len())
+                    .map_err(|e| e.in_config(&self.config_path, &self.config_text))?;
+                stages::bake(&self.config, self.prepared, &positions, &self.progress).field
             }
         };
+        // Grids are traced as engines trace them today (McGuire et al.
+        // 2017: bi-level march, the cell's eight probes); the rest with
+        // Wang et al. 2019's Hi-Z march and SVO selection.
+        let lattice = match family {
+            Family::Grid => Lattice::from_positions(&field.positions),
+            _ => None,
+        };
+        let tracer_name = if lattice.is_some() {
+            "bilevel+grid"
+        } else {
+            "hiz+svo"
+        };
+        let (cameras, renders, errors) = self.render(name, &field, &svo, lattice.as_ref())?;
+        let (probe_bytes, svo_bytes) = (field.bytes() as u64, svo.bytes());
         let mean = |f: fn(&CameraRow) -> f64| {
             cameras.iter().map(f).sum::<f64>() / cameras.len().max(1) as f64
         };
@@ -593,7 +581,7 @@ fn candidate_of(placed: Placed) -> Candidate {
     Candidate {
         stats: stats_of(&placed.probes),
         probes: placed.probes,
-        svo: placed.svo.map(|(s, _)| s),
+        svo: placed.svo.0,
         field: None,
     }
 }
@@ -629,7 +617,7 @@ fn reuse(job: &mut Job, method: &str, prepared: &Prepared) -> Result<Option<Cand
     Ok(Some(Candidate {
         probes: placement.probes,
         stats,
-        svo: Some(placement.svo),
+        svo: placement.svo,
         field: bake.map(|b| b.field),
     }))
 }

@@ -1,6 +1,7 @@
 //! The `inspect` job: reads an output directory's `svo.bin` (and its
-//! `lightfield.bin`), checks them and that every file of the directory
-//! comes from one run, and summarizes them.
+//! `lightfield.bin`), checks them, that every file of the directory comes
+//! from one run and that none of the run's data files is missing, and
+//! summarizes them.
 
 use crate::error::{Error, Result};
 use crate::svo::Svo;
@@ -16,6 +17,10 @@ pub struct Inspection {
     pub svo: Svo,
     /// The `lightfield.bin` beside it, when there is one, checked too.
     pub light_field: Option<(PathBuf, crate::lightfield::LightField)>,
+    /// The `svo.bin` was given alone, with no `report.json` beside it: only
+    /// the file itself (and any `probes.json` or `lightfield.bin` beside
+    /// it) was checked, not that a run is whole.
+    pub alone: bool,
 }
 
 impl std::fmt::Display for Inspection {
@@ -45,6 +50,12 @@ impl std::fmt::Display for Inspection {
             s.distinct_lists(),
             s.leaves_without_visible_probe
         )?;
+        if self.alone {
+            write!(
+                f,
+                "\n  no report.json beside it: checked alone, not as an output directory"
+            )?;
+        }
         if let Some((path, lf)) = &self.light_field {
             write!(
                 f,
@@ -62,11 +73,16 @@ impl std::fmt::Display for Inspection {
 }
 
 /// Reads the `svo.bin` at `path`, or in the output directory `path`, and
-/// checks it against the `probes.json` beside it when there is one.
+/// checks it against the `probes.json` beside it. An output directory (one
+/// given as `path`, or holding a `report.json` beside the file given) must
+/// hold the whole run: a renderer given the directory would otherwise load
+/// an octree without its probes.
 ///
-/// Contract: a missing, truncated, corrupted or wrong-version file, or an
-/// SVO whose probe count disagrees with `probes.json`, is an
-/// [`Error::User`] naming the file.
+/// Contract: a missing, truncated, corrupted or wrong-version file, an SVO
+/// whose probe count disagrees with `probes.json`, or a file of the run
+/// missing from an output directory (`report.json`, `probes.json`,
+/// `lightfield.bin` when the report has a bake, any file it lists as
+/// reused) is an [`Error::User`] naming the file.
 pub fn inspect(path: &Path) -> Result<Inspection> {
     let file = if path.is_dir() {
         let f = path.join("svo.bin");
@@ -82,6 +98,10 @@ pub fn inspect(path: &Path) -> Result<Inspection> {
     };
     let svo = Svo::read(&file)?;
     check_one_run(&file, &svo)?;
+    let alone = !path.is_dir() && !file.with_file_name("report.json").exists();
+    if !alone {
+        check_whole(&file)?;
+    }
     let probes_json = file.with_file_name("probes.json");
     if let Ok(text) = std::fs::read_to_string(&probes_json) {
         let count = serde_json::from_str::<serde_json::Value>(&text)
@@ -138,7 +158,50 @@ pub fn inspect(path: &Path) -> Result<Inspection> {
         path: file,
         svo,
         light_field,
+        alone,
     })
+}
+
+/// Checks that the output directory of `file` (an `svo.bin`) holds every
+/// data file of its run: `report.json`, `probes.json`, `lightfield.bin`
+/// when the report has a bake, and the files the report lists as reused.
+fn check_whole(file: &Path) -> Result<()> {
+    let missing = |name: &str, why: &str| {
+        let path = file.with_file_name(name);
+        (!path.is_file()).then(|| {
+            Error::user_file(
+                &path,
+                format!("missing, {why}: the directory holds part of a run (run the job again)"),
+            )
+        })
+    };
+    let beside = format!("though {} is there", file.display());
+    for name in ["report.json", "probes.json"] {
+        if let Some(e) = missing(name, &beside) {
+            return Err(e);
+        }
+    }
+    let report_path = file.with_file_name("report.json");
+    let report: Value = std::fs::read(&report_path)
+        .ok()
+        .and_then(|b| serde_json::from_slice(&b).ok())
+        .ok_or_else(|| Error::user_file(&report_path, "is not a probeplace report"))?;
+    if report["bake"].is_object() {
+        if let Some(e) = missing("lightfield.bin", "though report.json records a bake") {
+            return Err(e);
+        }
+    }
+    for name in report["reused"].as_array().into_iter().flatten() {
+        let Some(name) = name.as_str() else { continue };
+        // Only a plain file name of the directory; anything else is not ours to look up.
+        if Path::new(name).file_name() != Some(std::ffi::OsStr::new(name)) {
+            continue;
+        }
+        if let Some(e) = missing(name, "though report.json lists it as reused") {
+            return Err(e);
+        }
+    }
+    Ok(())
 }
 
 /// Checks that the JSON files beside `file` (an `svo.bin`) carry the

@@ -158,6 +158,9 @@ pub(crate) struct Job {
     pub config: Config,
     /// The config file, for messages and the report.
     pub config_path: PathBuf,
+    /// The placement the config file's text gives, before `--method`: a
+    /// placement error points at its line only when that one ran.
+    pub written_placement: Option<Placement>,
     /// What ties the outputs together.
     pub provenance: Provenance,
     /// Where the outputs go.
@@ -206,6 +209,10 @@ impl Job {
             Some(c) => c.clone(),
             None => Config::from_text(&text, &config_path)?,
         };
+        let written_placement = match &options.loaded {
+            Some(_) => Config::parse(&text, &config_path).ok().map(|c| c.placement),
+            None => Some(config.placement),
+        };
         apply(&mut config, &overrides)?;
         let provenance = Provenance::of(&config, &config_path, &text, &overrides)?;
         if let Some(e) = &earlier {
@@ -217,6 +224,9 @@ impl Job {
             }
         }
         let out_dir = match (&options.out, &earlier) {
+            (Some(o), _) if o.as_os_str().is_empty() => {
+                return Err(Error::User("--out: must not be empty".into()))
+            }
             (Some(o), _) => o.clone(),
             (None, Some(e)) => e.dir.clone(),
             (None, None) => config.output.clone(),
@@ -227,6 +237,7 @@ impl Job {
         Ok(Job {
             config,
             config_path,
+            written_placement,
             provenance,
             out_dir,
             inputs,
@@ -241,9 +252,35 @@ impl Job {
 
     /// The stages before placement, timed.
     pub fn prepare(&mut self) -> Result<Prepared> {
-        let prepared = stages::prepare(&self.config, &self.config_path, &self.progress)?;
+        let prepared = stages::prepare(
+            &self.config,
+            &self.config_path,
+            &self.provenance.config_text,
+            &self.progress,
+        )?;
         self.watch.absorb(&prepared.timings);
         Ok(prepared)
+    }
+
+    /// `e`, an error of a stage that names a config field, prefixed with
+    /// the config file and, where the file writes the field, its line and
+    /// column ([`Error::in_config`]).
+    pub fn config_error(&self, e: Error) -> Error {
+        self.config_error_of(e, &self.config.placement)
+    }
+
+    /// [`Job::config_error`] of a stage that ran `placement`. A placement
+    /// error gets the file alone, no line, when that placement is not the
+    /// file's (another `--method`, or a job that runs other methods too):
+    /// the line would point at a method that did not run.
+    pub fn config_error_of(&self, e: Error, placement: &Placement) -> Error {
+        let written = self.written_placement.as_ref() == Some(placement);
+        match e {
+            Error::User(m) if !written && m.starts_with("placement") => {
+                Error::User(m).in_file(&self.config_path)
+            }
+            e => e.in_config(&self.config_path, &self.provenance.config_text),
+        }
     }
 
     /// Carries `names` of the earlier run (those it has) into the set.

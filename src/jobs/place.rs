@@ -113,24 +113,13 @@ fn compute_placed(job: &mut Job, prepared: &Prepared) -> Result<(CoverageReferen
         None => None,
     };
     let placed = stages::place(config, prepared, &reference, given, &progress)
-        .map_err(|e| e.in_file(&job.config_path))?;
+        .map_err(|e| job.config_error(e))?;
     job.watch.absorb(&placed.timings);
     Ok((reference, placed))
 }
 
 /// Adds the placement's files to the job's set and builds its report.
-fn encode(
-    job: &mut Job,
-    prepared: &Prepared,
-    mut placed: Placed,
-) -> Result<(ProbeSet, Svo, Report)> {
-    let Some((mut svo, svo_report)) = placed.svo.take() else {
-        return Err(Error::User(format!(
-            "{}: the placement has no probe",
-            job.config_path.display()
-        )));
-    };
-    svo.provenance = job.provenance.to_bytes();
+fn encode(job: &mut Job, prepared: &Prepared, placed: Placed) -> Result<(ProbeSet, Svo, Report)> {
     let scene_name = job.config.scene.display().to_string();
     let png = job.watch.time("preview", || {
         let image = report::placement_views(
@@ -150,6 +139,9 @@ fn encode(
         &job.config,
         &job.provenance,
     );
+    let report = Report::new(job, prepared, &placed, placed.svo.1.clone());
+    let (mut svo, _) = placed.svo;
+    svo.provenance = job.provenance.to_bytes();
     job.set.add("probes.json", report::to_json(&probes_file)?);
     job.set.add("svo.bin", svo.to_bytes());
     job.set.add("placement.png", png);
@@ -157,7 +149,6 @@ fn encode(
         job.set
             .add("atlas.png", report::encode_png(atlas, "atlas.png")?);
     }
-    let report = Report::new(job, prepared, &placed, svo_report);
     Ok((placed.probes, svo, report))
 }
 

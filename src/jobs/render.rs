@@ -44,10 +44,9 @@ const GLOSSY_RAYS: u32 = 1;
 pub fn render(options: &RunOptions) -> Result<Outcome> {
     let mut job = Job::new(options)?;
     let Some(camera) = job.config.reference.camera else {
-        return Err(Error::user_file(
-            &job.config_path,
-            "reference.camera: render needs a camera (the image is drawn from it and measured against the reference)",
-        ));
+        return Err(job.config_error(Error::User(
+            "reference.camera: render needs a camera (the image is drawn from it and measured against the reference)".into(),
+        )));
     };
     let variants = if options.variants.is_empty() {
         vec![Variant::BiLevel, Variant::HiZ]

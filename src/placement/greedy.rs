@@ -435,7 +435,8 @@ mod tests {
     fn keeps_every_candidate_when_the_target_exceeds_them() {
         let scene = empty_room(2.0);
         let (bvh, sdf) = bvh_and_sdf(&scene, 0.25, 1);
-        let set = place_in(&greedy_at(0.05), &scene, &bvh, &sdf).unwrap();
+        // ρ of one voxel: the kernel reaches no neighbour (t = 1 gives 0).
+        let set = place_in(&greedy_at(0.25), &scene, &bvh, &sdf).unwrap();
         assert_eq!(set.stats["removed"], 0);
         assert_eq!(set.probes.len() as u64, set.stats["candidates"]);
     }

@@ -61,7 +61,8 @@ impl Atlas {
         let total: u64 = subdivisions.iter().map(|&n| n as u64 * n as u64).sum();
         if total > MAX_TEXELS {
             return Err(Error::User(format!(
-                "refine.texel_size: {texel_size} cuts the scene into {total} atlas texels, over the limit of {MAX_TEXELS}; raise it"
+                "refine.texel_size: {} cuts the scene into {total} atlas texels, over the limit of {MAX_TEXELS}; raise it",
+                crate::config::short(texel_size)
             )));
         }
         let mut offset = Vec::with_capacity(areas.len() + 1);

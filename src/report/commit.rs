@@ -62,11 +62,12 @@ impl OutputSet {
 const MARKERS: [&str; 2] = ["report.json", "compare.json"];
 
 /// Refuses an output directory the commit could not or must not replace:
-/// a path that exists and is not a directory, a non-empty directory that
-/// holds no probeplace output (replacing it would delete the user's files),
-/// or one that holds an input of the run (`inputs`: the config, the scene,
-/// its MTL files), which the swap would delete. Called before any
-/// expensive stage, and again at the commit.
+/// a path that exists and is not a directory, one that cannot be created
+/// (below a file, or where nothing may be written: [`check_creatable`]), a
+/// non-empty directory that holds no probeplace output (replacing it would
+/// delete the user's files), or one that holds an input of the run
+/// (`inputs`: the config, the scene, its MTL files), which the swap would
+/// delete. Called before any expensive stage, and again at the commit.
 pub fn check_destination(dir: &Path, inputs: &[PathBuf]) -> Result<()> {
     if dir.exists() && !dir.is_dir() {
         return Err(Error::user_file(
@@ -74,6 +75,7 @@ pub fn check_destination(dir: &Path, inputs: &[PathBuf]) -> Result<()> {
             "output path exists and is not a directory",
         ));
     }
+    check_creatable(dir)?;
     let out = absolute(dir);
     for input in inputs {
         if absolute(input).starts_with(&out) {
@@ -96,6 +98,78 @@ pub fn check_destination(dir: &Path, inputs: &[PathBuf]) -> Result<()> {
                 dir,
                 "is not empty and holds no probeplace output (report.json or compare.json); the run would replace its files, so choose an empty or new --out",
             ));
+        }
+    }
+    Ok(())
+}
+
+/// Refuses an output directory whose staging directory could not be
+/// made: the commit creates the missing directories above `dir` and its
+/// staging directory beside it, so the nearest ancestor of `dir` that
+/// exists must be a directory (`--out notes.txt/run` names the file) in
+/// which a directory can be made. The latter is tried, with a directory of
+/// the staging name removed at once (a kill in between leaves one the next
+/// run sweeps), since permission bits do not tell: root may write anywhere
+/// the bits forbid, and nowhere on a read-only or virtual file system.
+fn check_creatable(dir: &Path) -> Result<()> {
+    let abs = std::path::absolute(dir).map_err(|e| Error::user_file(dir, e))?;
+    let mut child = match abs.file_name() {
+        Some(name) => name.to_owned(),
+        None => return Ok(()),
+    };
+    // Messages name an ancestor as the user would: relative to the current
+    // directory when `dir` is relative.
+    let cwd = std::env::current_dir().unwrap_or_default();
+    let shown = |a: &Path| -> PathBuf {
+        match a.strip_prefix(&cwd) {
+            Ok(r) if dir.is_relative() && r.as_os_str().is_empty() => PathBuf::from("."),
+            Ok(r) if dir.is_relative() => r.to_path_buf(),
+            _ => a.to_path_buf(),
+        }
+    };
+    for ancestor in abs.ancestors().skip(1) {
+        match std::fs::metadata(ancestor) {
+            Ok(m) if m.is_dir() => {
+                let probe = ancestor.join(format!(
+                    ".{}.probeplace-{}-probe",
+                    child.to_string_lossy(),
+                    std::process::id()
+                ));
+                return match std::fs::create_dir(&probe) {
+                    Ok(()) => {
+                        let _ = std::fs::remove_dir(&probe);
+                        Ok(())
+                    }
+                    Err(e) => Err(Error::user_file(
+                        &shown(ancestor),
+                        format!(
+                            "cannot create the output directory {} here: {e}",
+                            dir.display()
+                        ),
+                    )),
+                };
+            }
+            Ok(_) => {
+                return Err(Error::user_file(
+                    &shown(ancestor),
+                    format!(
+                        "is not a directory, so the output directory {} cannot be created below it",
+                        dir.display()
+                    ),
+                ))
+            }
+            Err(e) if e.kind() == std::io::ErrorKind::PermissionDenied => {
+                return Err(Error::user_file(
+                    &shown(ancestor),
+                    format!("cannot reach the output directory {}: {e}", dir.display()),
+                ))
+            }
+            // Missing, or below a file: the file is found further up.
+            Err(_) => {
+                if let Some(name) = ancestor.file_name() {
+                    child = name.to_owned();
+                }
+            }
         }
     }
     Ok(())
@@ -376,5 +450,31 @@ mod tests {
         assert!(commit(&out, &bad, &[]).is_err());
         assert_eq!(listing(&out), before);
         assert_eq!(std::fs::read_dir(root.path()).unwrap().count(), 1);
+    }
+
+    #[test]
+    fn a_destination_below_a_file_or_where_nothing_is_written_is_refused() {
+        let root = tempfile::tempdir().unwrap();
+        let file = root.path().join("notes.txt");
+        std::fs::write(&file, b"x").unwrap();
+        for below in [file.join("out"), file.join("a/b/out")] {
+            let e = check_destination(&below, &[]).unwrap_err();
+            let m = e.to_string();
+            assert!(matches!(e, Error::User(_)), "{m}");
+            assert!(
+                m.starts_with(&format!("{}: is not a directory", file.display())),
+                "{m}"
+            );
+        }
+        // Missing directories above the destination are created by the
+        // commit, so they are no reason to refuse; nor is the probe left.
+        let deep = root.path().join("new/deeper/out");
+        check_destination(&deep, &[]).unwrap();
+        assert_eq!(std::fs::read_dir(root.path()).unwrap().count(), 1);
+        // /proc takes no directories, even from root.
+        if Path::new("/proc/self").exists() {
+            let e = check_destination(Path::new("/proc/probeplace-out"), &[]).unwrap_err();
+            assert!(e.to_string().starts_with("/proc: cannot create"), "{e}");
+        }
     }
 }

@@ -210,7 +210,7 @@ pub fn medial_axis(params: &MedialAxisParams, input: &PlacementInput) -> Result<
         return Err(Error::User(format!(
             "placement.min_radius: no medial ball of the {} pre-clusters has a radius of at least {} with its centre free and inside the domain; lower min_radius or the voxel_size",
             clusters.len(),
-            r.min_radius
+            crate::config::short(r.min_radius)
         )));
     }
 

@@ -89,7 +89,8 @@ pub fn sdf_skeleton(params: &SdfSkeletonParams, input: &PlacementInput) -> Resul
     if kept.is_empty() {
         let largest = sdf.largest_clearance();
         return Err(Error::User(format!(
-            "placement.min_distance: {min_distance} culls every free voxel (the largest clearance in the domain is {largest:.4}); lower it or the voxel_size"
+            "placement.min_distance: {} culls every free voxel (the largest clearance in the domain is {largest:.4}); lower it or the voxel_size",
+            crate::config::short(min_distance)
         )));
     }
     let mut skeleton = medial_voxels(sdf, &kept);

@@ -80,7 +80,8 @@ pub fn sample_surface_points(
     let expected = areas.iter().sum::<f64>() * per_area;
     if expected > MAX_SURFACE_POINTS as f64 {
         return Err(Error::User(format!(
-            "placement.point_spacing: {spacing} would sample {expected:.3e} surface points (the limit is {MAX_SURFACE_POINTS}); raise it"
+            "placement.point_spacing: {} would sample {expected:.3e} surface points (the limit is {MAX_SURFACE_POINTS}); raise it",
+            crate::config::short(spacing)
         )));
     }
     let a1 = 1.0 / PLASTIC;

@@ -19,7 +19,7 @@ pub mod validate;
 pub use bake::{bake, Baked};
 pub use place::{place, Placed};
 
-use crate::config::{Config, Domain, VoxelSize};
+use crate::config::{short_all, Config, Domain, VoxelSize};
 use crate::error::{Error, Result};
 use crate::limits;
 use crate::placement::PlacementInput;
@@ -62,21 +62,29 @@ impl Prepared {
 }
 
 /// The stages before placement (load, domain, BVH, SDF) for `config`, read
-/// from `config_path`.
+/// from `config_path`, whose contents are `config_text`.
 ///
 /// Contract: errors of the stages that read config fields (domain, SDF) are
-/// prefixed with `config_path`; scene errors name the scene file themselves.
-pub fn prepare(config: &Config, config_path: &Path, progress: &Progress) -> Result<Prepared> {
+/// prefixed with `config_path` and the line and column of the field in
+/// `config_text` ([`Error::in_config`]); scene errors name the scene file
+/// themselves.
+pub fn prepare(
+    config: &Config,
+    config_path: &Path,
+    config_text: &str,
+    progress: &Progress,
+) -> Result<Prepared> {
     let mut timings = progress.stopwatch();
     let scene = timings.try_time("load", || {
         scene::load_obj(&config.scene, config.scale.0, config.up)
     })?;
-    let domain = resolve_domain(&config.domain, &scene).map_err(|e| e.in_file(config_path))?;
+    let in_config = |e: Error| e.in_config(config_path, config_text);
+    let domain = resolve_domain(&config.domain, &scene).map_err(in_config)?;
     let bvh = timings.time("bvh", || SceneBvh::new(&scene));
     let resolution = timings.time("resolution", || {
         resolve_voxel_size(config, &scene, &bvh, &domain)
     });
-    check_work(config, &domain, resolution.voxel_size).map_err(|e| e.in_file(config_path))?;
+    check_work(config, &domain, resolution.voxel_size).map_err(in_config)?;
     let sdf = timings
         .try_time("sdf", || {
             sdf::build(
@@ -89,7 +97,7 @@ pub fn prepare(config: &Config, config_path: &Path, progress: &Progress) -> Resu
                 progress,
             )
         })
-        .map_err(|e| e.in_file(config_path))?;
+        .map_err(in_config)?;
     Ok(Prepared {
         scene,
         domain,
@@ -143,11 +151,11 @@ pub fn resolve_domain(domain: &Domain, scene: &Scene) -> Result<Bounds> {
                 d.min.cmplt(scene.bounds.max).all() && d.max.cmpgt(scene.bounds.min).all();
             if !overlap {
                 return Err(Error::User(format!(
-                    "domain: box {:?}..{:?} does not overlap the scene bounds {:?}..{:?}",
-                    b.min,
-                    b.max,
-                    scene.to_world(scene.bounds.min).to_array(),
-                    scene.to_world(scene.bounds.max).to_array()
+                    "domain: box {}..{} does not overlap the scene bounds {}..{}",
+                    short_all(&b.min),
+                    short_all(&b.max),
+                    short_all(&scene.to_world(scene.bounds.min).to_array()),
+                    short_all(&scene.to_world(scene.bounds.max).to_array())
                 )));
             }
             Ok(d)

@@ -3,7 +3,7 @@
 //! of the result (§2, §3.2) and the SVO of probe indices (§4.1).
 
 use super::Prepared;
-use crate::config::Config;
+use crate::config::{short, Config};
 use crate::coverage::{self, Coverage, CoverageReference, ProbeHealth};
 use crate::error::{Error, Result};
 use crate::limits;
@@ -25,8 +25,8 @@ pub struct Placed {
     pub holes: Vec<Vec3>,
     /// Probes in solid, outside the scene or the domain.
     pub health: ProbeHealth,
-    /// The octree of probe indices and its figures; `None` for an empty set.
-    pub svo: Option<(Svo, SvoReport)>,
+    /// The octree of probe indices and its figures.
+    pub svo: (Svo, SvoReport),
     /// `placement`, `refine`, `coverage`, `svo`.
     pub timings: Stopwatch,
 }
@@ -38,7 +38,10 @@ pub struct Placed {
 /// is scored by.
 ///
 /// Contract: errors name the config field, not the file (the job prefixes
-/// it); an empty probe set is returned without an SVO.
+/// it). The probe set is never empty: a placement, or a refinement, that
+/// leaves no probe is a user error naming the cause, found before the SVO
+/// and any output, since a run without probes has nothing to bake, render
+/// or score.
 pub fn place(
     config: &Config,
     prepared: &Prepared,
@@ -53,11 +56,21 @@ pub fn place(
         Some(p) => p,
         None => timings.try_time("placement", || placement::place(&config.placement, &input))?,
     };
+    if probes.probes.is_empty() {
+        return Err(Error::User(format!(
+            "placement: {} placed no probe in the domain; check the domain and the method's parameters",
+            probes.method
+        )));
+    }
     check_probes(config, probes.probes.len())?;
     let (probes, refined) = if refine_it {
+        let placed = probes.probes.len();
         let out = timings.try_time("refine", || {
             refine::refine(&config.refine, probes, &input, reference)
         })?;
+        if out.probes.probes.is_empty() {
+            return Err(pruned_all(config, reference, placed));
+        }
         (out.probes, Some((out.report, out.atlas_image)))
     } else {
         (probes, None)
@@ -70,12 +83,8 @@ pub fn place(
             coverage::probe_health(&prepared.sdf, &prepared.domain, &positions),
         )
     });
-    let svo = if positions.is_empty() {
-        None
-    } else {
-        let baked = timings.try_time("svo", || svo::bake(&config.svo, &probes, &input))?;
-        Some((baked.svo, baked.report))
-    };
+    let baked = timings.try_time("svo", || svo::bake(&config.svo, &probes, &input))?;
+    let svo = (baked.svo, baked.report);
     Ok(Placed {
         probes,
         refined,
@@ -106,4 +115,29 @@ fn check_probes(config: &Config, n: usize) -> Result<()> {
         coverage::evaluation_segments(&config.coverage, n),
         limits::rate::COVERAGE_SEGMENTS,
     )
+}
+
+/// Why pruning dropped all `placed` probes: a coverage target of 0 needs
+/// none; a domain with no coverable surface (flat, or inside solid) gives
+/// no probe anything to see; else no probe or fill candidate sees any
+/// coverable sample. Each names the field to change.
+fn pruned_all(config: &Config, reference: &CoverageReference, placed: usize) -> Error {
+    let target = config.refine.coverage_target.0;
+    let coverable = reference.coverable.iter().filter(|&&c| c).count();
+    let undo = "or set refine.prune: false";
+    Error::User(if target == 0.0 {
+        format!(
+            "refine.coverage_target: {} needs no probe, so pruning left none of the placement's {placed} probes; raise it, {undo}",
+            short(target)
+        )
+    } else if coverable == 0 {
+        format!(
+            "domain: none of its {} surface samples can be seen from free space in it (is it flat, or inside solid?), so pruning left none of the placement's {placed} probes; check the domain, {undo}",
+            reference.samples.len()
+        )
+    } else {
+        format!(
+            "refine.prune: no probe of the placement's {placed}, nor any fill candidate, sees any of the {coverable} coverable surface samples, so pruning left none; check the domain, {undo}"
+        )
+    })
 }

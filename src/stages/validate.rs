@@ -302,21 +302,6 @@ pub fn validate(view: &View, irradiance: &Answers, glossy: &Answers) -> Validati
     Validation { image, metrics }
 }
 
-/// The answers of a placement without probes: no indirect light at all.
-pub fn dark(view: &View) -> [Answers; 2] {
-    let none = |n: usize| {
-        let r = Record {
-            kind: kind::NO_PROBE,
-            ..bytemuck::Zeroable::zeroed()
-        };
-        (vec![r; n], None)
-    };
-    [
-        none(view.gbuffer.irradiance.len()),
-        none(view.gbuffer.glossy.len()),
-    ]
-}
-
 /// Mean luminance of `pixels`, non-finite values left out (0 for none).
 pub fn mean_luminance(pixels: &[[f32; 3]]) -> f64 {
     pixels

@@ -186,7 +186,7 @@ fn impossible_parameters() {
     );
     let e = fails(&p, &[]);
     assert!(
-        e.contains("tiny.ron: voxel_size") && e.contains("voxels"),
+        e.contains("tiny.ron:1:21: voxel_size: 1e-5 gives") && e.contains("voxels"),
         "{e}"
     );
 }
@@ -215,13 +215,13 @@ fn medial_axis_mistakes_name_their_field() {
         // 1e-5 spacing over the 24 m² room: 2.4e11 points.
         (
             "MedialAxis((point_spacing: 0.00001))",
-            "ma.ron: placement.point_spacing",
+            "ma.ron:1:61: placement.point_spacing",
             "limit",
         ),
         // The 2 m room's largest ball has a radius of 1.
         (
             "MedialAxis((min_radius: 5.0))",
-            "ma.ron: placement.min_radius",
+            "ma.ron:1:61: placement.min_radius",
             "no medial ball",
         ),
         (
@@ -263,7 +263,7 @@ fn refine_mistakes_name_their_field() {
         // 1e-5 texels over the 24 m² room: 2.4e11 of them.
         (
             "(texel_size: 0.00001)",
-            "rf.ron: refine.texel_size",
+            "rf.ron:1:75: refine.texel_size",
             "limit",
         ),
         ("(coverage_target: 1.5)", "rf.ron:1:", "coverage_target"),
@@ -291,7 +291,7 @@ fn svo_mistakes_name_their_field() {
         // 1e-4 leaves over the 2 m room: 8e12 of them.
         (
             "(leaf_size: 0.0001)",
-            "sv.ron: svo.leaf_size",
+            "sv.ron:1:98: svo.leaf_size",
             "larger leaf_size",
         ),
         ("(max_probes: 9)", "sv.ron:1:", "max_probes"),

@@ -250,9 +250,10 @@ pub fn prepared(
 ) -> &'static (probeplace::config::Config, probeplace::stages::Prepared) {
     shared(&format!("prepared {config}"), || {
         let path = root().join(config);
-        let cfg = probeplace::config::Config::load(&path).unwrap();
+        let text = std::fs::read_to_string(&path).unwrap();
+        let cfg = probeplace::config::Config::from_text(&text, &path).unwrap();
         let progress = probeplace::progress::Progress::hidden();
-        let p = probeplace::stages::prepare(&cfg, &path, &progress).unwrap();
+        let p = probeplace::stages::prepare(&cfg, &path, &text, &progress).unwrap();
         (cfg, p)
     })
 }

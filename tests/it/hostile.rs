@@ -339,3 +339,222 @@ fn no_command_aborts_under_a_4_gb_address_space_limit() {
         "{stderr}"
     );
 }
+
+// Config and command line.
+
+/// Runs `probeplace ARGS` in the scratch directory; its exit status and
+/// stderr, for the checks [`refused`] does not make (no stage ran).
+fn stderr_of(s: &Scratch, args: &[&str]) -> (Option<i32>, String) {
+    let o = Command::new(env!("CARGO_BIN_EXE_probeplace"))
+        .args(args)
+        .current_dir(s.dir.path())
+        .output()
+        .unwrap();
+    (
+        o.status.code(),
+        String::from_utf8_lossy(&o.stderr).into_owned(),
+    )
+}
+
+/// The column (1-based) of `needle` on line `line` of the scratch file `name`.
+fn column(s: &Scratch, name: &str, line: usize, needle: &str) -> usize {
+    let text = std::fs::read_to_string(s.path(name)).unwrap();
+    let l = text.lines().nth(line - 1).unwrap();
+    l.find(needle).expect(needle) + 1
+}
+
+#[test]
+fn a_misspelt_light_field_is_refused_with_its_path_and_position() {
+    let s = Scratch::new();
+    s.config(
+        "run.ron",
+        "    lights: [Sky(radiance: (1, 1, 1)), Spot(position: (1, 1, 1), direction: (0, -1, 0), intensity: (1, 1, 1), cone_degrees: 30, edge_degree: 20)],\n",
+    );
+    let e = refused(&s, &["place", "run.ron"]);
+    assert!(e.starts_with("error: run.ron:5:"), "{e}");
+    assert!(e.contains("lights[1].Spot.edge_degree:"), "{e}");
+    assert!(e.contains("`edge_degrees`"), "the fields it could be: {e}");
+}
+
+#[test]
+fn a_config_with_a_byte_order_mark_runs_and_counts_columns_after_it() {
+    let s = Scratch::new();
+    let text = std::fs::read_to_string(s.path("run.ron")).unwrap();
+    s.write("run.ron", &format!("\u{feff}{text}"));
+    let (code, stderr) = stderr_of(&s, &["place", "run.ron", "--quiet"]);
+    assert_eq!(code, Some(0), "{stderr}");
+    assert!(s.path("out/probes.json").is_file());
+    std::fs::remove_dir_all(s.path("out")).unwrap();
+    // Columns count as an editor shows the line, the mark unseen.
+    let bad = "(scene: \"room.obj\", voxel_size: -1)\n";
+    s.write("bad.ron", &format!("\u{feff}{bad}"));
+    s.write("plain.ron", bad);
+    let e = refused(&s, &["place", "bad.ron"]);
+    let plain = refused(&s, &["place", "plain.ron"]);
+    assert!(
+        e.starts_with("error: bad.ron:1:3") && e.contains(": voxel_size: "),
+        "{e}"
+    );
+    assert_eq!(e.replace("bad.ron", "plain.ron"), plain);
+}
+
+#[test]
+fn huge_and_tiny_numbers_are_echoed_in_short_form() {
+    let s = Scratch::new();
+    for (value, shown) in [("1e300", "got 1e300"), ("1e-300", "got 1e-300")] {
+        s.write(
+            "n.ron",
+            &format!("(\n    scene: \"room.obj\",\n    voxel_size: {value},\n)\n"),
+        );
+        let e = refused(&s, &["place", "n.ron"]);
+        assert!(
+            e.starts_with("error: n.ron:3:") && e.ends_with(shown),
+            "{e}"
+        );
+        assert!(e.len() < 160, "{e}");
+    }
+    let e = refused(&s, &["place", "run.ron", "--method", "greedy:1e300"]);
+    assert!(e.ends_with("got 1e300"), "{e}");
+}
+
+#[test]
+fn a_stage_error_names_the_line_and_column_of_its_field() {
+    let s = Scratch::new();
+    s.config(
+        "run.ron",
+        "    placement: SdfSkeleton((\n        min_distance: 5,\n    )),\n",
+    );
+    let e = refused(&s, &["place", "run.ron"]);
+    let col = column(&s, "run.ron", 6, "min_distance");
+    assert!(
+        e.starts_with(&format!(
+            "error: run.ron:6:{col}: placement.min_distance: 5 culls every free voxel"
+        )),
+        "{e}"
+    );
+    // The same placement from the command line is the file's: same line.
+    let again = refused(&s, &["place", "run.ron", "--method", "sdf-skeleton"]);
+    assert_eq!(again, e);
+    // A field left at its default has no line to point at.
+    let e = refused(&s, &["render", "run.ron"]);
+    assert!(e.starts_with("error: run.ron: reference.camera: "), "{e}");
+}
+
+#[test]
+fn an_empty_output_is_refused_where_it_is_written() {
+    let s = Scratch::new();
+    s.write(
+        "run.ron",
+        "(\n    scene: \"room.obj\",\n    voxel_size: 0.1,\n    output: \"\",\n)\n",
+    );
+    let e = refused(&s, &["place", "run.ron"]);
+    assert!(e.starts_with("error: run.ron:4:1"), "{e}");
+    assert!(e.ends_with(": output: must not be empty"), "{e}");
+}
+
+#[test]
+fn an_output_below_a_file_is_refused_before_any_stage() {
+    let s = Scratch::new();
+    s.write("notes.txt", "mine\n");
+    for args in [
+        &["place", "run.ron", "--out", "notes.txt/sub"][..],
+        &["place", "run.ron", "--out", "notes.txt/a/b"][..],
+    ] {
+        let e = refused(&s, args);
+        assert!(
+            e.starts_with("error: notes.txt: is not a directory, so the output directory"),
+            "{e}"
+        );
+        let (_, stderr) = stderr_of(&s, args);
+        assert_eq!(stderr.lines().count(), 1, "a stage ran: {stderr}");
+    }
+    s.write(
+        "below.ron",
+        "(\n    scene: \"room.obj\",\n    output: \"notes.txt/run\",\n)\n",
+    );
+    let (code, stderr) = stderr_of(&s, &["place", "below.ron"]);
+    assert_eq!(code, Some(2), "{stderr}");
+    assert!(
+        stderr.starts_with("error: notes.txt: is not a directory") && stderr.lines().count() == 1,
+        "{stderr}"
+    );
+    assert_eq!(
+        std::fs::read_to_string(s.path("notes.txt")).unwrap(),
+        "mine\n"
+    );
+}
+
+#[test]
+fn a_placement_left_without_probes_is_refused_before_the_svo() {
+    let s = Scratch::new();
+    // A floor alone: its bounding box, the domain, is flat.
+    s.write(
+        "flat.obj",
+        "v 0 0 0\nv 2 0 0\nv 2 0 2\nv 0 0 2\nf 1 2 3 4\n",
+    );
+    s.write(
+        "flat.ron",
+        "(\n    scene: \"flat.obj\",\n    voxel_size: 0.1,\n    placement: Grid((cells: (2, 2, 2))),\n)\n",
+    );
+    let e = refused(&s, &["place", "flat.ron"]);
+    assert!(e.starts_with("error: flat.ron: domain: "), "{e}");
+    assert!(e.contains("none of the placement's 8 probes"), "{e}");
+    let (_, stderr) = stderr_of(&s, &["place", "flat.ron"]);
+    assert!(!stderr.contains("svo done"), "the SVO was built: {stderr}");
+    // A coverage target of 0 needs no probe at all.
+    s.config("zero.ron", "    refine: (coverage_target: 0),\n");
+    let e = refused(&s, &["place", "zero.ron"]);
+    let col = column(&s, "zero.ron", 5, "coverage_target");
+    assert!(
+        e.starts_with(&format!(
+            "error: zero.ron:5:{col}: refine.coverage_target: 0 needs no probe"
+        )),
+        "{e}"
+    );
+}
+
+#[test]
+fn inspect_names_a_file_missing_from_an_output_directory() {
+    let s = Scratch::new();
+    let (code, stderr) = stderr_of(&s, &["place", "run.ron", "--quiet", "--out", "run"]);
+    assert_eq!(code, Some(0), "{stderr}");
+    let (code, stderr) = stderr_of(&s, &["inspect", "run", "--quiet"]);
+    assert_eq!(code, Some(0), "the whole run inspects: {stderr}");
+    std::fs::rename(s.path("run/probes.json"), s.path("probes.json")).unwrap();
+    for target in ["run", "run/svo.bin"] {
+        let e = refused(&s, &["inspect", target]);
+        assert!(
+            e.starts_with("error: run/probes.json: missing, though run/svo.bin is there"),
+            "{target}: {e}"
+        );
+    }
+    // An svo.bin on its own is checked alone, and says so.
+    std::fs::create_dir(s.path("lone")).unwrap();
+    std::fs::copy(s.path("run/svo.bin"), s.path("lone/svo.bin")).unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_probeplace"))
+        .args(["inspect", "lone/svo.bin"])
+        .current_dir(s.dir.path())
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(String::from_utf8_lossy(&o.stdout).contains("checked alone"));
+    // A directory is an output directory: a lone svo.bin in it is not a run.
+    let e = refused(&s, &["inspect", "lone"]);
+    assert!(e.starts_with("error: lone/report.json: missing"), "{e}");
+}
+
+#[test]
+fn no_arguments_print_the_usage_to_stderr_and_exit_2() {
+    let s = Scratch::new();
+    let o = Command::new(env!("CARGO_BIN_EXE_probeplace"))
+        .current_dir(s.dir.path())
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    assert!(o.stdout.is_empty());
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        stderr.contains("Usage: probeplace") && stderr.contains("place"),
+        "{stderr}"
+    );
+}
