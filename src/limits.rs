@@ -129,6 +129,10 @@ pub mod rate {
     /// around them), per core-second (Cornell: 1 024 probes, 20 sweeps,
     /// 32², 32.7 s).
     pub const REFINE_UNITS: f64 = 5.0e6;
+    /// Fill-and-prune sample views, `coverage samples × (probes + 16)`,
+    /// per core-second (Cornell: 1 M samples, 5 probes, 24 s; not halved,
+    /// as the Gibbs term already over-estimates larger sets).
+    pub const REFINE_SAMPLE_VIEWS: f64 = 4.4e5;
 }
 
 /// A count in words: whole numbers up to a million as written, larger

@@ -203,21 +203,26 @@ pub fn may_stand(sdf: &Sdf, domain: &Bounds, min_clearance: f32, p: Vec3) -> boo
 /// fitness, then filling and pruning against the coverage measure.
 ///
 /// Refuses a refinement of `probes` probes over an atlas of `texels`
-/// texels whose estimate ([`crate::limits::rate::REFINE_UNITS`]) exceeds
-/// the work limit, before the first sweep.
-fn check_work(params: &RefineParams, probes: usize, texels: usize) -> Result<()> {
+/// texels and `samples` coverage samples whose estimate exceeds the work
+/// limit, before the first sweep: the Gibbs sweeps
+/// ([`crate::limits::rate::REFINE_UNITS`]) and the fill and prune, whose
+/// cover matrix views every sample from every probe and candidate
+/// ([`crate::limits::rate::REFINE_SAMPLE_VIEWS`]).
+fn check_work(params: &RefineParams, probes: usize, texels: usize, samples: usize) -> Result<()> {
+    use crate::limits::rate;
     let units = (probes as f64).powf(1.5)
         * params.iterations.0 as f64
         * (params.directions.0 as f64).powi(2)
         * (texels as f64 / 4216.0).max(1.0);
+    let views = samples as f64 * (probes as f64 + 16.0);
     crate::limits::check_work(
         "refine",
         &format!(
-            "refining {probes} probes ({} sweeps, {}² directions, {texels} atlas texels)",
+            "refining {probes} probes ({} sweeps, {}² directions, {texels} atlas texels, {samples} coverage samples)",
             params.iterations.0, params.directions.0
         ),
-        units,
-        crate::limits::rate::REFINE_UNITS,
+        units / rate::REFINE_UNITS + views / rate::REFINE_SAMPLE_VIEWS,
+        1.0,
     )
 }
 
@@ -234,7 +239,12 @@ pub fn refine(
 ) -> Result<Refined> {
     let r = Resolved::new(params, &probes, input);
     let atlas = Atlas::new(input.scene, r.texel_size)?;
-    check_work(params, probes.probes.len(), atlas.len())?;
+    check_work(
+        params,
+        probes.probes.len(),
+        atlas.len(),
+        reference.samples.len(),
+    )?;
     let min_cos = reference.min_cos();
     let viewer = Viewer::new(
         input.scene,
