@@ -19,8 +19,8 @@
 //! MTL values outside what the BSDF can use are clamped, each with a
 //! warning naming the file, line and material (docs/config.md, "Scenes"):
 //! `Kd` and `Ks` components to [0, 1] (non-finite: the default, 0.8 and
-//! 0); `Ke` components that are negative or non-finite to 0; `Ns`
-//! negative to 0 and non-finite to the default 1.
+//! 0); `Ke` components to [0, [`MAX_EMISSION`]] (non-finite: 0); `Ns` to
+//! [0, [`MAX_SHININESS`]] (non-finite: the default 1).
 
 use super::Material;
 use crate::error::{Error, Result};
@@ -37,6 +37,15 @@ pub const MAX_FACE_VERTICES: usize = 65_536;
 
 /// Largest material library read: 64 MiB of text.
 pub const MAX_MTL_BYTES: u64 = 64 << 20;
+
+/// Largest `Ke` component kept: 10⁶ (a light a million times brighter
+/// than white paper lit by it); larger ones, which single precision would
+/// overflow on the way through the renderer, are clamped with a warning.
+pub const MAX_EMISSION: f64 = 1e6;
+
+/// Largest `Ns` kept: 10⁶, far past a mirror (the BSDF's roughness floor
+/// is reached near Ns = 2·10⁶); larger ones are clamped with a warning.
+pub const MAX_SHININESS: f64 = 1e6;
 
 /// Lines between two checks of the memory read so far.
 pub const CHECK_EVERY: usize = 1 << 20;
@@ -358,7 +367,7 @@ pub fn parse_mtl(text: &str, path: &Path) -> (Vec<Material>, Vec<String>) {
                 let (default, max) = match keyword {
                     "Kd" => (0.8, 1.0),
                     "Ks" => (0.0, 1.0),
-                    _ => (0.0, f64::INFINITY),
+                    _ => (0.0, MAX_EMISSION),
                 };
                 let mut out = [0.0f32; 3];
                 let mut notes = Vec::new();
@@ -390,9 +399,13 @@ pub fn parse_mtl(text: &str, path: &Path) -> (Vec<Material>, Vec<String>) {
                 }
             }
             "Ns" => match values.first().and_then(|v| v.parse::<f64>().ok()) {
-                Some(v) if v.is_finite() && v >= 0.0 => m.shininess = v as f32,
+                Some(v) if (0.0..=MAX_SHININESS).contains(&v) => m.shininess = v as f32,
                 Some(v) => {
-                    let fixed = if v.is_finite() { 0.0 } else { 1.0 };
+                    let fixed = if !v.is_finite() {
+                        1.0
+                    } else {
+                        v.clamp(0.0, MAX_SHININESS)
+                    };
                     warn(here(format!("Ns {v} out of range; {fixed} used")));
                     m.shininess = fixed as f32;
                 }
@@ -461,7 +474,7 @@ mod tests {
 
     #[test]
     fn materials_resolve_by_name_and_bad_values_are_clamped_with_a_warning() {
-        let mtl = "newmtl red\nKd 5 0.5 NaN\nKe inf 1 -2\nNs -5\nnewmtl shiny\nKs 0.5\nNs 200\n";
+        let mtl = "newmtl red\nKd 5 0.5 NaN\nKe inf 1 -2\nNs -5\nnewmtl shiny\nKs 0.5\nNs 200\nnewmtl sun\nKe 1e300 2 3\nNs 1e300\n";
         let o = parse_text(
             "mtllib t.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl shiny\nf 1 2 3\nusemtl red\nf 1 2 3\nusemtl nope\nf 1 2 3\n",
             mtl,
@@ -475,6 +488,8 @@ mod tests {
         assert_eq!(red.shininess, 0.0);
         assert_eq!(o.materials[1].specular, [0.5; 3]);
         assert_eq!(o.materials[1].shininess, 200.0);
+        assert_eq!(o.materials[2].emission, [1e6, 2.0, 3.0]);
+        assert_eq!(o.materials[2].shininess, 1e6);
         let w = o.warnings.join("\n");
         assert!(
             w.contains("t.mtl:2: material `red`: Kd out of range"),
