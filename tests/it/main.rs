@@ -7,9 +7,10 @@ mod common;
 
 mod bad_input;
 mod compare;
+mod fuzz;
 mod generality;
-mod hostile;
 mod gpu;
+mod hostile;
 mod jobs;
 mod lightfield;
 mod medial_axis;
