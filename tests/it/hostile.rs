@@ -67,7 +67,8 @@ impl Scratch {
 }
 
 /// A closed cube room, 2 units on a side.
-pub const CUBE_ROOM: &str = "v 0 0 0\nv 2 0 0\nv 2 0 2\nv 0 0 2\nv 0 2 0\nv 2 2 0\nv 2 2 2\nv 0 2 2\n\
+pub const CUBE_ROOM: &str =
+    "v 0 0 0\nv 2 0 0\nv 2 0 2\nv 0 0 2\nv 0 2 0\nv 2 2 0\nv 2 2 2\nv 0 2 2\n\
 f 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\n";
 
 /// Runs `probeplace ARGS` in `dir` under `timeout`, with the environment's
