@@ -61,7 +61,16 @@ pub fn read(path: &Path, scene: &Scene, method: &str) -> Result<ProbeSet> {
 pub fn read_world(path: &Path) -> Result<Vec<(DVec3, u32)>> {
     let bytes =
         std::fs::read(path).map_err(|e| Error::user_file(path, format!("cannot read: {e}")))?;
-    let value: Value = serde_json::from_slice(&bytes)
+    parse_world(&bytes, path)
+}
+
+/// [`read_world`] of the contents `bytes` of a file named `path` (used
+/// only in messages): the reader without the file system, as the fuzz
+/// harness (`fuzz/harness.rs`) calls it.
+///
+/// Contract: as [`read_world`]; never a panic, whatever the bytes.
+pub fn parse_world(bytes: &[u8], path: &Path) -> Result<Vec<(DVec3, u32)>> {
+    let value: Value = serde_json::from_slice(bytes)
         .map_err(|e| Error::user_file(path, format!("not JSON: {e}")))?;
     let entries = match &value {
         Value::Array(a) => a,

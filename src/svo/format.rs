@@ -178,6 +178,16 @@ pub fn validate(svo: &Svo) -> Result<(), String> {
             svo.dims.to_array()
         ));
     }
+    // No bake writes more leaves than an SDF grid may hold (`sdf::grid_dims`);
+    // beyond that the leaf count overflows what `Svo::dense_bytes` computes.
+    let leaves = svo.dims.x as u128 * svo.dims.y as u128 * svo.dims.z as u128;
+    if leaves > crate::sdf::MAX_VOXELS as u128 {
+        return bad(format!(
+            "{:?} leaves are more than the {} a tree may have",
+            svo.dims.to_array(),
+            crate::sdf::MAX_VOXELS
+        ));
+    }
     if !(1..=8).contains(&svo.max_probes) {
         return bad(format!(
             "{} probes per leaf is outside 1..=8",
@@ -243,5 +253,28 @@ mod tests {
     fn crc_matches_the_standard_check_value() {
         assert_eq!(crc32(b"123456789"), 0xCBF4_3926);
         assert_eq!(crc32(b""), 0);
+    }
+
+    /// An empty tree of `depth` over `dims` leaves, checksummed.
+    fn empty_tree(depth: u32, dims: [u32; 3]) -> Vec<u8> {
+        let mut b = MAGIC.to_vec();
+        let words = [VERSION, 0, 0, 0, 1f32.to_bits(), depth];
+        let words = words.into_iter().chain(dims).chain([1, 1, 0, 1, 0]);
+        b.extend(words.flat_map(u32::to_le_bytes));
+        b.resize(HEADER_BYTES + 4, 0);
+        let crc = crc32(&b);
+        b.extend_from_slice(&crc.to_le_bytes());
+        b
+    }
+
+    #[test]
+    fn more_leaves_than_a_bake_writes_are_refused() {
+        assert!(from_bytes(&empty_tree(2, [4, 3, 1])).is_ok());
+        // 2^69 leaves: `Svo::dense_bytes` overflowed u64 on them (found
+        // writing the fuzz harness, fuzz/regressions/svo/dense-bytes-overflow).
+        let err = from_bytes(&empty_tree(23, [1 << 23; 3])).unwrap_err();
+        assert!(err.contains("more than the 64000000"), "{err}");
+        assert!(from_bytes(&empty_tree(9, [400, 400, 400])).is_ok());
+        assert!(from_bytes(&empty_tree(9, [400, 400, 401])).is_err());
     }
 }

@@ -7,6 +7,7 @@ mod common;
 
 mod bad_input;
 mod compare;
+mod fuzz;
 mod generality;
 mod gpu;
 mod hostile;
