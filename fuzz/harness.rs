@@ -32,6 +32,7 @@ pub const TARGETS: &[(&str, Target)] = &[
     ("svo", svo),
     ("lightfield", lightfield),
     ("probes", probes),
+    ("obj", obj),
 ];
 
 /// The RON config parser ([`probeplace::config::Config::parse`]) on any
@@ -205,6 +206,50 @@ impl Rng {
     /// Uniform in [0, 1).
     pub fn unit(&mut self) -> f32 {
         (self.next() >> 40) as f32 / (1u64 << 24) as f32
+    }
+}
+
+/// The OBJ reader ([`probeplace::scene::obj::parse`]) on any bytes: the
+/// input up to a line `#mtl` is the OBJ, the rest the text every
+/// `mtllib` it names reads. What it returns must index only vertices it
+/// read and materials its libraries define, with every material value in
+/// its clamped range (docs/config.md, "Scenes"); the scene built from it
+/// must hold only finite, non-degenerate triangles.
+pub fn obj(data: &[u8]) {
+    use probeplace::scene::obj::{parse, Library, MAX_EMISSION, MAX_SHININESS};
+    use probeplace::scene::Scene;
+    use std::path::PathBuf;
+    let (obj, mtl) = match data.windows(6).position(|w| w == b"\n#mtl\n") {
+        Some(i) => (&data[..i + 1], &data[i + 6..]),
+        None => (data, &data[..0]),
+    };
+    let mtl = String::from_utf8_lossy(mtl).into_owned();
+    let Ok(file) = parse(
+        std::io::Cursor::new(obj),
+        Path::new("fuzz.obj"),
+        &mut |name: &str| Ok(Library::Text(PathBuf::from(name), mtl.clone())),
+    ) else {
+        return;
+    };
+    for (t, m) in &file.triangles {
+        assert!(t.iter().all(|&i| (i as usize) < file.positions.len()), "{t:?}");
+        assert!(*m == u32::MAX || (*m as usize) < file.materials.len(), "{m}");
+    }
+    for m in &file.materials {
+        let unit = |v: &f32| (0.0..=1.0).contains(v);
+        assert!(m.diffuse.iter().all(unit) && m.specular.iter().all(unit), "{m:?}");
+        assert!(m.emission.iter().all(|v| (0.0..=MAX_EMISSION as f32).contains(v)), "{m:?}");
+        assert!((0.0..=MAX_SHININESS as f32).contains(&m.shininess), "{m:?}");
+    }
+    let triangles = file
+        .triangles
+        .iter()
+        .map(|(t, m)| (t.map(|i| file.positions[i as usize]), *m));
+    if let Ok(scene) = Scene::from_world_triangles(PathBuf::from("fuzz.obj"), triangles, file.materials)
+    {
+        assert!(scene.triangles.iter().flatten().all(|v| v.is_finite()));
+        assert!(scene.normals.iter().all(|n| (n.length() - 1.0).abs() < 1e-3));
+        assert!(scene.material_ids.iter().all(|&m| (m as usize) < scene.materials.len()));
     }
 }
 

@@ -37,9 +37,11 @@ fn failures(r: &GeneralityRow) -> Vec<String> {
             r.scene, r.probes, r.smallest_grid
         ));
     }
-    // Scene warnings (degenerate triangles dropped on load) are the asset's;
+    // Scene warnings (degenerate triangles dropped on load, a material an
+    // asset uses but its MTL lacks) are the asset's and name its file;
     // placement itself must not warn.
-    for w in r.warnings.iter().filter(|w| !w.contains("degenerate")) {
+    let asset = |w: &String| w.contains(".obj: ") || w.contains(".mtl");
+    for w in r.warnings.iter().filter(|w| !asset(w)) {
         out.push(format!("{}: warning: {w}", r.scene));
     }
     out
