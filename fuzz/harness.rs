@@ -232,24 +232,45 @@ pub fn obj(data: &[u8]) {
         return;
     };
     for (t, m) in &file.triangles {
-        assert!(t.iter().all(|&i| (i as usize) < file.positions.len()), "{t:?}");
-        assert!(*m == u32::MAX || (*m as usize) < file.materials.len(), "{m}");
+        assert!(
+            t.iter().all(|&i| (i as usize) < file.positions.len()),
+            "{t:?}"
+        );
+        assert!(
+            *m == u32::MAX || (*m as usize) < file.materials.len(),
+            "{m}"
+        );
     }
     for m in &file.materials {
         let unit = |v: &f32| (0.0..=1.0).contains(v);
-        assert!(m.diffuse.iter().all(unit) && m.specular.iter().all(unit), "{m:?}");
-        assert!(m.emission.iter().all(|v| (0.0..=MAX_EMISSION as f32).contains(v)), "{m:?}");
+        assert!(
+            m.diffuse.iter().all(unit) && m.specular.iter().all(unit),
+            "{m:?}"
+        );
+        assert!(
+            m.emission
+                .iter()
+                .all(|v| (0.0..=MAX_EMISSION as f32).contains(v)),
+            "{m:?}"
+        );
         assert!((0.0..=MAX_SHININESS as f32).contains(&m.shininess), "{m:?}");
     }
     let triangles = file
         .triangles
         .iter()
         .map(|(t, m)| (t.map(|i| file.positions[i as usize]), *m));
-    if let Ok(scene) = Scene::from_world_triangles(PathBuf::from("fuzz.obj"), triangles, file.materials)
+    if let Ok(scene) =
+        Scene::from_world_triangles(PathBuf::from("fuzz.obj"), triangles, file.materials)
     {
         assert!(scene.triangles.iter().flatten().all(|v| v.is_finite()));
-        assert!(scene.normals.iter().all(|n| (n.length() - 1.0).abs() < 1e-3));
-        assert!(scene.material_ids.iter().all(|&m| (m as usize) < scene.materials.len()));
+        assert!(scene
+            .normals
+            .iter()
+            .all(|n| (n.length() - 1.0).abs() < 1e-3));
+        assert!(scene
+            .material_ids
+            .iter()
+            .all(|&m| (m as usize) < scene.materials.len()));
     }
 }
 

@@ -114,10 +114,15 @@ pub fn prepare(
 fn check_work(config: &Config, domain: &Bounds, voxel_size: f32) -> Result<()> {
     let dims = sdf::grid_dims(domain, voxel_size)?;
     let voxels = dims.x as f64 * dims.y as f64 * dims.z as f64;
+    // The rate is at the default 32 classification rays a voxel.
+    let rays = config.sdf.rays_per_voxel.0 as f64;
     limits::check_work(
         "voxel_size",
-        &format!("the SDF of {} voxels", limits::count_text(voxels)),
-        voxels,
+        &format!(
+            "the SDF of {} voxels at {rays} rays each (sdf.rays_per_voxel)",
+            limits::count_text(voxels)
+        ),
+        voxels * (rays / 32.0).max(1.0),
         limits::rate::SDF_VOXELS,
     )?;
     crate::coverage::check_work(&config.coverage, voxels)
