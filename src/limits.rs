@@ -56,7 +56,7 @@ pub fn work_limit_seconds() -> f64 {
         .ok()
         .and_then(|v| v.trim().parse::<f64>().ok())
     {
-        Some(v) if v == 0.0 => f64::INFINITY,
+        Some(0.0) => f64::INFINITY,
         Some(v) if v > 0.0 => v,
         _ => WORK_LIMIT_SECONDS,
     }
@@ -221,7 +221,7 @@ fn address_space_available() -> Option<u64> {
     }
     let status = std::fs::read_to_string("/proc/self/status").ok()?;
     let mapped = kib_field(&status, "VmSize:").unwrap_or(0);
-    Some((limit.rlim_cur as u64).saturating_sub(mapped))
+    Some(limit.rlim_cur.saturating_sub(mapped))
 }
 
 #[cfg(test)]

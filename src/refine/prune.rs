@@ -33,6 +33,11 @@ use rayon::prelude::*;
 /// A set of sample indices as 64-bit words.
 type Bits = Vec<u64>;
 
+/// One fill pass: its live candidates (position, tier) and its budget of
+/// subsampled scoring rounds (`None`: unlimited, the final pass over all
+/// tiers).
+type Pass = (Vec<(Vec3, usize)>, Option<usize>);
+
 /// Most holes candidates are scored on when filling: beyond it the scoring
 /// (candidates × holes visibility tests) would dominate the run on scenes
 /// far from the target, and an even subsample ranks candidates as well.
@@ -293,7 +298,7 @@ impl<'r> CoverMatrix<'r> {
         let mut out = Filled::default();
         let mut covered = count.iter().filter(|&&c| c > 0).count();
         let tagged = |t: usize| tiers[t].iter().map(move |&p| (p, t));
-        let mut passes: Vec<(Vec<(Vec3, usize)>, Option<usize>)> = (0..tiers.len())
+        let mut passes: Vec<Pass> = (0..tiers.len())
             .map(|t| (tagged(t).collect(), Some(SUBSAMPLES_PER_TIER)))
             .collect();
         passes.push(((0..tiers.len()).flat_map(tagged).collect(), None));

@@ -160,7 +160,7 @@ pub fn parse(
                 ))
             }
         }
-        if n % CHECK_EVERY == 0 {
+        if n.is_multiple_of(CHECK_EVERY) {
             let bytes =
                 obj.positions.len() as f64 * 24.0 + obj.triangles.len() as f64 * BYTES_PER_TRIANGLE;
             limits::check_memory(
