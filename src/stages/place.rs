@@ -62,7 +62,7 @@ pub fn place(
             probes.method
         )));
     }
-    check_probes(config, probes.probes.len())?;
+    check_probes(config, prepared, probes.probes.len())?;
     let (probes, refined) = if refine_it {
         let placed = probes.probes.len();
         let out = timings.try_time("refine", || {
@@ -75,7 +75,7 @@ pub fn place(
     } else {
         (probes, None)
     };
-    check_probes(config, probes.probes.len())?;
+    check_probes(config, prepared, probes.probes.len())?;
     let positions = probes.positions();
     let ((coverage, holes), health) = timings.time("coverage", || {
         (
@@ -99,12 +99,21 @@ pub fn place(
 /// Refuses a probe set of more than [`limits::MAX_PROBES`] probes, or one
 /// whose scoring would take longer than the work limit, before the stages
 /// that grow with it run (refinement and the SVO check their own work).
-fn check_probes(config: &Config, n: usize) -> Result<()> {
+fn check_probes(config: &Config, prepared: &Prepared, n: usize) -> Result<()> {
     if n > limits::MAX_PROBES {
         return Err(Error::User(format!(
             "placement: {n} probes, over the limit of {} that the later stages finish in minutes; use a coarser placement",
             limits::MAX_PROBES
         )));
+    }
+    // The octree's estimate, before coverage runs (the SVO stage checks
+    // again); its leaf grid is the SDF's when `svo.leaf_size` is unset.
+    let leaf = config
+        .svo
+        .leaf_size
+        .map_or(prepared.sdf.voxel_size, |s| s.0);
+    if let Ok(dims) = crate::sdf::grid_dims(&prepared.domain, leaf) {
+        svo::check_work(&config.svo, dims, n)?;
     }
     limits::check_work(
         "coverage.samples",

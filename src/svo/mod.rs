@@ -213,13 +213,15 @@ pub struct Baked {
     pub report: SvoReport,
 }
 
-/// Refuses an octree whose leaves and probe-influence rays would take
-/// longer than the work limit to bake ([`crate::limits::rate`]).
-fn check_work(params: &SvoParams, dims: glam::UVec3, probes: usize) -> Result<()> {
+/// Refuses an octree whose leaves, probe-influence rays and leaf-probe
+/// pairs would take longer than the work limit to bake
+/// ([`crate::limits::rate`]).
+pub(crate) fn check_work(params: &SvoParams, dims: glam::UVec3, probes: usize) -> Result<()> {
     let cells = dims.x as f64 * dims.y as f64 * dims.z as f64;
     let rays = probes as f64 * (params.directions.0 as f64).powi(2);
-    let seconds_units =
-        cells / crate::limits::rate::SVO_CELLS + rays / crate::limits::rate::SVO_PROBE_RAYS;
+    let seconds_units = cells / crate::limits::rate::SVO_CELLS
+        + rays / crate::limits::rate::SVO_PROBE_RAYS
+        + cells * probes as f64 / crate::limits::rate::SVO_LEAF_PROBE_PAIRS;
     crate::limits::check_work(
         "svo",
         &format!(
