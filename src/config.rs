@@ -1100,6 +1100,9 @@ impl Config {
     pub fn parse(text: &str, file: &Path) -> Result<Config> {
         let text = strip_bom(text);
         let located = |span: ron::error::Span, path: &str, msg: &dyn std::fmt::Display| {
+            // serde_path_to_error writes `?` for a position it could not
+            // name (inside a value that never began); the line says where.
+            let path = path.trim_end_matches('?').trim_end_matches('.');
             let field = if path.is_empty() || path == "." {
                 String::new()
             } else {

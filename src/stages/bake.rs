@@ -35,6 +35,19 @@ pub struct Baked {
     pub timings: Stopwatch,
 }
 
+/// How much more a path vertex costs than at the rate's calibration (one
+/// delta light besides the area and sky lights): every point, spot and
+/// directional light of the config casts a shadow ray from every vertex
+/// (`render::lights`, `direct_delta`), the other lights one sampled ray.
+pub(crate) fn light_factor(config: &Config) -> f64 {
+    let delta = config
+        .lights
+        .iter()
+        .filter(|l| !matches!(l, crate::config::Light::Sky { .. }))
+        .count() as f64;
+    ((2.0 + delta) / 3.0).max(1.0)
+}
+
 /// Refuses, before any of it is allocated or traced, a bake of `probes`
 /// probes that would not fit the memory budget or would run longer than
 /// the work limit ([`limits`]; errors name `bake.resolution` or
@@ -58,13 +71,17 @@ pub fn check(config: &Config, probes: usize) -> Result<()> {
         &format!("the bake of {probes} probes at {}² maps", b.resolution.0),
         1.5 * maps + file,
     )?;
-    let vertices = p * n * n * b.samples.0 as f64 * (1.0 + b.bounces.0 as f64);
+    let vertices =
+        p * n * n * b.samples.0 as f64 * (1.0 + b.bounces.0 as f64) * light_factor(config);
     let convolution = p * m * m * n * n;
     limits::check_work(
         "bake.samples",
         &format!(
-            "the bake of {probes} probes at {}² maps, {} paths per texel, {} bounces",
-            b.resolution.0, b.samples.0, b.bounces.0
+            "the bake of {probes} probes at {}² maps, {} paths per texel, {} bounces, {} lights",
+            b.resolution.0,
+            b.samples.0,
+            b.bounces.0,
+            config.lights.len()
         ),
         vertices / limits::rate::PATH_VERTICES + convolution / limits::rate::CONVOLUTION_TERMS,
         1.0,

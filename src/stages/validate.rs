@@ -46,8 +46,11 @@ pub fn check_reference(config: &Config, views: usize) -> crate::error::Result<()
         &format!("a {}×{} reference", r.width.0, r.height.0),
         pixels * 64.0,
     )?;
-    let vertices =
-        views as f64 * pixels * r.samples_per_pixel.0 as f64 * (1.0 + r.bounces.0 as f64);
+    let vertices = views as f64
+        * pixels
+        * r.samples_per_pixel.0 as f64
+        * (1.0 + r.bounces.0 as f64)
+        * super::bake::light_factor(config);
     crate::limits::check_work(
         "reference.samples_per_pixel",
         &format!(

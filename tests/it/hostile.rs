@@ -558,3 +558,41 @@ fn no_arguments_print_the_usage_to_stderr_and_exit_2() {
         "{stderr}"
     );
 }
+
+// More of the sweep: nesting, light counts, probe files.
+
+#[test]
+fn deeply_nested_inputs_are_refused_not_overflowed() {
+    let s = Scratch::new();
+    s.write("deep.ron", &"(".repeat(100_000));
+    let e = refused(&s, &["place", "deep.ron"]);
+    assert!(e.starts_with("error: deep.ron:1:2: "), "{e}");
+    s.write("deep.json", &"[".repeat(100_000));
+    let e = refused(&s, &["place", "run.ron", "--probes", "deep.json"]);
+    assert!(
+        e.contains("deep.json") && e.contains("recursion limit"),
+        "{e}"
+    );
+}
+
+#[test]
+fn probe_files_that_are_not_regular_files_are_refused() {
+    let s = Scratch::new();
+    mkfifo(&s.path("pipe.json"));
+    let e = refused(&s, &["place", "run.ron", "--probes", "pipe.json"]);
+    assert!(e.contains("pipe.json: is a FIFO"), "{e}");
+    let e = refused(&s, &["place", "run.ron", "--probes", "/dev/zero"]);
+    assert!(e.contains("/dev/zero: is a device"), "{e}");
+}
+
+#[test]
+fn thousands_of_shadow_casting_lights_enter_the_bake_estimate() {
+    let s = Scratch::new();
+    let lights = vec!["Point(position: (1, 1, 1), intensity: (1, 1, 1))"; 20_000].join(", ");
+    s.config("lights.ron", &format!("lights: [{lights}],\n"));
+    let e = refused(&s, &["bake", "lights.ron", "--method", "grid:2x2x2"]);
+    assert!(
+        e.contains("bake.samples") && e.contains("20000 lights"),
+        "{e}"
+    );
+}
