@@ -394,6 +394,22 @@ impl Bench<'_> {
             (None, false) => self.config.compare.grids.clone(),
             (None, true) => grid_sweep(&self.prepared.domain, ours_count),
         };
+        // Each grid's bake is checked alone in `measure`; their sum is
+        // bounded here, before the first, by the same limit.
+        let total: f64 = grids
+            .iter()
+            .map(|g| {
+                let (x, y, z) = g.cells;
+                stages::bake::core_seconds(&self.config, (x.0 * y.0 * z.0) as usize)
+            })
+            .sum();
+        crate::limits::check_work(
+            "compare.grids",
+            &format!("baking the {} grids", grids.len()),
+            total,
+            1.0,
+        )
+        .map_err(|e| e.in_config(&self.config_path, &self.config_text))?;
         let mut out = Vec::new();
         for g in &grids {
             let t = std::time::Instant::now();

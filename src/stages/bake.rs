@@ -71,9 +71,6 @@ pub fn check(config: &Config, probes: usize) -> Result<()> {
         &format!("the bake of {probes} probes at {}² maps", b.resolution.0),
         1.5 * maps + file,
     )?;
-    let vertices =
-        p * n * n * b.samples.0 as f64 * (1.0 + b.bounces.0 as f64) * light_factor(config);
-    let convolution = p * m * m * n * n;
     limits::check_work(
         "bake.samples",
         &format!(
@@ -83,9 +80,21 @@ pub fn check(config: &Config, probes: usize) -> Result<()> {
             b.bounces.0,
             config.lights.len()
         ),
-        vertices / limits::rate::PATH_VERTICES + convolution / limits::rate::CONVOLUTION_TERMS,
+        core_seconds(config, probes),
         1.0,
     )
+}
+
+/// The estimated core-seconds of a bake of `probes` probes with
+/// `config.bake` ([`check`]'s work model), for sums over several bakes.
+pub fn core_seconds(config: &Config, probes: usize) -> f64 {
+    let b = &config.bake;
+    let (n, m) = (b.resolution.0 as f64, b.irradiance_resolution.0 as f64);
+    let p = probes as f64;
+    let vertices =
+        p * n * n * b.samples.0 as f64 * (1.0 + b.bounces.0 as f64) * light_factor(config);
+    let convolution = p * m * m * n * n;
+    vertices / limits::rate::PATH_VERTICES + convolution / limits::rate::CONVOLUTION_TERMS
 }
 
 /// Bakes the probes at `positions` with `config.bake`.

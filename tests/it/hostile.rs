@@ -596,3 +596,15 @@ fn thousands_of_shadow_casting_lights_enter_the_bake_estimate() {
         "{e}"
     );
 }
+
+#[test]
+fn a_compare_over_too_many_grids_is_refused_before_the_first() {
+    let s = Scratch::new();
+    s.config(
+        "cmp.ron",
+        "reference: (camera: (position: (1, 1, 0.3), look_at: (1, 1, 1.5))),\n",
+    );
+    let grids = vec!["4x4x4"; 100].join(",");
+    let e = refused(&s, &["compare", "cmp.ron", "--cpu", "--grids", &grids]);
+    assert!(e.contains("compare.grids: baking the 100 grids"), "{e}");
+}
