@@ -200,6 +200,10 @@ const FREE_NEIGHBOUR_CLEARANCE: f32 = 0.1;
 /// for the rest of its list.
 const FALLBACK_RUNNERS_UP: usize = 2 * KEEP;
 
+/// Candidates a leaf orders by bound before it visits them
+/// ([`LeafRanker::best_visible`]); more only when the visit gets past them.
+const VISIT_PREFIX: usize = 32;
+
 /// Reusable buffers of one worker.
 #[derive(Debug, Default)]
 pub struct Scratch {
@@ -360,10 +364,25 @@ impl LeafRanker<'_> {
         bounded: &mut [(f32, u32)],
         best: &mut Vec<(f32, u32)>,
     ) {
-        bounded.sort_unstable_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
+        // (bound descending, index ascending) is a total order, and the
+        // walk below usually stops within the first few pairs: only the
+        // first VISIT_PREFIX are ordered (a linear selection, then a sort of
+        // those), the rest only if the walk reaches them. The visited
+        // sequence is the fully sorted one's either way.
+        let order = |a: &(f32, u32), b: &(f32, u32)| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1));
+        let mut sorted = bounded.len().min(VISIT_PREFIX);
+        if sorted < bounded.len() {
+            bounded.select_nth_unstable_by(sorted, order);
+        }
+        bounded[..sorted].sort_unstable_by(order);
         best.clear();
         let n = samples.len() as f32;
-        for &(bound, k) in bounded.iter() {
+        for i in 0..bounded.len() {
+            if i == sorted {
+                bounded[sorted..].sort_unstable_by(order);
+                sorted = bounded.len();
+            }
+            let (bound, k) = bounded[i];
             if best.len() == KEEP && bound <= best[KEEP - 1].0 {
                 break;
             }
