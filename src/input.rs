@@ -148,6 +148,26 @@ pub fn next_line(
     Ok(Ok(any))
 }
 
+/// The one message for a text file (`kind`: "an OBJ", "an MTL") that holds
+/// a NUL byte on line `line`.
+pub fn not_text(path: &Path, line: usize, kind: &str) -> Error {
+    Error::User(format!(
+        "{}:{line}: binary data (a NUL byte): not {kind} text file",
+        path.display()
+    ))
+}
+
+/// The line (1-based) of byte `offset` of `path`: counted again from the
+/// start, for messages about a byte found while the file was streamed.
+pub fn line_at(path: &Path, offset: u64) -> usize {
+    let Ok(file) = std::fs::File::open(path) else {
+        return 1;
+    };
+    let mut prefix = Vec::new();
+    let _ = file.take(offset).read_to_end(&mut prefix);
+    1 + prefix.iter().filter(|&&b| b == b'\n').count()
+}
+
 fn memchr(needle: u8, haystack: &[u8]) -> Option<usize> {
     haystack.iter().position(|&b| b == needle)
 }

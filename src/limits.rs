@@ -140,17 +140,6 @@ pub mod rate {
     pub const REFINE_SAMPLE_VIEWS: f64 = 4.4e5;
 }
 
-/// A count in words: whole numbers up to a million as written, larger
-/// ones in short scientific form (`1.7e14`), so a message never prints
-/// a 300-digit number.
-pub fn count_text(v: f64) -> String {
-    if v.is_finite() && v.abs() < 1e6 {
-        format!("{}", v.round())
-    } else {
-        format!("{v:.1e}")
-    }
-}
-
 /// Seconds in words: `45 s`, `12 min`, `3.2 h`, `4.1e3 days`.
 pub fn duration_text(seconds: f64) -> String {
     if !seconds.is_finite() {
@@ -244,8 +233,6 @@ mod tests {
         assert_eq!(duration_text(900.0), "15 min");
         assert_eq!(duration_text(3.0 * 3600.0), "3.0 h");
         assert_eq!(duration_text(1e12), "1.2e7 days");
-        assert_eq!(count_text(4096.0), "4096");
-        assert_eq!(count_text(1.7e300), "1.7e300");
     }
 
     #[test]

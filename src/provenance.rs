@@ -116,7 +116,6 @@ impl Provenance {
             scene.write(&size.to_le_bytes());
             let mut chunk = vec![0u8; 1 << 16];
             let mut read = 0u64;
-            let mut lines = 0usize;
             while read < size {
                 let n = std::io::Read::read(&mut f, &mut chunk)
                     .map_err(|e| Error::user_file(&file, format!("cannot read {what}: {e}")))?;
@@ -130,16 +129,12 @@ impl Provenance {
                     what == "probe file",
                     chunk[..n].iter().position(|&b| b == 0),
                 ) {
-                    lines += chunk[..at].iter().filter(|&&b| b == b'\n').count();
-                    return Err(Error::User(format!(
-                        "{}:{}: binary data (a NUL byte): not {} text file",
-                        file.display(),
-                        lines + 1,
-                        if i == 0 { "an OBJ" } else { "an MTL" }
-                    )));
-                }
-                if what != "probe file" {
-                    lines += chunk[..n].iter().filter(|&&b| b == b'\n').count();
+                    let line = crate::input::line_at(&file, read + at as u64);
+                    return Err(crate::input::not_text(
+                        &file,
+                        line,
+                        if i == 0 { "an OBJ" } else { "an MTL" },
+                    ));
                 }
                 scene.write(&chunk[..n]);
                 read += n as u64;

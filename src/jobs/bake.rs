@@ -89,10 +89,9 @@ pub(crate) fn bake_stage(
     }
     let config = &job.config;
     let positions = placement.probes.positions();
+    // The reference was checked by `precheck`; the bake again, now that
+    // placement has fixed the probe count.
     stages::bake::check(config, positions.len()).map_err(|e| job.config_error(e))?;
-    if config.reference.camera.is_some() {
-        validate::check_reference(config, 1).map_err(|e| job.config_error(e))?;
-    }
     let mut watch = job.progress.stopwatch();
     let baked = stages::bake(config, prepared, &positions, &job.progress);
     watch.absorb(&baked.timings);

@@ -294,7 +294,7 @@ pub fn greedy(params: &GreedyParams, input: &PlacementInput) -> Result<ProbeSet>
     if rho < sdf.voxel_size {
         return Err(Error::User(format!(
             "placement.spacing: greedy:{} is below the voxel size {}, where the kernel of eq. 10 reaches no neighbouring candidate and every candidate would be kept; use a spacing of at least {}",
-            if rho < 1e-4 { format!("{rho:e}") } else { format!("{rho}") },
+            crate::config::short(rho),
             sdf.voxel_size,
             sdf.voxel_size
         )));

@@ -108,11 +108,9 @@ fn read_mtl_file(path: &Path) -> Result<Library> {
         )));
     }
     let bytes = input::read(path, "material library", MAX_MTL_BYTES)?;
-    if bytes.contains(&0) {
-        return Err(Error::user_file(
-            path,
-            "holds binary data (a NUL byte): not an MTL text file",
-        ));
+    if let Some(at) = bytes.iter().position(|&b| b == 0) {
+        let line = 1 + bytes[..at].iter().filter(|&&b| b == b'\n').count();
+        return Err(input::not_text(path, line, "an MTL"));
     }
     Ok(Library::Text(
         path.to_path_buf(),
@@ -144,12 +142,7 @@ pub fn parse(
         match more {
             Ok(false) => break,
             Ok(true) => {}
-            Err(LineError::Binary) => {
-                return Err(at(
-                    n,
-                    "binary data (a NUL byte): not an OBJ text file".into(),
-                ))
-            }
+            Err(LineError::Binary) => return Err(input::not_text(name, n, "an OBJ")),
             Err(LineError::TooLong) => {
                 return Err(at(
                     n,

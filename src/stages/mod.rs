@@ -120,7 +120,7 @@ fn check_work(config: &Config, domain: &Bounds, voxel_size: f32) -> Result<()> {
         "voxel_size",
         &format!(
             "the SDF of {} voxels at {rays} rays each (sdf.rays_per_voxel)",
-            limits::count_text(voxels)
+            crate::config::short(voxels)
         ),
         voxels * (rays / 32.0).max(1.0),
         limits::rate::SDF_VOXELS,

@@ -226,7 +226,7 @@ pub(crate) fn check_work(params: &SvoParams, dims: glam::UVec3, probes: usize) -
         "svo",
         &format!(
             "the octree of {} leaves for {probes} probes ({}² directions each)",
-            crate::limits::count_text(cells),
+            crate::config::short(cells),
             params.directions.0
         ),
         seconds_units,

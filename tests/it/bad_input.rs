@@ -24,9 +24,11 @@ fn obj(dir: &Path, name: &str, text: &str) {
     std::fs::write(dir.join(name), text).unwrap();
 }
 
-/// Runs `place` and checks the failure contract; returns stderr.
+/// Runs `place` on `config` into `out/` beside it and checks the failure
+/// contract ([`refused_in`]); returns the error line.
 fn fails(config: &Path, extra: &[&str]) -> String {
-    let out = config.parent().unwrap().join("out");
+    let dir = config.parent().unwrap();
+    let out = dir.join("out");
     let mut args = vec![
         "place",
         config.to_str().unwrap(),
@@ -34,34 +36,7 @@ fn fails(config: &Path, extra: &[&str]) -> String {
         out.to_str().unwrap(),
     ];
     args.extend_from_slice(extra);
-    let o = probeplace(&args);
-    let stderr = String::from_utf8_lossy(&o.stderr).into_owned();
-    assert_eq!(
-        o.status.code(),
-        Some(2),
-        "expected exit 2, got {:?}; stderr: {stderr}",
-        o.status
-    );
-    assert!(!stderr.contains("panicked"), "panic: {stderr}");
-    // Stages that finished before the mistake was found say so in a line
-    // each (stderr is not a terminal here); the mistake itself is one line.
-    let lines: Vec<&str> = stderr
-        .trim_end()
-        .lines()
-        .filter(|l| !(l.starts_with("probeplace: ") && l.contains(" done in ")))
-        .collect();
-    assert_eq!(lines.len(), 1, "one line expected: {stderr}");
-    assert!(lines[0].starts_with("error: "), "{stderr}");
-    for f in [
-        "report.json",
-        "probes.json",
-        "placement.png",
-        "atlas.png",
-        "svo.bin",
-    ] {
-        assert!(!out.join(f).exists(), "{f} written despite the error");
-    }
-    stderr
+    refused_in(dir, &args, &[]).line
 }
 
 const CUBE_ROOM: &str = "v 0 0 0\nv 2 0 0\nv 2 0 2\nv 0 0 2\nv 0 2 0\nv 2 2 0\nv 2 2 2\nv 0 2 2\n\
