@@ -77,7 +77,9 @@ fn stages(c: &mut Criterion, name: &str, config: &str) {
     let set = place(&method, &input).unwrap();
     let rp = RefineParams::default();
     g.bench_function("refine", |b| {
-        b.iter(|| refine::refine(&rp, set.clone(), &input, &reference).unwrap())
+        b.iter(|| {
+            refine::refine(&rp, set.clone(), &input, &reference, &Default::default()).unwrap()
+        })
     });
     let texel = field.largest_clearance() * (4.0 * std::f32::consts::PI).sqrt() / 32.0;
     let atlas = Atlas::new(&scene, texel).unwrap();
@@ -104,7 +106,7 @@ fn stages(c: &mut Criterion, name: &str, config: &str) {
     g.bench_function("refine_recompute", |b| b.iter(|| state.recompute()));
     // The SVO of the refined probes (Wang §4.1), and its point queries:
     // 64k uniform points of the domain, free or not, as a renderer asks.
-    let refined = refine::refine(&rp, set.clone(), &input, &reference)
+    let refined = refine::refine(&rp, set.clone(), &input, &reference, &Default::default())
         .unwrap()
         .probes;
     let sp = SvoParams::default();

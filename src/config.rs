@@ -314,6 +314,40 @@ impl TryFrom<RawBox> for BoxDomain {
     }
 }
 
+/// A region of space an artist control applies to, written as the domain
+/// is: `Box((min: (x, y, z), max: (x, y, z)))`, in world coordinates.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+pub enum Region {
+    /// An axis-aligned box; a point on its faces is inside.
+    Box(BoxDomain),
+}
+
+/// How many times over a `probe_density` region asks its surfaces to be
+/// seen: a finite number from 0 to [`MAX_DENSITY`].
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(try_from = "f64")]
+pub struct Density(pub f32);
+
+/// Largest `probe_density` factor: a point blends at most
+/// [`SvoParams::max_probes`] (8) probes, so more views of a surface than
+/// that add probes no lookup uses.
+pub const MAX_DENSITY: f32 = 8.0;
+
+impl TryFrom<f64> for Density {
+    type Error = String;
+    fn try_from(v: f64) -> Result<Self, String> {
+        if v.is_finite() && (0.0..=MAX_DENSITY as f64).contains(&v) {
+            Ok(Density(v as f32))
+        } else {
+            Err(format!(
+                "a density factor must lie in [0, {}], got {}",
+                short(MAX_DENSITY as f64),
+                short(v)
+            ))
+        }
+    }
+}
+
 /// Parameters of the SDF skeleton placement (Wang et al. 2019, §3.1).
 #[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -1070,6 +1104,22 @@ pub struct Config {
     /// The comparison with uniform grids and other placements.
     #[serde(default)]
     pub compare: CompareParams,
+    /// Artist control: probes kept exactly here (world coordinates), first
+    /// in `probes.json`, never moved or pruned, and counted by coverage, so
+    /// the placer adds only what they miss.
+    #[serde(default)]
+    pub fixed_probes: Vec<Point3>,
+    /// Artist control: regions no probe may stand in.
+    #[serde(default)]
+    pub exclude: Vec<Region>,
+    /// Artist control: the most probes the run may keep; above it, the
+    /// placer keeps the ones that cover the most.
+    #[serde(default)]
+    pub max_probes: Option<Count<{ crate::limits::MAX_PROBES as u32 }>>,
+    /// Artist control: regions whose surfaces must be seen by more probes
+    /// (factor above 1) or fewer (below 1); overlapping factors multiply.
+    #[serde(default)]
+    pub probe_density: Vec<(Region, Density)>,
 }
 
 fn unit_scale() -> Scale {

@@ -37,6 +37,9 @@ pub struct ProbeSet {
     /// rule (world units): what refinement must keep to (Wang et al. 2019
     /// §3.1 culls voxels near surfaces for the same reason).
     pub min_clearance: f32,
+    /// The first this many probes are the config's `fixed_probes`
+    /// ([`crate::placement::controls`]): no stage moves or drops them.
+    pub fixed: usize,
 }
 
 impl ProbeSet {

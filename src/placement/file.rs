@@ -50,6 +50,7 @@ pub fn read(path: &Path, scene: &Scene, method: &str) -> Result<ProbeSet> {
         stats: BTreeMap::new(),
         params: BTreeMap::new(),
         min_clearance: 0.0,
+        fixed: 0,
     })
 }
 

@@ -331,6 +331,7 @@ pub fn greedy(params: &GreedyParams, input: &PlacementInput) -> Result<ProbeSet>
             ("voxel_size", sdf.voxel_size as f64),
         ]),
         min_clearance: grid_min_clearance(sdf),
+        fixed: 0,
     })
 }
 

@@ -10,6 +10,7 @@
 //! ship, and [`greedy`], Silvennoinen & Lehtinen 2017's greedy thinning of
 //! voxels near surfaces.
 
+pub mod controls;
 pub mod file;
 pub mod greedy;
 pub mod relocate;
@@ -33,6 +34,7 @@ pub fn place(method: &Placement, input: &PlacementInput) -> Result<ProbeSet> {
             stats: BTreeMap::new(),
             params: BTreeMap::new(),
             min_clearance: grid_min_clearance(input.sdf),
+            fixed: 0,
         },
         Placement::SdfSkeleton(p) => skeleton::sdf_skeleton(p, input)?,
         Placement::MedialAxis(p) => skeleton::medial_axis(p, input)?,

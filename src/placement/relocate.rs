@@ -294,6 +294,7 @@ pub fn relocated_grid(params: &GridParams, input: &PlacementInput) -> Result<Pro
             ("max_surface_distance", rules.max_surface_distance as f64),
         ]),
         min_clearance: grid_min_clearance(input.sdf),
+        fixed: 0,
     })
 }
 

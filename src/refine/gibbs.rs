@@ -177,6 +177,10 @@ pub struct Sweeps<'v, 'a> {
     pub beta: f64,
     /// Seed of the random numbers.
     pub seed: u64,
+    /// The first this many probes stay where they are (the config's
+    /// `fixed_probes`): their views count in `R`, so the others move to
+    /// see what they miss, but no step is proposed for them.
+    pub pinned: usize,
 }
 
 /// Runs the sweeps (module docs) from `positions`, whose views `state`
@@ -210,11 +214,14 @@ pub fn optimize(
         for s in schedule.iter_mut() {
             s.cap(cap.max(sweeps.min_step));
         }
-        if schedule.iter().all(|s| s.step < sweeps.min_step) {
+        if schedule[sweeps.pinned.min(n)..]
+            .iter()
+            .all(|s| s.step < sweeps.min_step)
+        {
             break;
         }
         stats.iterations += 1;
-        for k in 0..n {
+        for k in sweeps.pinned.min(n)..n {
             let step = schedule[k].step;
             if step < sweeps.min_step {
                 continue;

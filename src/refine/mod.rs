@@ -28,6 +28,7 @@ pub mod view;
 use crate::config::{FitnessKind, RefineParams};
 use crate::coverage::{CoverageReference, REFERENCE_MIN_CLEARANCE_VOXELS};
 use crate::error::Result;
+use crate::placement::controls::Controls;
 use crate::placement::{PlacementInput, Probe, ProbeSet};
 use crate::sampling::hash2;
 use crate::scene::Bounds;
@@ -37,7 +38,7 @@ use fitness::AtlasState;
 use gibbs::SweepStats;
 use glam::Vec3;
 use image::RgbImage;
-use prune::{CoverMatrix, FillPrune};
+use prune::{CoverMatrix, FillPrune, Rules};
 use serde::Serialize;
 use std::collections::BTreeMap;
 use view::{ProbeView, Viewer};
@@ -100,6 +101,9 @@ pub struct RefineReport {
     pub clearance_tiers: Vec<f64>,
     /// Filling's rounds.
     pub fill_rounds: Vec<prune::FillRound>,
+    /// Probes pruning kept before the `max_probes` budget cut them
+    /// (`null` when it did not).
+    pub probes_before_budget: Option<usize>,
     /// Parameters as used, defaults resolved (lengths in world units).
     pub params: BTreeMap<&'static str, f64>,
 }
@@ -226,16 +230,24 @@ fn check_work(params: &RefineParams, probes: usize, texels: usize, samples: usiz
     )
 }
 
+/// The artist `controls` ([`crate::placement::controls`]) hold throughout:
+/// the first `probes.fixed` probes never move and are never pruned, no
+/// probe moves into or is added in an `exclude` box, filling and pruning
+/// meet each sample's `probe_density` demand, and at most `max_probes`
+/// probes come out.
+///
 /// Contract: deterministic for the same inputs and `input.seed`; no probe
 /// moves to or is added at a position where [`may_stand`] fails, and no
 /// probe moves through a surface; if the input probes, or filling, reach
-/// `coverage_target`, the output does too. Errors: an atlas over
-/// [`atlas::MAX_TEXELS`] texels (a user error naming `refine.texel_size`).
+/// `coverage_target`, the output does too (unless the budget cuts it).
+/// Errors: an atlas over [`atlas::MAX_TEXELS`] texels (a user error naming
+/// `refine.texel_size`).
 pub fn refine(
     params: &RefineParams,
     probes: ProbeSet,
     input: &PlacementInput,
     reference: &CoverageReference,
+    controls: &Controls,
 ) -> Result<Refined> {
     let r = Resolved::new(params, &probes, input);
     let atlas = Atlas::new(input.scene, r.texel_size)?;
@@ -264,18 +276,31 @@ pub fn refine(
     let r_initial = state.r();
     let atlas_initial = seen_texels(&atlas, &state);
     let atlas_coverage_initial = state.seen_share();
-    let (refined, stats) = sweep(params, &r, input, &viewer, &mut state, &initial);
+    let (refined, stats) = sweep(
+        params,
+        &r,
+        input,
+        controls,
+        probes.fixed,
+        (&viewer, &mut state),
+        &initial,
+    );
     let r_refined = AtlasState::new(params.fitness, &atlas, views_of(&refined)).r();
 
     // Fill holes and prune superfluous probes (§1 "fewest probes").
-    let matrix = CoverMatrix::new(reference, input.bvh);
-    let tiers = fill_candidates(params, &r, input, reference);
+    let matrix = CoverMatrix::new(reference, input.bvh).with_need(|i, p| controls.need(i, p));
+    let tiers = fill_candidates(params, &r, input, reference, controls);
+    let rules = Rules {
+        pinned: probes.fixed,
+        budget: controls.max_probes,
+    };
     let fp = matrix.fill_and_prune(
         &refined,
         &tiers,
         params.coverage_target.0 as f64,
         params.fill,
         params.prune,
+        rules,
         input.progress,
     );
     let final_probes = kept_probes(&probes, &refined, &fp);
@@ -302,6 +327,7 @@ pub fn refine(
             stats: probes.stats,
             params: probes.params,
             min_clearance: final_min_clearance(&r, &fp),
+            fixed: probes.fixed,
         },
         report,
         atlas_image,
@@ -323,13 +349,16 @@ fn sweep(
     params: &RefineParams,
     r: &Resolved,
     input: &PlacementInput,
-    viewer: &Viewer,
-    state: &mut AtlasState,
+    controls: &Controls,
+    pinned: usize,
+    (viewer, state): (&Viewer, &mut AtlasState),
     initial: &[Vec3],
 ) -> (Vec<Vec3>, SweepStats) {
     let eps = 1e-3 * input.sdf.voxel_size;
     let legal_move = |a: Vec3, b: Vec3| -> bool {
-        may_stand(input.sdf, input.domain, r.min_clearance(), b) && !input.bvh.occluded(a, b, eps)
+        may_stand(input.sdf, input.domain, r.min_clearance(), b)
+            && !controls.excluded(b)
+            && !input.bvh.occluded(a, b, eps)
     };
     let sweeps = gibbs::Sweeps {
         viewer,
@@ -339,6 +368,7 @@ fn sweep(
         min_step: r.min_step,
         beta: r.beta,
         seed: hash2(input.seed, 0x5EF1),
+        pinned,
     };
     let mut positions = initial.to_vec();
     gibbs::optimize(&sweeps, state, &mut positions, input.progress)
@@ -430,6 +460,7 @@ fn refine_report(
         probes_below_clearance: fp.kept_tiers.iter().filter(|&&t| t > 0).count(),
         clearance_tiers: r.tiers.iter().map(|&c| c as f64).collect(),
         fill_rounds: fp.rounds.clone(),
+        probes_before_budget: fp.before_budget,
         params: r.report(params, outcome.atlas_texels),
     }
 }
@@ -466,14 +497,19 @@ fn clearance_tiers(start: f32, floor: f32) -> Vec<f32> {
 /// coverage measure's own clearance, every reference point is a candidate
 /// of some tier, and every coverable sample is seen by one of them), then
 /// up to `fill_candidates` other free voxel centres of its band where a
-/// probe may stand, chosen by a seeded hash.
+/// probe may stand, chosen by a seeded hash. None lies in an `exclude` box
+/// of `controls`.
 fn fill_candidates(
     params: &RefineParams,
     r: &Resolved,
     input: &PlacementInput,
     reference: &CoverageReference,
+    controls: &Controls,
 ) -> Vec<Vec<Vec3>> {
     let tier_of = |p: Vec3| {
+        if controls.excluded(p) {
+            return None;
+        }
         r.tiers
             .iter()
             .position(|&c| may_stand(input.sdf, input.domain, c, p))

@@ -23,6 +23,16 @@
 //!   tier; then the one that sees fewest overall; then the later one). A probe can go when coverage without it stays at
 //!   or above the target, or, when the target is out of reach, when nothing
 //!   depends on it alone.
+//!
+//! **Demand and the artist controls** ([`crate::placement::controls`]).
+//! Each coverable sample needs a number of views, 1 unless a
+//! `probe_density` region says otherwise ([`CoverMatrix::with_need`]); a
+//! sample counts as covered once that many probes see it, and one that
+//! needs none is not counted at all. With every need 1 this is plain
+//! coverage and every step above is unchanged. The first `pinned` probes
+//! (the fixed ones) are never pruned or merged; a budget (`max_probes`)
+//! keeps, after pruning, the probes that give the most of the demanded
+//! views ([`CoverMatrix::select`]).
 
 use crate::coverage::CoverageReference;
 use crate::progress::Progress;
@@ -76,6 +86,19 @@ pub struct CoverMatrix<'r> {
     bvh: &'r SceneBvh,
     /// Indices into `reference.samples` of the coverable samples.
     coverable: Vec<usize>,
+    /// Views each coverable sample needs (module docs): 1 everywhere
+    /// unless [`CoverMatrix::with_need`] says otherwise.
+    need: Vec<u32>,
+}
+
+/// What the caller holds fixed while filling and pruning: the first
+/// `pinned` positions stay, and at most `budget` probes are kept.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Rules {
+    /// The first this many input positions are never dropped.
+    pub pinned: usize,
+    /// The most probes kept.
+    pub budget: Option<usize>,
 }
 
 /// One round of filling (see [`CoverMatrix::fill_and_prune`]).
@@ -117,21 +140,97 @@ pub struct FillPrune {
     pub covered_initial: usize,
     /// Coverable samples the final probes see.
     pub covered_final: usize,
-    /// Coverable samples.
+    /// Coverable samples that need a view (all of them, without
+    /// `probe_density`).
     pub coverable: usize,
+    /// Probes kept before the budget cut them, when it did.
+    pub before_budget: Option<usize>,
 }
 
 impl<'r> CoverMatrix<'r> {
     /// The matrix over `reference`'s coverable samples.
     pub fn new(reference: &'r CoverageReference, bvh: &'r SceneBvh) -> CoverMatrix<'r> {
-        let coverable = (0..reference.samples.len())
+        let coverable: Vec<usize> = (0..reference.samples.len())
             .filter(|&i| reference.coverable[i])
             .collect();
+        let need = vec![1; coverable.len()];
         CoverMatrix {
             reference,
             bvh,
             coverable,
+            need,
         }
+    }
+
+    /// The matrix with each coverable sample needing `need(index, position)`
+    /// views (`index` into the reference's samples).
+    pub fn with_need(mut self, need: impl Fn(usize, Vec3) -> u32) -> CoverMatrix<'r> {
+        self.need = self
+            .coverable
+            .iter()
+            .map(|&i| need(i, self.reference.samples[i].position))
+            .collect();
+        self
+    }
+
+    /// Coverable samples that need at least one view.
+    pub fn demanded(&self) -> usize {
+        self.need.iter().filter(|&&n| n > 0).count()
+    }
+
+    /// Samples with as many views in `count` as they need (and needing one).
+    fn satisfied(&self, count: &[u32]) -> usize {
+        count
+            .iter()
+            .zip(&self.need)
+            .filter(|&(&c, &n)| n > 0 && c >= n)
+            .count()
+    }
+
+    /// Whether sample `i` still needs a view, by `count`.
+    fn open(&self, count: &[u32], i: usize) -> bool {
+        count[i] < self.need[i]
+    }
+
+    /// Keeps, of the probes at `positions`, the first `pinned` and then
+    /// greedily the one that gives the most demanded views still missing
+    /// (ties: the earlier), until `budget` probes are kept or none adds
+    /// anything. Returns the kept indices, ascending.
+    pub fn select(&self, positions: &[Vec3], pinned: usize, budget: usize) -> Vec<usize> {
+        self.select_columns(&self.columns(positions), pinned, budget)
+    }
+
+    fn select_columns(&self, cols: &[Bits], pinned: usize, budget: usize) -> Vec<usize> {
+        let mut count = vec![0u32; self.len()];
+        let mut chosen = vec![false; cols.len()];
+        let take = |k: usize, count: &mut [u32], chosen: &mut [bool]| {
+            chosen[k] = true;
+            for i in ones(&cols[k]) {
+                count[i] += 1;
+            }
+        };
+        for k in 0..pinned.min(cols.len()) {
+            take(k, &mut count, &mut chosen);
+        }
+        let mut kept = pinned.min(cols.len());
+        while kept < budget {
+            let mut open: Bits = vec![0; count.len().div_ceil(64)];
+            for i in 0..count.len() {
+                if self.open(&count, i) {
+                    open[i / 64] |= 1 << (i % 64);
+                }
+            }
+            let (best, gain) = (0..cols.len())
+                .filter(|&k| !chosen[k])
+                .map(|k| (k, popcount_and(&cols[k], &open)))
+                .fold((usize::MAX, 0), |acc, x| if x.1 > acc.1 { x } else { acc });
+            if gain == 0 {
+                break;
+            }
+            take(best, &mut count, &mut chosen);
+            kept += 1;
+        }
+        (0..cols.len()).filter(|&k| chosen[k]).collect()
     }
 
     /// Number of coverable samples.
@@ -184,6 +283,7 @@ impl<'r> CoverMatrix<'r> {
     /// last tier holds every reference point of the coverage measure, filling
     /// reaches the target whatever the input (every coverable sample is seen
     /// by some reference point).
+    #[allow(clippy::too_many_arguments)]
     pub fn fill_and_prune(
         &self,
         positions: &[Vec3],
@@ -191,10 +291,12 @@ impl<'r> CoverMatrix<'r> {
         target: f64,
         fill: bool,
         prune: bool,
+        rules: Rules,
         progress: &Progress,
     ) -> FillPrune {
         let m = self.len();
-        let target_count = ((target * m as f64).ceil() as usize).min(m);
+        let demanded = self.demanded();
+        let target_count = ((target * demanded as f64).ceil() as usize).min(demanded);
         let mut cols = self.columns(positions);
         let mut count = vec![0u32; m];
         for c in &cols {
@@ -202,7 +304,7 @@ impl<'r> CoverMatrix<'r> {
                 count[i] += 1;
             }
         }
-        let covered_initial = count.iter().filter(|&&c| c > 0).count();
+        let covered_initial = self.satisfied(&count);
         let mut filled = Filled::default();
         if fill {
             filled = self.fill(
@@ -216,14 +318,16 @@ impl<'r> CoverMatrix<'r> {
         }
         let mut tier_of = vec![0usize; positions.len()];
         tier_of.extend(&filled.tiers);
-        let mut covered = count.iter().filter(|&&c| c > 0).count();
+        let mut covered = self.satisfied(&count);
         let mut alive = vec![true; cols.len()];
+        let pinned = rules.pinned.min(positions.len());
         if prune {
-            covered = prune_greedy(
+            covered = self.prune_greedy(
                 &cols,
                 &mut count,
                 &tier_of,
                 &mut alive,
+                pinned,
                 covered,
                 target_count,
             );
@@ -236,24 +340,41 @@ impl<'r> CoverMatrix<'r> {
                 &mut count,
                 &mut alive,
                 &mut tier_of,
+                pinned,
                 covered,
                 target_count,
             );
             if merged > 0 {
                 filled.added = all[positions.len()..].to_vec();
                 filled.tiers = tier_of[positions.len()..].to_vec();
-                covered = count.iter().filter(|&&c| c > 0).count();
-                covered = prune_greedy(
+                covered = self.satisfied(&count);
+                covered = self.prune_greedy(
                     &cols,
                     &mut count,
                     &tier_of,
                     &mut alive,
+                    pinned,
                     covered,
                     target_count,
                 );
             }
         }
-        let kept: Vec<usize> = (0..cols.len()).filter(|&k| alive[k]).collect();
+        let mut kept: Vec<usize> = (0..cols.len()).filter(|&k| alive[k]).collect();
+        let mut before_budget = None;
+        if let Some(budget) = rules.budget.filter(|&b| kept.len() > b) {
+            // Every probe seen so far is a candidate, pruned ones too: under
+            // a budget, one probe that sees much can beat two that pruning
+            // kept for what only they see.
+            before_budget = Some(kept.len());
+            kept = self.select_columns(&cols, pinned, budget);
+            let mut sel = vec![0u32; m];
+            for &k in &kept {
+                for i in ones(&cols[k]) {
+                    sel[i] += 1;
+                }
+            }
+            covered = self.satisfied(&sel);
+        }
         let kept_tiers = kept.iter().map(|&k| tier_of[k]).collect();
         FillPrune {
             kept,
@@ -262,7 +383,8 @@ impl<'r> CoverMatrix<'r> {
             rounds: filled.rounds,
             covered_initial,
             covered_final: covered,
-            coverable: m,
+            coverable: demanded,
+            before_budget,
         }
     }
 
@@ -296,7 +418,8 @@ impl<'r> CoverMatrix<'r> {
         progress: &Progress,
     ) -> Filled {
         let mut out = Filled::default();
-        let mut covered = count.iter().filter(|&&c| c > 0).count();
+        let demanded = self.demanded();
+        let mut covered = self.satisfied(count);
         let tagged = |t: usize| tiers[t].iter().map(move |&p| (p, t));
         let mut passes: Vec<Pass> = (0..tiers.len())
             .map(|t| (tagged(t).collect(), Some(SUBSAMPLES_PER_TIER)))
@@ -307,7 +430,7 @@ impl<'r> CoverMatrix<'r> {
             // never will: holes only shrink.
             let mut phase = 0;
             while covered < target_count && !live.is_empty() {
-                let holes: Vec<usize> = (0..count.len()).filter(|&i| count[i] == 0).collect();
+                let holes: Vec<usize> = (0..count.len()).filter(|&i| self.open(count, i)).collect();
                 let stride = holes.len().div_ceil(max_scored).max(1);
                 if phase >= stride {
                     break;
@@ -335,8 +458,9 @@ impl<'r> CoverMatrix<'r> {
                     remaining[i / 64] |= 1 << (i % 64);
                 }
                 let mut any = false;
+                let mut picked = vec![false; live.len()];
                 while covered < target_count {
-                    let holes_now = count.len() - covered;
+                    let holes_now = demanded - covered;
                     let weight = holes_now as f64 / popcount(&remaining).max(1) as f64;
                     let picks =
                         greedy_on(&cand_cols, &mut remaining, covered, weight, target_count);
@@ -345,13 +469,16 @@ impl<'r> CoverMatrix<'r> {
                     }
                     any = true;
                     let positions: Vec<Vec3> = picks.iter().map(|&j| live[j].0).collect();
+                    for &j in &picks {
+                        picked[j] = true;
+                    }
                     for c in self.columns(&positions) {
                         for i in ones(&c) {
                             count[i] += 1;
                         }
                         cols.push(c);
                     }
-                    covered = count.iter().filter(|&&c| c > 0).count();
+                    covered = self.satisfied(count);
                     out.rounds.push(FillRound {
                         tier: pass,
                         holes: holes_now,
@@ -362,14 +489,15 @@ impl<'r> CoverMatrix<'r> {
                     out.tiers.extend(picks.iter().map(|&j| live[j].1));
                     out.added.extend(positions);
                 }
-                if stride == 1 {
-                    live = live
-                        .iter()
-                        .zip(&cand_cols)
-                        .filter(|(_, c)| c.iter().any(|&w| w != 0))
-                        .map(|(&p, _)| p)
-                        .collect();
-                }
+                // A candidate stands for one view: once added it is not a
+                // candidate again (with every need 1 it would see no hole).
+                live = live
+                    .iter()
+                    .zip(&cand_cols)
+                    .zip(&picked)
+                    .filter(|((_, c), &p)| !p && (stride > 1 || c.iter().any(|&w| w != 0)))
+                    .map(|((&p, _), _)| p)
+                    .collect();
                 phase = if any { 0 } else { phase + 1 };
             }
         }
@@ -395,6 +523,7 @@ impl<'r> CoverMatrix<'r> {
         count: &mut [u32],
         alive: &mut Vec<bool>,
         tier_of: &mut Vec<usize>,
+        pinned: usize,
         mut covered: usize,
         target_count: usize,
     ) -> usize {
@@ -406,7 +535,9 @@ impl<'r> CoverMatrix<'r> {
         let mut merged = 0;
         let mut tried = std::collections::BTreeSet::new();
         'restart: loop {
-            let live: Vec<usize> = (0..all.len()).filter(|&k| alive[k]).collect();
+            let live: Vec<usize> = (0..all.len())
+                .filter(|&k| alive[k] && k >= pinned)
+                .collect();
             for &i in &live {
                 let mut near: Vec<(f32, usize)> = live
                     .iter()
@@ -418,14 +549,23 @@ impl<'r> CoverMatrix<'r> {
                     if !tried.insert((i.min(j), i.max(j))) {
                         continue;
                     }
-                    // Samples only i and j see, and how many of them a
-                    // replacement must see to keep the target.
+                    // Samples covered now that would not be without i and
+                    // j, those of them one replacement can restore, and how
+                    // many of them it must restore to keep the target.
+                    let mine = |s: usize| {
+                        ((cols[i][s / 64] >> (s % 64) & 1) + (cols[j][s / 64] >> (s % 64) & 1))
+                            as u32
+                    };
                     let only: Vec<usize> = (0..count.len())
                         .filter(|&s| {
-                            let mine = (cols[i][s / 64] >> (s % 64) & 1)
-                                + (cols[j][s / 64] >> (s % 64) & 1);
-                            count[s] > 0 && count[s] as u64 == mine
+                            let n = self.need[s];
+                            n > 0 && count[s] >= n && count[s] - mine(s) < n
                         })
+                        .collect();
+                    let repairable: Vec<usize> = only
+                        .iter()
+                        .copied()
+                        .filter(|&s| count[s] - mine(s) + 1 >= self.need[s])
                         .collect();
                     let need = only
                         .len()
@@ -447,7 +587,7 @@ impl<'r> CoverMatrix<'r> {
                     cands.sort_by_key(|&(_, c)| c);
                     let scores: Vec<u32> = cands
                         .par_iter()
-                        .map(|&(_, c)| popcount(&self.column(pool[c].0, &only)))
+                        .map(|&(_, c)| popcount(&self.column(pool[c].0, &repairable)))
                         .collect();
                     let best = cands
                         .iter()
@@ -469,7 +609,7 @@ impl<'r> CoverMatrix<'r> {
                     all.push(pool[c].0);
                     tier_of.push(pool[c].1);
                     alive.push(true);
-                    covered = count.iter().filter(|&&c| c > 0).count();
+                    covered = self.satisfied(count);
                     merged += 1;
                     continue 'restart;
                 }
@@ -534,49 +674,55 @@ fn greedy_on(
 /// one that sees fewest overall, then the later one. Clears `alive` for the
 /// probes dropped (only live ones are considered) and returns what the
 /// rest cover.
-fn prune_greedy(
-    cols: &[Bits],
-    count: &mut [u32],
-    tier_of: &[usize],
-    alive: &mut [bool],
-    mut covered: usize,
-    target_count: usize,
-) -> usize {
-    let words = count.len().div_ceil(64);
-    loop {
-        let mut once: Bits = vec![0; words];
-        for (i, &c) in count.iter().enumerate() {
-            if c == 1 {
-                once[i / 64] |= 1 << (i % 64);
+impl CoverMatrix<'_> {
+    #[allow(clippy::too_many_arguments)]
+    fn prune_greedy(
+        &self,
+        cols: &[Bits],
+        count: &mut [u32],
+        tier_of: &[usize],
+        alive: &mut [bool],
+        pinned: usize,
+        mut covered: usize,
+        target_count: usize,
+    ) -> usize {
+        let words = count.len().div_ceil(64);
+        loop {
+            // Samples that lose their cover with one view fewer.
+            let mut once: Bits = vec![0; words];
+            for (i, &c) in count.iter().enumerate() {
+                if self.need[i] > 0 && c == self.need[i] {
+                    once[i / 64] |= 1 << (i % 64);
+                }
+            }
+            let need = target_count.min(covered);
+            let pick = (pinned..cols.len())
+                .filter(|&k| alive[k])
+                .map(|k| {
+                    (
+                        k,
+                        popcount_and(&cols[k], &once) as usize,
+                        popcount(&cols[k]),
+                    )
+                })
+                .filter(|&(_, unique, _)| unique == 0 || covered - unique >= need)
+                .min_by_key(|&(k, unique, total)| {
+                    (
+                        unique,
+                        std::cmp::Reverse(tier_of[k]),
+                        total,
+                        std::cmp::Reverse(k),
+                    )
+                });
+            let Some((k, unique, _)) = pick else { break };
+            alive[k] = false;
+            covered -= unique;
+            for i in ones(&cols[k]) {
+                count[i] -= 1;
             }
         }
-        let need = target_count.min(covered);
-        let pick = (0..cols.len())
-            .filter(|&k| alive[k])
-            .map(|k| {
-                (
-                    k,
-                    popcount_and(&cols[k], &once) as usize,
-                    popcount(&cols[k]),
-                )
-            })
-            .filter(|&(_, unique, _)| unique == 0 || covered - unique >= need)
-            .min_by_key(|&(k, unique, total)| {
-                (
-                    unique,
-                    std::cmp::Reverse(tier_of[k]),
-                    total,
-                    std::cmp::Reverse(k),
-                )
-            });
-        let Some((k, unique, _)) = pick else { break };
-        alive[k] = false;
-        covered -= unique;
-        for i in ones(&cols[k]) {
-            count[i] -= 1;
-        }
+        covered
     }
-    covered
 }
 
 #[cfg(test)]
@@ -607,7 +753,7 @@ mod tests {
         // the box needs a new probe.
         let positions = [one, one, one];
         let tiers = [reference.references.clone()];
-        let r = matrix.fill_and_prune(&positions, &tiers, 0.999, true, true, &p);
+        let r = matrix.fill_and_prune(&positions, &tiers, 0.999, true, true, Rules::default(), &p);
         assert!(r.covered_initial < matrix.len());
         assert!(!r.added.is_empty());
         assert!(
@@ -624,7 +770,15 @@ mod tests {
         assert_eq!(cov.covered_samples, r.covered_final);
         assert_eq!(matrix.summary(&kept).0, r.covered_final);
         // Without filling or pruning nothing changes.
-        let same = matrix.fill_and_prune(&positions, &tiers, 0.999, false, false, &p);
+        let same = matrix.fill_and_prune(
+            &positions,
+            &tiers,
+            0.999,
+            false,
+            false,
+            Rules::default(),
+            &p,
+        );
         assert_eq!(same.kept, vec![0, 1, 2]);
         assert_eq!(same.covered_final, same.covered_initial);
     }
@@ -675,10 +829,26 @@ mod tests {
         let matrix = CoverMatrix::new(&reference, &bvh);
         let positions = [Vec3::new(3.0, 2.0, 3.0)];
         let refs = reference.references.clone();
-        let later = matrix.fill_and_prune(&positions, &[vec![], refs.clone()], 1.0, true, true, &p);
+        let later = matrix.fill_and_prune(
+            &positions,
+            &[vec![], refs.clone()],
+            1.0,
+            true,
+            true,
+            Rules::default(),
+            &p,
+        );
         assert_eq!(later.covered_final, matrix.len());
         assert!(later.rounds.iter().all(|r| r.tier == 1));
-        let first = matrix.fill_and_prune(&positions, &[refs.clone(), refs], 1.0, true, true, &p);
+        let first = matrix.fill_and_prune(
+            &positions,
+            &[refs.clone(), refs],
+            1.0,
+            true,
+            true,
+            Rules::default(),
+            &p,
+        );
         assert_eq!(first.covered_final, matrix.len());
         assert!(
             first.rounds.iter().all(|r| r.tier == 0),
@@ -727,17 +897,18 @@ mod tests {
             "the eight probes should cover the room"
         );
         let mut alive = vec![true; 8];
-        prune_greedy(
+        matrix.prune_greedy(
             &cols,
             &mut count,
             &[0; 8],
             &mut alive,
+            0,
             covered,
             target_count,
         );
         let pruned = alive.iter().filter(|&&a| a).count();
         let tiers = [reference.references.clone()];
-        let r = matrix.fill_and_prune(&positions, &tiers, target, true, true, &p);
+        let r = matrix.fill_and_prune(&positions, &tiers, target, true, true, Rules::default(), &p);
         assert!(r.covered_final >= target_count, "{r:?}");
         assert!(
             r.kept.len() < pruned,
@@ -751,5 +922,108 @@ mod tests {
             reference.evaluate(&bvh, &kept, &p).covered_samples,
             r.covered_final
         );
+    }
+
+    /// Counts, per coverable sample, how many of `viewers` see it.
+    fn views(matrix: &CoverMatrix, viewers: &[Vec3]) -> Vec<u32> {
+        let mut count = vec![0u32; matrix.len()];
+        for c in matrix.columns(viewers) {
+            for i in ones(&c) {
+                count[i] += 1;
+            }
+        }
+        count
+    }
+
+    /// Pinned probes survive pruning though superfluous; a need of two views
+    /// makes filling add probes until each demanded sample has two, and
+    /// pruning keep them, with no candidate added twice.
+    #[test]
+    fn pinned_probes_stay_and_a_need_of_two_gets_two_views() {
+        let (bvh, reference) = room_reference();
+        let p = Progress::hidden();
+        let tiers = [reference.references.clone()];
+        let one = Vec3::new(3.0, 2.0, 3.0);
+        let positions = [one, one, one];
+        let matrix = CoverMatrix::new(&reference, &bvh);
+        let pinned = Rules {
+            pinned: 2,
+            budget: None,
+        };
+        let r = matrix.fill_and_prune(&positions, &tiers, 0.999, true, true, pinned, &p);
+        assert!(r.kept.starts_with(&[0, 1]), "{r:?}");
+        assert!(!r.kept.contains(&2), "the unpinned copy goes: {r:?}");
+
+        let single = matrix.fill_and_prune(
+            &positions[..1],
+            &tiers,
+            0.999,
+            true,
+            true,
+            Rules::default(),
+            &p,
+        );
+        let twice = CoverMatrix::new(&reference, &bvh).with_need(|_, _| 2);
+        let r = twice.fill_and_prune(
+            &positions[..1],
+            &tiers,
+            0.999,
+            true,
+            true,
+            Rules::default(),
+            &p,
+        );
+        let mut all = vec![one];
+        all.extend(&r.added);
+        let kept: Vec<Vec3> = r.kept.iter().map(|&k| all[k]).collect();
+        let count = views(&twice, &kept);
+        assert_eq!(count.iter().filter(|&&c| c >= 2).count(), r.covered_final);
+        assert!(r.covered_final > twice.len() / 2, "{r:?}");
+        assert!(
+            kept.len() > single.kept.len(),
+            "{} against {}",
+            kept.len(),
+            single.kept.len()
+        );
+        for (i, a) in r.added.iter().enumerate() {
+            assert!(!r.added[..i].contains(a), "candidate {a} added twice");
+        }
+        // A need of 0 asks for nothing.
+        let none = CoverMatrix::new(&reference, &bvh).with_need(|_, _| 0);
+        assert_eq!(none.demanded(), 0);
+    }
+
+    /// A budget keeps the pinned probe and then, greedily, the probes that
+    /// see the most of what is left; each added probe adds something.
+    #[test]
+    fn select_keeps_the_pinned_and_then_the_widest_views() {
+        let (bvh, reference) = room_reference();
+        let matrix = CoverMatrix::new(&reference, &bvh);
+        let corner = Vec3::new(0.4, 0.4, 0.4);
+        let positions: Vec<Vec3> = vec![
+            corner,
+            corner,
+            Vec3::new(3.0, 2.0, 3.0),
+            Vec3::new(2.0, 3.0, 2.0),
+            Vec3::new(3.6, 0.4, 0.4),
+        ];
+        let covered = |ks: &[usize]| {
+            let ps: Vec<Vec3> = ks.iter().map(|&k| positions[k]).collect();
+            views(&matrix, &ps).iter().filter(|&&c| c > 0).count()
+        };
+        let kept = matrix.select(&positions, 1, 2);
+        assert_eq!(kept.len(), 2);
+        assert_eq!(kept[0], 0);
+        assert!(covered(&kept) > covered(&kept[..1]));
+        // A larger budget stops where nothing more is seen.
+        let all = matrix.select(&positions, 1, 5);
+        assert!(!all.contains(&1), "a copy of the pinned probe adds nothing");
+        assert_eq!(covered(&all), covered(&[0, 1, 2, 3, 4]));
+        // The first pick is the probe that adds the most to the pinned one.
+        let best = (1..positions.len())
+            .map(|k| covered(&[0, k]))
+            .max()
+            .unwrap();
+        assert_eq!(covered(&kept[..2]), best);
     }
 }

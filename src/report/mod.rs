@@ -77,6 +77,8 @@ pub struct ProbeRecord {
     pub voxel_class: Option<VoxelClass>,
     /// Skeleton voxels the probe stands for (0 for grid probes).
     pub cluster_size: u32,
+    /// One of the config's `fixed_probes` (they come first).
+    pub fixed: bool,
 }
 
 impl ProbesFile {
@@ -96,7 +98,12 @@ impl ProbesFile {
             .enumerate()
             .map(|(index, p)| {
                 let voxel = sdf.voxel_at(p.position);
-                let world = scene.to_world(p.position);
+                // A fixed probe is written where the artist put it, not
+                // through the f32 local frame it was placed in.
+                let world = match config.fixed_probes.get(index) {
+                    Some(given) if index < probes.fixed => glam::DVec3::from_array(given.0),
+                    _ => scene.to_world(p.position),
+                };
                 ProbeRecord {
                     index,
                     position: world.to_array(),
@@ -104,6 +111,7 @@ impl ProbesFile {
                     clearance: voxel.map_or(f32::NAN, |v| sdf.distance[v]),
                     voxel_class: voxel.map(|v| sdf.class[v]),
                     cluster_size: p.cluster_size,
+                    fixed: index < probes.fixed,
                 }
             })
             .collect();
@@ -233,6 +241,9 @@ pub struct Report {
     pub placement_params: BTreeMap<&'static str, f64>,
     /// What refinement did; `null` when it was off.
     pub refine: Option<RefineReport>,
+    /// What the artist controls (`fixed_probes`, `exclude`, `max_probes`,
+    /// `probe_density`) did.
+    pub controls: crate::placement::controls::ControlsReport,
     /// The octree of probe indices written as `svo.bin`.
     pub svo: Option<SvoReport>,
     /// The light-field bake; `null` after `place`.
@@ -256,6 +267,7 @@ impl Report {
         let (config, scene, sdf) = (&job.config, &prepared.scene, &prepared.sdf);
         let (coverage, health, probes) = (&placed.coverage, &placed.health, &placed.probes);
         let mut warnings = scene.warnings.clone();
+        warnings.extend(placed.warnings.iter().cloned());
         if health.probes_in_solid > 0 {
             warnings.push(format!(
                 "{} probe(s) stand in solid space",
@@ -265,7 +277,15 @@ impl Report {
         let refine = placed.refined.as_ref().map(|(r, _)| r.clone());
         if let Some(r) = &refine {
             let target = config.refine.coverage_target.0 as f64;
-            if config.refine.fill && r.coverage_final < target {
+            if let (Some(before), Some(budget)) = (r.probes_before_budget, config.max_probes) {
+                warnings.push(format!(
+                    "max_probes: {}: {} probes, of the {before} the coverage target needs, reach {:.2}% coverage (target {:.2}%)",
+                    budget.0,
+                    r.probes_final,
+                    100.0 * r.coverage_final,
+                    100.0 * target
+                ));
+            } else if config.refine.fill && r.coverage_final < target {
                 warnings.push(format!(
                     "refine: coverage {:.2}% is short of the target {:.2}%: no position at least {:.3} from every surface sees the rest; lower refine.min_clearance (or remove it) to reach it",
                     100.0 * r.coverage_final,
@@ -305,6 +325,7 @@ impl Report {
             placement_stats: probes.stats.clone(),
             placement_params: probes.params.clone(),
             refine,
+            controls: placed.controls.clone(),
             svo: Some(svo),
             bake: None,
             render: None,

@@ -236,6 +236,7 @@ pub fn medial_axis(params: &MedialAxisParams, input: &PlacementInput) -> Result<
         stats,
         params: r.report(),
         min_clearance: 0.5 * r.min_radius,
+        fixed: 0,
     })
 }
 

@@ -149,6 +149,7 @@ pub fn sdf_skeleton(params: &SdfSkeletonParams, input: &PlacementInput) -> Resul
             ("cluster_radius", params.cluster_radius.0 as f64),
         ]),
         min_clearance: min_distance,
+        fixed: 0,
     })
 }
 

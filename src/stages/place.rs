@@ -7,6 +7,7 @@ use crate::config::{short, Config};
 use crate::coverage::{self, Coverage, CoverageReference, ProbeHealth};
 use crate::error::{Error, Result};
 use crate::limits;
+use crate::placement::controls::{Controls, ControlsReport};
 use crate::placement::{self, ProbeSet};
 use crate::progress::{Progress, Stopwatch};
 use crate::refine::{self, RefineReport};
@@ -27,6 +28,10 @@ pub struct Placed {
     pub health: ProbeHealth,
     /// The octree of probe indices and its figures.
     pub svo: (Svo, SvoReport),
+    /// What the artist controls did.
+    pub controls: ControlsReport,
+    /// Warnings for the report.
+    pub warnings: Vec<String>,
     /// `placement`, `refine`, `coverage`, `svo`.
     pub timings: Stopwatch,
 }
@@ -35,7 +40,11 @@ pub struct Placed {
 /// elsewhere, which is scored, not refined), refines them where
 /// `config.refine.enabled`, and measures and indexes the result.
 /// `reference` is the coverage measure refinement maximizes and the result
-/// is scored by.
+/// is scored by. The config's artist controls
+/// ([`crate::placement::controls`]) shape a placement, not a given set
+/// (which gets a warning instead): fixed probes first, none in an
+/// `exclude` box, at most `max_probes`; `probe_density` needs refinement
+/// (its filling and pruning meet the demand) and is a warning without it.
 ///
 /// Contract: errors name the config field, not the file (the job prefixes
 /// it). The probe set is never empty: a placement, or a refinement, that
@@ -52,13 +61,52 @@ pub fn place(
     let mut timings = progress.stopwatch();
     let input = prepared.placement_input(config.seed, progress);
     let refine_it = config.refine.enabled && given.is_none();
+    let mut warnings = Vec::new();
+    let all = Controls::new(config, &prepared.scene);
+    let controls = if given.is_none() {
+        all.check(config, &prepared.sdf, &prepared.domain)?;
+        all
+    } else {
+        if !all.is_empty() {
+            warnings.push("fixed_probes, exclude, max_probes and probe_density shape a placement; a probe set given with --probes is scored as given".to_string());
+        }
+        Controls::default()
+    };
+    if !controls.density.is_empty() && !(refine_it && (config.refine.fill || config.refine.prune)) {
+        warnings.push("probe_density: not applied: it is met by refinement's filling and pruning, and this run does neither".to_string());
+    }
+    let mut report = ControlsReport {
+        max_probes: controls.max_probes,
+        density_regions: controls.density.len(),
+        samples_with_density: reference
+            .samples
+            .iter()
+            .enumerate()
+            .filter(|&(i, s)| reference.coverable[i] && controls.density_at(s.position) != 1.0)
+            .count(),
+        ..ControlsReport::default()
+    };
     let probes = match given {
         Some(p) => p,
-        None => timings.try_time("placement", || placement::place(&config.placement, &input))?,
+        None => {
+            let placed =
+                timings.try_time("placement", || placement::place(&config.placement, &input))?;
+            let (probes, excluded) = controls.apply(placed);
+            report.excluded = excluded;
+            probes
+        }
     };
     if probes.probes.is_empty() {
+        let outside = if report.excluded > 0 {
+            format!(
+                " outside the exclude boxes ({} inside them)",
+                report.excluded
+            )
+        } else {
+            " in the domain".to_string()
+        };
         return Err(Error::User(format!(
-            "placement: {} placed no probe in the domain; check the domain and the method's parameters",
+            "placement: {} placed no probe{outside}; check the domain and the method's parameters",
             probes.method
         )));
     }
@@ -66,15 +114,33 @@ pub fn place(
     let (probes, refined) = if refine_it {
         let placed = probes.probes.len();
         let out = timings.try_time("refine", || {
-            refine::refine(&config.refine, probes, &input, reference)
+            refine::refine(&config.refine, probes, &input, reference, &controls)
         })?;
         if out.probes.probes.is_empty() {
             return Err(pruned_all(config, reference, placed));
         }
+        report.probes_before_budget = out.report.probes_before_budget;
+        report.demand_met = Some(out.report.coverage_final);
         (out.probes, Some((out.report, out.atlas_image)))
     } else {
-        (probes, None)
+        match controls.max_probes {
+            Some(budget) if probes.probes.len() > budget => {
+                report.probes_before_budget = Some(probes.probes.len());
+                let kept = timings.time("budget", || {
+                    refine::prune::CoverMatrix::new(reference, &prepared.bvh).select(
+                        &probes.positions(),
+                        probes.fixed,
+                        budget,
+                    )
+                });
+                let mut probes = probes;
+                probes.probes = kept.iter().map(|&k| probes.probes[k]).collect();
+                (probes, None)
+            }
+            _ => (probes, None),
+        }
     };
+    report.fixed_probes = probes.fixed;
     check_probes(config, prepared, probes.probes.len())?;
     let positions = probes.positions();
     let ((coverage, holes), health) = timings.time("coverage", || {
@@ -92,6 +158,8 @@ pub fn place(
         holes,
         health,
         svo,
+        controls: report,
+        warnings,
         timings,
     })
 }

@@ -383,6 +383,7 @@ mod tests {
             stats: BTreeMap::new(),
             params: BTreeMap::new(),
             min_clearance: 0.1,
+            fixed: 0,
         };
         (scene, bvh, sdf, set)
     }
