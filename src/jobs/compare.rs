@@ -123,7 +123,7 @@ fn write(mut job: Job, bench: Bench, views: &[View], context: Option<&Context>) 
     let metric = performance_metric(&adapter, &rows);
     let comparisons = comparisons(&rows, metric);
     let report = CompareReport {
-        format: "probeplace-compare",
+        format: "probeplace.compare",
         version: 1,
         provenance: job.provenance.clone(),
         config: job.config_path.display().to_string(),

@@ -141,7 +141,7 @@ pub struct CameraRecord {
 /// `compare.json`.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct CompareReport {
-    /// `"probeplace-compare"`.
+    /// `"probeplace.compare"`.
     pub format: &'static str,
     /// Format version.
     pub version: u32,

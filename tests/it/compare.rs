@@ -54,7 +54,7 @@ fn cornell_glossy() -> &'static Shared {
 
 /// The comparison on CornellBox-Glossy at test quality, shared by the tests
 /// of the report's shape and page.
-fn cornell_glossy_test_quality() -> &'static Shared {
+pub fn cornell_glossy_test_quality() -> &'static Shared {
     let key = "compare cornell-glossy test quality";
     shared(key, || {
         shared_scenes();

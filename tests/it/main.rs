@@ -8,6 +8,7 @@ mod common;
 mod bad_input;
 mod compare;
 mod controls;
+mod docs;
 mod fuzz;
 mod generality;
 mod gpu;
