@@ -60,6 +60,11 @@ pub const MERGE_NEIGHBOURS: usize = 3;
 /// Candidates nearest a pair's midpoint scored as its replacement.
 pub const MERGE_CANDIDATES: usize = 256;
 
+/// Most 64-bit words [`CoverMatrix::select`]'s swap search scores (a
+/// fraction of a second): a budget of a few probes among a hundred gets
+/// hundreds of passes, one of thousands among thousands none.
+pub const MAX_SWAP_WORDS: u64 = 1 << 27;
+
 /// Partial scorings (on a subsample of the holes) one tier of candidates
 /// gets before filling moves on to the next (see [`CoverMatrix::fill`]).
 pub const SUBSAMPLES_PER_TIER: usize = 2;
@@ -195,7 +200,8 @@ impl<'r> CoverMatrix<'r> {
     /// Keeps, of the probes at `positions`, the first `pinned` and then
     /// greedily the one that gives the most demanded views still missing
     /// (ties: the earlier), until `budget` probes are kept or none adds
-    /// anything. Returns the kept indices, ascending.
+    /// anything; then trades kept probes for others while that covers more
+    /// (a 1-swap local search). Returns the kept indices, ascending.
     pub fn select(&self, positions: &[Vec3], pinned: usize, budget: usize) -> Vec<usize> {
         self.select_columns(&self.columns(positions), pinned, budget)
     }
@@ -230,7 +236,67 @@ impl<'r> CoverMatrix<'r> {
             take(best, &mut count, &mut chosen);
             kept += 1;
         }
+        self.swap_search(cols, pinned, &mut count, &mut chosen);
         (0..cols.len()).filter(|&k| chosen[k]).collect()
+    }
+
+    /// A 1-swap local search after the greedy choice: trades a chosen
+    /// (unpinned) probe for an unchosen one while that raises the demanded
+    /// samples covered, the best trade first (ties: the smallest pair).
+    /// Every trade raises the count, so it ends; it also stops after
+    /// [`MAX_SWAP_WORDS`] words of scoring, so a large budget stays cheap.
+    fn swap_search(
+        &self,
+        cols: &[Bits],
+        pinned: usize,
+        count: &mut [u32],
+        chosen: &mut [bool],
+    ) {
+        let covers = |c: u32, n: u32| (n > 0 && c >= n) as i64;
+        let words = count.len().div_ceil(64) as u64;
+        let mut spent = 0u64;
+        loop {
+            let ins: Vec<usize> = (pinned..cols.len()).filter(|&k| chosen[k]).collect();
+            let outs: Vec<usize> = (0..cols.len()).filter(|&k| !chosen[k]).collect();
+            spent += ins.len() as u64 * outs.len() as u64 * words;
+            if spent > MAX_SWAP_WORDS {
+                break;
+            }
+            let count_now: &[u32] = count;
+            let best = ins
+                .par_iter()
+                .flat_map_iter(|&k| outs.iter().map(move |&c| (k, c)))
+                .map(|(k, c)| {
+                    let mut delta = 0i64;
+                    for (w, (&a, &b)) in cols[k].iter().zip(&cols[c]).enumerate() {
+                        let mut differ = a ^ b;
+                        while differ != 0 {
+                            let t = differ.trailing_zeros();
+                            differ &= differ - 1;
+                            let i = w * 64 + t as usize;
+                            let after = if a >> t & 1 == 1 {
+                                count_now[i] - 1
+                            } else {
+                                count_now[i] + 1
+                            };
+                            delta +=
+                                covers(after, self.need[i]) - covers(count_now[i], self.need[i]);
+                        }
+                    }
+                    (delta, k, c)
+                })
+                .filter(|&(delta, _, _)| delta > 0)
+                .min_by_key(|&(delta, k, c)| (std::cmp::Reverse(delta), k, c));
+            let Some((_, k, c)) = best else { break };
+            chosen[k] = false;
+            for i in ones(&cols[k]) {
+                count[i] -= 1;
+            }
+            chosen[c] = true;
+            for i in ones(&cols[c]) {
+                count[i] += 1;
+            }
+        }
     }
 
     /// Number of coverable samples.
