@@ -7,6 +7,7 @@ mod common;
 
 mod bad_input;
 mod compare;
+mod export;
 mod fuzz;
 mod generality;
 mod gpu;
