@@ -358,7 +358,7 @@ fn relocated_room(dir: &Path) -> PathBuf {
     let config = dir.join("room.ron");
     std::fs::write(
         &config,
-        "(\n    scene: \"room.obj\",\n    scale: 4.0,\n    voxel_size: 0.25,\n    placement: Relocated((cells: (8, 8, 8))),\n    refine: (enabled: false),\n    coverage: (samples: 2000, reference_points: 512),\n    output: \"out\",\n    export: [Ddgi, Unity, Tscn, Glb],\n)\n",
+        "(\n    scene: \"room.obj\",\n    scale: 4.0,\n    voxel_size: 0.25,\n    placement: Relocated((cells: (8, 8, 8))),\n    refine: (enabled: false),\n    coverage: (samples: 2000, reference_points: 512),\n    output: \"out\",\n    bake: (resolution: 16, irradiance_resolution: 8, samples: 1, bounces: 1),\n    export: [Ddgi, Unity, Tscn, Glb],\n)\n",
     )
     .unwrap();
     let o = Command::new(env!("CARGO_BIN_EXE_probeplace"))
@@ -393,12 +393,46 @@ fn a_relocated_grid_exports_its_ddgi_volume() {
         "--out",
         again.to_str().unwrap(),
     ]);
+    // Into the directory itself: the other files stay as they were.
+    let listing = |d: &Path| -> Vec<(String, Vec<u8>)> {
+        let mut v: Vec<_> = std::fs::read_dir(d)
+            .unwrap()
+            .map(|e| {
+                let e = e.unwrap();
+                (
+                    e.file_name().to_string_lossy().into_owned(),
+                    std::fs::read(e.path()).unwrap(),
+                )
+            })
+            .collect();
+        v.sort();
+        v
+    };
+    let before = listing(&again);
+    export(&[again.to_str().unwrap(), "--format", "tscn"]);
+    assert_eq!(listing(&again), before);
+    // bake --from writes them again from the placement it reuses.
+    let baked = tmp.path().join("baked");
+    let o = probeplace(&[
+        "bake",
+        "--from",
+        out.to_str().unwrap(),
+        "--out",
+        baked.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(baked.join("lightfield.bin").is_file());
     for name in names {
-        let (a, b) = (
-            std::fs::read(out.join(name)).unwrap(),
-            std::fs::read(again.join(name)).unwrap(),
+        let a = std::fs::read(out.join(name)).unwrap();
+        assert!(
+            a == std::fs::read(again.join(name)).unwrap(),
+            "{name}: place and export wrote different bytes"
         );
-        assert!(a == b, "{name}: place and export wrote different bytes");
+        assert!(
+            a == std::fs::read(baked.join(name)).unwrap(),
+            "{name}: place and bake wrote different bytes"
+        );
     }
 
     let d = read_json(&out.join("ddgi.json"));
