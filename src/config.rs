@@ -1051,6 +1051,27 @@ impl Default for CompareParams {
     }
 }
 
+/// A file for another tool, written with a run's outputs (the config's
+/// `export` list, or `probeplace export DIR --format …`); docs/engines.md
+/// says how each is used, docs/formats.md what each holds.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+pub enum Export {
+    /// `probes.glb`: glTF 2.0, one node per probe with a marker mesh, for
+    /// Blender, three.js and any glTF viewer.
+    Glb,
+    /// `probes.glb` with the scene's triangles too, one material per base
+    /// colour (`--format glb --scene`).
+    GlbWithScene,
+    /// `probes.tscn`: a Godot 4 scene, one `LightmapProbe` per probe.
+    Tscn,
+    /// `probes.unity.json`: the flat probe list the Unity importer
+    /// (integrations/unity) reads into a `LightProbeGroup`.
+    Unity,
+    /// `ddgi.json`: a DDGI volume (origin, spacing, counts, per-probe
+    /// offsets and states) for `Grid` and `Relocated` placements.
+    Ddgi,
+}
+
 /// One run's configuration, as read from a RON file.
 #[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -1120,6 +1141,10 @@ pub struct Config {
     /// (factor above 1) or fewer (below 1); overlapping factors multiply.
     #[serde(default)]
     pub probe_density: Vec<(Region, Density)>,
+    /// Files for other tools that `place`, `bake` and `render` write with
+    /// their outputs; none by default.
+    #[serde(default)]
+    pub export: Vec<Export>,
 }
 
 fn unit_scale() -> Scale {

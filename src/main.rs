@@ -30,6 +30,19 @@ enum Variants {
     Both,
 }
 
+/// `export --format`.
+#[derive(Clone, Copy, ValueEnum)]
+enum Formats {
+    /// probes.glb: glTF 2.0 (Blender, three.js).
+    Glb,
+    /// probes.tscn: a Godot 4 scene of LightmapProbe nodes.
+    Tscn,
+    /// probes.unity.json: for integrations/unity's LightProbeGroup importer.
+    Unity,
+    /// ddgi.json: a DDGI volume (grid: and relocated: placements without refinement).
+    Ddgi,
+}
+
 /// What every job shares: the config, the earlier run, the overrides.
 #[derive(Args)]
 struct RunArgs {
@@ -101,6 +114,23 @@ enum Command {
         #[arg(long)]
         cpu: bool,
     },
+    /// Write an earlier run's probes for other tools: glTF (.glb), Godot (.tscn), Unity, DDGI (docs/engines.md).
+    Export {
+        /// An output directory of place, bake or render.
+        dir: PathBuf,
+        /// Formats to write, comma-separated.
+        #[arg(long, value_enum, value_delimiter = ',', required = true)]
+        format: Vec<Formats>,
+        /// Put the scene's triangles, with their base colours, into probes.glb.
+        #[arg(long)]
+        scene: bool,
+        /// Output directory (default: DIR); it gets DIR's files and the exports.
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// No stage lines and no summary.
+        #[arg(short, long)]
+        quiet: bool,
+    },
     /// Summarize an svo.bin (or the one in an output directory, with its lightfield.bin) after checking that the directory holds one run.
     Inspect {
         /// An output directory of `place` or `bake`, or an svo.bin file.
@@ -154,6 +184,31 @@ fn main() -> ExitCode {
                 jobs::compare(&o)
             })
         }
+        Command::Export {
+            dir,
+            format,
+            scene,
+            out,
+            quiet,
+        } => {
+            let options = jobs::ExportOptions {
+                dir,
+                formats: format
+                    .iter()
+                    .map(|f| match f {
+                        Formats::Glb => jobs::export::Format::Glb,
+                        Formats::Tscn => jobs::export::Format::Tscn,
+                        Formats::Unity => jobs::export::Format::Unity,
+                        Formats::Ddgi => jobs::export::Format::Ddgi,
+                    })
+                    .collect(),
+                scene,
+                out,
+                progress: Progress::new(false)
+                    .with_lines(!quiet && !std::io::stderr().is_terminal()),
+            };
+            report(jobs::export(&options), quiet)
+        }
         Command::Inspect { path, quiet } => match jobs::inspect(&path) {
             Ok(inspection) => {
                 if !quiet {
@@ -187,12 +242,18 @@ fn job(
         progress: Progress::new(!args.quiet && terminal).with_lines(!args.quiet && !terminal),
         ..RunOptions::default()
     };
-    match run(options) {
+    report(run(options), args.quiet)
+}
+
+/// Prints a job's warnings and, unless quiet, its summary with where it
+/// wrote and how long it took; returns the exit status.
+fn report(result: probeplace::Result<Outcome>, quiet: bool) -> ExitCode {
+    match result {
         Ok(outcome) => {
             for w in outcome.warnings() {
                 eprintln!("warning: {w}");
             }
-            if !args.quiet {
+            if !quiet {
                 for line in &outcome.summary {
                     println!("{line}");
                 }

@@ -203,11 +203,15 @@ impl Provenance {
 }
 
 /// FNV-1a of the config's parameters: its `Debug` form with the scene and
-/// output paths blanked (the scene enters by content, the output not at all).
+/// output paths blanked (the scene enters by content, the output not at
+/// all) and the `export` list left out (it changes no output of the run,
+/// only which files are written beside them, so `--from` reuses a run
+/// whatever exports either asks for).
 pub fn config_hash(config: &Config) -> u64 {
     let mut c = config.clone();
     c.scene = PathBuf::new();
     c.output = PathBuf::new();
+    c.export = Vec::new();
     fnv1a(format!("{c:?}").as_bytes())
 }
 
@@ -266,6 +270,9 @@ mod tests {
         let mut b = a.clone();
         b.scene = PathBuf::from("/elsewhere/a.obj");
         b.output = PathBuf::from("/tmp/out");
+        assert_eq!(config_hash(&a), config_hash(&b));
+        // Exports change no output of the run, only what is written beside.
+        b.export = vec![crate::config::Export::Glb, crate::config::Export::Ddgi];
         assert_eq!(config_hash(&a), config_hash(&b));
         b.bake.samples.0 = a.bake.samples.0 + 1;
         assert_ne!(config_hash(&a), config_hash(&b));

@@ -41,9 +41,11 @@ pub(crate) const REFERENCE_FILES: [&str; 4] = [
 pub fn bake(options: &RunOptions) -> Result<Outcome> {
     let mut job = Job::new(options)?;
     precheck(&job)?;
+    super::export::check_configured(&job)?;
     let prepared = job.prepare()?;
     let mut placement = place::placement(&mut job, &prepared)?;
     bake_stage(&mut job, &prepared, &mut placement)?;
+    super::export::add_configured(&mut job, &placement.report, &prepared.scene)?;
     job.finish("report.json", placement.report)
 }
 

@@ -8,6 +8,7 @@
 //! | [`render()`] | … → validate per variant | + `render_*`, `error_*` |
 //! | [`compare()`] | prepare → (place → bake → validate per camera) per placement | `compare.json`, `compare.csv`, `report.html` |
 //! | [`inspect()`] | — | nothing: checks an output directory |
+//! | [`export()`] | — | + `probes.glb`, `probes.tscn`, `probes.unity.json`, `ddgi.json`: an earlier run's probes for other tools |
 //!
 //! `bake`, `render` and `compare` take `--from DIR`: what an earlier run
 //! wrote there (probes, SVO, light field, reference) is loaded instead of
@@ -19,12 +20,14 @@
 
 pub mod bake;
 pub mod compare;
+pub mod export;
 pub mod inspect;
 pub mod place;
 pub mod render;
 
 pub use bake::bake;
 pub use compare::compare;
+pub use export::{export, ExportOptions};
 pub use inspect::{inspect, Inspection};
 pub use place::place;
 pub use render::{render, Variant};
@@ -70,7 +73,9 @@ pub struct RunOptions {
 pub struct Outcome {
     /// The output directory.
     pub out_dir: PathBuf,
-    /// The main JSON file as written (`report.json` or `compare.json`).
+    /// The main JSON file as written (`report.json` or `compare.json`);
+    /// for `export`, which writes no report, what it wrote
+    /// ([`export::export`]).
     pub report: Value,
     /// What the command line prints on success: the findings in a line or
     /// a few.
@@ -107,10 +112,14 @@ pub(crate) struct Earlier {
 }
 
 impl Earlier {
-    /// Reads the provenance of the run in `dir`.
-    fn open(dir: &Path) -> Result<Earlier> {
+    /// Reads the provenance of the run in `dir`; messages start with
+    /// `label`, how the command line named the directory (`--from`).
+    fn open(dir: &Path, label: &str) -> Result<Earlier> {
         if !dir.is_dir() {
-            return Err(Error::user_file(dir, "--from: no such output directory"));
+            return Err(Error::user_file(
+                dir,
+                format!("{label}: no such output directory"),
+            ));
         }
         let read = |name: &str| -> Option<Value> {
             serde_json::from_slice(
@@ -125,13 +134,13 @@ impl Earlier {
             .ok_or_else(|| {
                 Error::user_file(
                     dir,
-                    "--from: holds no report.json or compare.json of probeplace",
+                    format!("{label}: holds no report.json or compare.json of probeplace"),
                 )
             })?;
         let provenance = serde_json::from_value(main["provenance"].clone()).map_err(|_| {
             Error::user_file(
                 dir,
-                "--from: its report has no provenance (written by an older probeplace); run it again",
+                format!("{label}: its report has no provenance (written by an older probeplace); run it again"),
             )
         })?;
         Ok(Earlier {
@@ -186,7 +195,17 @@ impl Job {
     /// the overrides, and checks the destination and the earlier run
     /// before any expensive stage.
     pub fn new(options: &RunOptions) -> Result<Job> {
-        let earlier = options.from.as_deref().map(Earlier::open).transpose()?;
+        Job::new_as(options, "--from")
+    }
+
+    /// [`Job::new`] whose messages about the earlier run start with
+    /// `label`, how the command line named its directory.
+    pub fn new_as(options: &RunOptions, label: &str) -> Result<Job> {
+        let earlier = options
+            .from
+            .as_deref()
+            .map(|d| Earlier::open(d, label))
+            .transpose()?;
         let (config_path, text, mut overrides) = match (&options.config, &earlier) {
             (Some(path), _) => {
                 let text =
@@ -219,7 +238,7 @@ impl Job {
             if let Some(why) = provenance.mismatch(&e.provenance) {
                 return Err(Error::user_file(
                     &e.dir,
-                    format!("--from: {why}; its outputs cannot be reused by this run"),
+                    format!("{label}: {why}; its outputs cannot be reused by this run"),
                 ));
             }
         }

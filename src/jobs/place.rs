@@ -47,8 +47,9 @@ impl PlaceRun {
     }
 
     /// Writes the run's outputs as one set.
-    pub fn commit(self) -> Result<Outcome> {
+    pub fn commit(mut self) -> Result<Outcome> {
         let value = to_value(&self.report)?;
+        super::export::add_configured(&mut self.job, &value, &self.prepared.scene)?;
         self.job.finish("report.json", value)
     }
 }
@@ -56,6 +57,7 @@ impl PlaceRun {
 /// Runs every stage of `place` without writing anything.
 pub fn compute(options: &RunOptions) -> Result<PlaceRun> {
     let mut job = Job::new(options)?;
+    super::export::check_configured(&job)?;
     let prepared = job.prepare()?;
     let (reference, placed) = compute_placed(&mut job, &prepared)?;
     let (probes, svo, report) = encode(&mut job, &prepared, placed)?;

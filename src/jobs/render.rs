@@ -54,6 +54,7 @@ pub fn render(options: &RunOptions) -> Result<Outcome> {
         options.variants.clone()
     };
     bake::precheck(&job)?;
+    super::export::check_configured(&job)?;
     let prepared = job.prepare()?;
     let mut placement = place::placement(&mut job, &prepared)?;
     let baked = bake::bake_stage(&mut job, &prepared, &mut placement)?;
@@ -77,6 +78,7 @@ pub fn render(options: &RunOptions) -> Result<Outcome> {
     placement.report["render"] =
         serde_json::to_value(&report).map_err(|e| Error::Internal(e.to_string()))?;
     push_warnings(&mut placement.report, &warnings);
+    super::export::add_configured(&mut job, &placement.report, &prepared.scene)?;
     job.finish("report.json", placement.report)
 }
 

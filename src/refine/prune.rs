@@ -245,13 +245,7 @@ impl<'r> CoverMatrix<'r> {
     /// samples covered, the best trade first (ties: the smallest pair).
     /// Every trade raises the count, so it ends; it also stops after
     /// [`MAX_SWAP_WORDS`] words of scoring, so a large budget stays cheap.
-    fn swap_search(
-        &self,
-        cols: &[Bits],
-        pinned: usize,
-        count: &mut [u32],
-        chosen: &mut [bool],
-    ) {
+    fn swap_search(&self, cols: &[Bits], pinned: usize, count: &mut [u32], chosen: &mut [bool]) {
         let covers = |c: u32, n: u32| (n > 0 && c >= n) as i64;
         let words = count.len().div_ceil(64) as u64;
         let mut spent = 0u64;

@@ -51,6 +51,20 @@ impl OutputSet {
         self.carried.push((name, from));
     }
 
+    /// The contents of `name` in the set: its bytes, or those of the file
+    /// it carries (read now); `None` when the set has no such file.
+    pub fn contents(&self, name: &str) -> Result<Option<Vec<u8>>> {
+        if let Some((_, bytes)) = self.files.iter().find(|(n, _)| n == name) {
+            return Ok(Some(bytes.clone()));
+        }
+        match self.carried.iter().find(|(n, _)| n == name) {
+            Some((_, from)) => std::fs::read(from)
+                .map(Some)
+                .map_err(|e| Error::io(from, e)),
+            None => Ok(None),
+        }
+    }
+
     /// Drops `name` from the set.
     pub fn remove(&mut self, name: &str) {
         self.files.retain(|(n, _)| n != name);

@@ -12,6 +12,7 @@
 pub mod bake;
 pub mod commit;
 pub mod compare;
+pub mod export;
 pub mod exr;
 pub mod html;
 pub mod preview;

@@ -123,6 +123,42 @@ impl Svo {
         (&self.nodes, &self.payload)
     }
 
+    /// Every leaf node with the cube of leaf-size cells it stands for: the
+    /// cube's lower cell, its edge in cells (2^level), and the leaf's probe
+    /// list, depth first in child order. A cube may reach past
+    /// [`Svo::dims`] (the root cube is 2^depth cells on an edge, the domain
+    /// perhaps fewer); points there list nothing, so callers clip it.
+    pub fn leaf_cubes(&self) -> Vec<(UVec3, u32, &[u32])> {
+        let mut out = Vec::new();
+        let mut stack = vec![(0usize, UVec3::ZERO, self.depth)];
+        while let Some((node, lo, level)) = stack.pop() {
+            let Some(&word) = self.nodes.get(node) else {
+                continue;
+            };
+            if word & LEAF_BIT != 0 {
+                let count = ((word >> PAYLOAD_OFFSET_BITS) & 7) as usize + 1;
+                let offset = (word & ((1 << PAYLOAD_OFFSET_BITS) - 1)) as usize;
+                if let Some(list) = self.payload.get(offset..offset + count) {
+                    out.push((lo, 1u32 << level, list));
+                }
+                continue;
+            }
+            let mask = word & 0xFF;
+            if level == 0 {
+                continue;
+            }
+            let half = 1u32 << (level - 1);
+            let first = (word >> CHILD_MASK_BITS) as usize;
+            // Pushed in reverse so that children pop in increasing order.
+            for c in (0..8u32).rev().filter(|c| mask & (1 << c) != 0) {
+                let index = first + (mask & ((1 << c) - 1)).count_ones() as usize;
+                let at = lo + UVec3::new(c & 1, (c >> 1) & 1, (c >> 2) & 1) * half;
+                stack.push((index, at, level - 1));
+            }
+        }
+        out
+    }
+
     /// Nodes in the array (inner nodes and leaves).
     pub fn nodes(&self) -> usize {
         self.nodes.len()
@@ -444,6 +480,34 @@ mod tests {
         let hidden = Vec3::new(0.4, 0.3, 0.4);
         assert!(bvh.occluded(hidden, positions[0], 1e-4));
         assert_ne!(svo.probes_at(hidden)[0], 0);
+    }
+
+    #[test]
+    fn leaf_cubes_answer_as_queries_do() {
+        let (baked, ..) = bake_room(&SvoParams::default());
+        let svo = &baked.svo;
+        let cubes = svo.leaf_cubes();
+        assert_eq!(cubes.len(), svo.leaves());
+        // Every cell's query answers the list of the one cube that holds it.
+        for x in 0..svo.dims.x {
+            for y in 0..svo.dims.y {
+                for z in 0..svo.dims.z {
+                    let cell = UVec3::new(x, y, z);
+                    let centre = svo.origin + (cell.as_vec3() + 0.5) * svo.leaf_size;
+                    let holding: Vec<&[u32]> = cubes
+                        .iter()
+                        .filter(|(lo, edge, _)| {
+                            cell.cmpge(*lo).all() && cell.cmplt(*lo + *edge).all()
+                        })
+                        .map(|c| c.2)
+                        .collect();
+                    match svo.probes_at(centre) {
+                        [] => assert!(holding.is_empty(), "{cell}"),
+                        list => assert_eq!(holding, vec![list], "{cell}"),
+                    }
+                }
+            }
+        }
     }
 
     #[test]

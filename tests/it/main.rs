@@ -9,6 +9,7 @@ mod bad_input;
 mod compare;
 mod controls;
 mod docs;
+mod export;
 mod fuzz;
 mod generality;
 mod gpu;

@@ -1,0 +1,305 @@
+//! Files for other tools: a run's probes as a glTF 2.0 binary for Blender
+//! and three.js ([`gltf`]), a Godot 4 scene ([`godot`]), the flat list the
+//! Unity importer reads ([`unity`]) and a DDGI volume description
+//! ([`ddgi`]). docs/formats.md specifies each file, docs/engines.md says
+//! how each is loaded.
+//!
+//! Every export is computed from the files of one run, `probes.json`,
+//! `report.json` and `svo.bin` ([`Source::read`]), whether the run writes
+//! them (the config's `export` list) or `probeplace export DIR` reads them
+//! later: both give the same bytes.
+//!
+//! **Frame.** All four are in the run's world frame (docs/formats.md): the
+//! OBJ's right-handed frame, scaled by `scale` and turned Y-up for `up: Z`
+//! files. glTF and Godot use the same right-handed, Y-up frame, so no
+//! conversion is made; glTF takes a unit to be a metre, so a scene in
+//! other units is exported at the `scale` its config gives. The Unity
+//! file stays in world coordinates too; its importer negates x, as Unity's
+//! own OBJ, FBX and glTF importers do. The DDGI volume uses RTXGI's
+//! right-handed Y-up convention.
+
+pub mod ddgi;
+pub mod gltf;
+pub mod godot;
+pub mod unity;
+
+use crate::config::Export;
+use crate::provenance::Provenance;
+use crate::scene::Scene;
+use crate::svo::Svo;
+use glam::DVec3;
+use serde::{Deserialize, Serialize};
+use serde_json::Value;
+
+/// The file an export is written as.
+pub fn file_name(export: Export) -> &'static str {
+    match export {
+        Export::Glb | Export::GlbWithScene => "probes.glb",
+        Export::Tscn => "probes.tscn",
+        Export::Unity => "probes.unity.json",
+        Export::Ddgi => "ddgi.json",
+    }
+}
+
+/// An axis-aligned box in world coordinates.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct WorldBox {
+    /// Lower corner.
+    pub min: [f64; 3],
+    /// Upper corner.
+    pub max: [f64; 3],
+}
+
+/// One probe as the exports see it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SourceProbe {
+    /// World position, as `probes.json` writes it (f64).
+    pub position: [f64; 3],
+    /// Distance to the nearest surface; `None` outside the SDF grid.
+    pub clearance: Option<f64>,
+    /// The probe's **influence box**: the bounding box of the `svo.bin`
+    /// leaves that list the probe, i.e. of the points for which a renderer
+    /// querying the octree may shade with it. It is the box of Wang et al.
+    /// 2019 §4.1 (median radial distance per face, clipped to the domain)
+    /// cut down to the cells that see the probe and rank it among their
+    /// best `svo.max_probes`, widened by the cells that fall back to it
+    /// and by collapsed leaves; `None` when no leaf lists the probe.
+    pub influence: Option<WorldBox>,
+}
+
+/// What every export is computed from: one run's probes, report and octree.
+#[derive(Debug, Clone)]
+pub struct Source {
+    /// The run's provenance.
+    pub provenance: Provenance,
+    /// The method as `report.json` names it (`relocated:4x4x4`,
+    /// `sdf-skeleton+refine`, …).
+    pub method: String,
+    /// `report.json`'s `domain`.
+    pub domain: WorldBox,
+    /// The probes, in `probes.json` order.
+    pub probes: Vec<SourceProbe>,
+    /// `report.json`'s `placement_stats`.
+    pub stats: serde_json::Map<String, Value>,
+}
+
+/// The fields of `probes.json` the exports read.
+#[derive(Deserialize)]
+struct ProbesIn {
+    format: String,
+    provenance: Provenance,
+    probes: Vec<ProbeIn>,
+}
+
+#[derive(Deserialize)]
+struct ProbeIn {
+    position: [f64; 3],
+    clearance: Option<f64>,
+}
+
+impl Source {
+    /// The source of a run from its `probes.json` and `svo.bin` bytes and
+    /// its report. The error is the reason alone, led by the name of the
+    /// file at fault; the caller adds the directory.
+    ///
+    /// Contract: the three must be of one run (the same provenance, the
+    /// octree indexing as many probes as the file lists), every position
+    /// finite; otherwise `Err`.
+    pub fn read(probes_json: &[u8], report: &Value, svo_bytes: &[u8]) -> Result<Source, String> {
+        let probes: ProbesIn = serde_json::from_slice(probes_json)
+            .map_err(|e| format!("probes.json: not a probeplace probes file: {e}"))?;
+        if probes.format != "probeplace.probes" {
+            return Err(format!(
+                "probes.json: format is {:?}, expected \"probeplace.probes\"",
+                probes.format
+            ));
+        }
+        let provenance: Provenance =
+            serde_json::from_value(report["provenance"].clone()).map_err(|_| {
+                "report.json: has no provenance (written by an older probeplace); run the job again"
+                    .to_string()
+            })?;
+        if probes.provenance != provenance {
+            return Err(
+                "probes.json: comes from another run than report.json beside it; run the job again"
+                    .into(),
+            );
+        }
+        let svo = crate::svo::format::from_bytes(svo_bytes).map_err(|m| format!("svo.bin: {m}"))?;
+        if svo.provenance != provenance.to_bytes()
+            || svo.probe_count as usize != probes.probes.len()
+        {
+            return Err(
+                "svo.bin: comes from another run than report.json beside it; run the job again"
+                    .into(),
+            );
+        }
+        let corner = |k: &str| -> Result<[f64; 3], String> {
+            serde_json::from_value::<[f64; 3]>(report["domain"][k].clone())
+                .ok()
+                .filter(|c| c.iter().all(|v| v.is_finite()))
+                .ok_or_else(|| format!("report.json: domain.{k} is not three finite numbers"))
+        };
+        let domain = WorldBox {
+            min: corner("min")?,
+            max: corner("max")?,
+        };
+        if let Some(i) = probes
+            .probes
+            .iter()
+            .position(|p| !p.position.iter().all(|v| v.is_finite()))
+        {
+            return Err(format!("probes.json: probe {i} has no finite position"));
+        }
+        let origin = crate::svo::format::exact_origin(svo_bytes);
+        let influence = influence_boxes(&svo, origin, probes.probes.len());
+        Ok(Source {
+            provenance,
+            method: report["method"].as_str().unwrap_or("file").to_string(),
+            domain,
+            probes: probes
+                .probes
+                .into_iter()
+                .zip(influence)
+                .map(|(p, influence)| SourceProbe {
+                    position: p.position,
+                    clearance: p.clearance,
+                    influence,
+                })
+                .collect(),
+            stats: report["placement_stats"]
+                .as_object()
+                .cloned()
+                .unwrap_or_default(),
+        })
+    }
+
+    /// The diagonal of the domain.
+    pub fn diagonal(&self) -> f64 {
+        (DVec3::from(self.domain.max) - DVec3::from(self.domain.min)).length()
+    }
+}
+
+/// Each probe's influence box ([`SourceProbe::influence`]) from the leaves
+/// of `svo`, whose leaf (0, 0, 0) starts at the world point `origin`.
+fn influence_boxes(svo: &Svo, origin: DVec3, probes: usize) -> Vec<Option<WorldBox>> {
+    let mut cells: Vec<Option<(glam::UVec3, glam::UVec3)>> = vec![None; probes];
+    for (lo, edge, list) in svo.leaf_cubes() {
+        // Clipped to the domain's cells: beyond them the tree answers nothing.
+        let hi = (lo + edge).min(svo.dims);
+        if hi.cmple(lo).any() {
+            continue;
+        }
+        for &k in list {
+            if let Some(slot) = cells.get_mut(k as usize) {
+                *slot = Some(match *slot {
+                    Some((a, b)) => (a.min(lo), b.max(hi)),
+                    None => (lo, hi),
+                });
+            }
+        }
+    }
+    let leaf = f64::from(svo.leaf_size);
+    cells
+        .into_iter()
+        .map(|c| {
+            c.map(|(lo, hi)| WorldBox {
+                min: (origin + lo.as_dvec3() * leaf).to_array(),
+                max: (origin + hi.as_dvec3() * leaf).to_array(),
+            })
+        })
+        .collect()
+}
+
+/// The file of `export` for `source`; `scene` is the run's scene, needed
+/// only by [`Export::GlbWithScene`]. The error is a user error's reason
+/// (a DDGI volume of a placement that is no grid), led by the input file
+/// at fault (`probes.json: …`) when one is.
+pub fn encode(export: Export, source: &Source, scene: Option<&Scene>) -> Result<Vec<u8>, String> {
+    Ok(match export {
+        Export::Glb => gltf::encode(source, None),
+        Export::GlbWithScene => gltf::encode(
+            source,
+            Some(scene.ok_or("the scene mesh needs the run's scene")?),
+        ),
+        Export::Tscn => godot::encode(source).into_bytes(),
+        Export::Unity => unity::encode(source),
+        Export::Ddgi => ddgi::encode(source)?,
+    })
+}
+
+/// The provenance facts every export repeats: what ties it to the run.
+pub(crate) fn provenance_summary(p: &Provenance) -> Value {
+    serde_json::json!({
+        "tool": p.tool,
+        "config_hash": p.config_hash,
+        "seed": p.seed,
+        "scene_hash": p.scene_hash,
+    })
+}
+
+/// Serializes the object `value` as pretty JSON with a trailing newline,
+/// except that its array `rows` (its last field) is written `per_line`
+/// elements a line: a file of 65 536 probes stays readable and small.
+pub(crate) fn json_rows(value: &Value, rows: &str, per_line: usize) -> Vec<u8> {
+    let mut head = value.clone();
+    let items = head
+        .as_object_mut()
+        .and_then(|o| o.remove(rows))
+        .and_then(|v| v.as_array().cloned())
+        .unwrap_or_default();
+    let mut text = serde_json::to_string_pretty(&head).expect("a JSON value serializes");
+    text.truncate(text.trim_end_matches('}').trim_end().len());
+    let lines: Vec<String> = items
+        .chunks(per_line.max(1))
+        .map(|line| {
+            let cells: Vec<String> = line
+                .iter()
+                .map(|v| serde_json::to_string(v).expect("a JSON value serializes"))
+                .collect();
+            format!("    {}", cells.join(", "))
+        })
+        .collect();
+    let key = serde_json::to_string(rows).expect("a string serializes");
+    let sep = if text.ends_with('{') { "" } else { "," };
+    if lines.is_empty() {
+        text += &format!("{sep}\n  {key}: []\n}}\n");
+    } else {
+        text += &format!("{sep}\n  {key}: [\n{}\n  ]\n}}\n", lines.join(",\n"));
+    }
+    text.into_bytes()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rows_are_one_a_line_and_the_file_parses_back() {
+        let v = serde_json::json!({"a": 1, "b": {"c": [1, 2]}, "rows": [[1, 2, 3], {"x": null}]});
+        let text = String::from_utf8(json_rows(&v, "rows", 1)).unwrap();
+        assert_eq!(serde_json::from_str::<Value>(&text).unwrap(), v, "{text}");
+        assert!(
+            text.contains("\n    [1,2,3],\n    {\"x\":null}\n  ]\n}\n"),
+            "{text}"
+        );
+        let empty = serde_json::json!({"rows": []});
+        let text = String::from_utf8(json_rows(&empty, "rows", 1)).unwrap();
+        assert_eq!(
+            serde_json::from_str::<Value>(&text).unwrap(),
+            empty,
+            "{text}"
+        );
+        let flat = serde_json::json!({"n": 2, "rows": [1.5, 2, 3, 4, 5, 6.25]});
+        let text = String::from_utf8(json_rows(&flat, "rows", 3)).unwrap();
+        assert_eq!(
+            serde_json::from_str::<Value>(&text).unwrap(),
+            flat,
+            "{text}"
+        );
+        assert!(
+            text.contains("\n    1.5, 2, 3,\n    4, 5, 6.25\n"),
+            "{text}"
+        );
+    }
+}

@@ -1,0 +1,44 @@
+//! `probes.unity.json`: the probes as the Unity importer
+//! (`integrations/unity/ProbeplaceImporter.cs`) reads them into a
+//! `LightProbeGroup`.
+//!
+//! Unity's `JsonUtility` reads only what maps onto a `[Serializable]`
+//! class: no nulls, no nested arrays, no 64-bit unsigned numbers. So this
+//! file is flat: strings, two whole numbers and one array of floats,
+//! `positions`, three per probe in `probes.json` order. Its schema is
+//! `integrations/unity/probes.unity.schema.json`, and the importer's class
+//! declares the same fields (tests/it/export.rs checks both).
+//!
+//! The positions stay in world coordinates (right-handed, +Y up); the
+//! importer converts them to Unity's left-handed frame by negating x, as
+//! Unity's own OBJ, FBX and glTF importers do, so the probes land on a
+//! scene imported into Unity from its OBJ or from `probes.glb`.
+
+use super::Source;
+use serde_json::json;
+
+/// The `format` the importer checks.
+pub const FORMAT: &str = "probeplace.unity";
+
+/// `probes.unity.json` of `source`.
+pub fn encode(source: &Source) -> Vec<u8> {
+    let p = &source.provenance;
+    let positions: Vec<f64> = source.probes.iter().flat_map(|q| q.position).collect();
+    super::json_rows(
+        &json!({
+            "format": FORMAT,
+            "version": 1,
+            "tool": p.tool,
+            "config_hash": p.config_hash,
+            "scene_hash": p.scene_hash,
+            // A string: JsonUtility has no unsigned 64-bit field.
+            "seed": p.seed.to_string(),
+            "method": source.method,
+            "frame": "world: right-handed, +Y up; Unity (left-handed) = (-x, y, z)",
+            "count": source.probes.len(),
+            "positions": positions,
+        }),
+        "positions",
+        3,
+    )
+}

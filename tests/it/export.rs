@@ -1,0 +1,707 @@
+//! Exports for other tools (`probeplace export`, the config's `export`
+//! list): the glTF binary checked by the Khronos validator and read back
+//! with the `gltf` crate, the Godot scene parsed, the Unity file checked
+//! against the importer's schema and the importer's fields against the
+//! schema, the DDGI volume reproducing the probes, and the refusals.
+
+use crate::common::*;
+use serde_json::Value;
+use std::collections::BTreeSet;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+/// The world positions of a `probes.json`.
+fn positions(probes_json: &Path) -> Vec<[f64; 3]> {
+    read_json(probes_json)["probes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|p| serde_json::from_value(p["position"].clone()).unwrap())
+        .collect()
+}
+
+/// Runs `probeplace export ARGS…` quietly and asserts it succeeded.
+fn export(args: &[&str]) {
+    let mut all = vec!["export"];
+    all.extend_from_slice(args);
+    all.push("--quiet");
+    let o = probeplace(&all);
+    assert!(
+        o.status.success(),
+        "probeplace {all:?} failed: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+}
+
+/// The Khronos glTF validator's script, with its package installed by
+/// `npm ci --prefix tests/node`; `None` (the test skips) without node or
+/// the package, except under CI, which installs both.
+fn validator(test: &str) -> Option<PathBuf> {
+    let script = root().join("tests/node/validate-gltf.mjs");
+    let installed = root()
+        .join("tests/node/node_modules/gltf-validator/package.json")
+        .is_file();
+    let node = Command::new("node").arg("--version").output();
+    let why = match (&node, installed) {
+        (Ok(o), true) if o.status.success() => return Some(script),
+        (Ok(o), _) if o.status.success() => {
+            "gltf-validator is not installed (npm ci --prefix tests/node)"
+        }
+        _ => "no node on PATH",
+    };
+    assert!(
+        std::env::var_os("CI").is_none(),
+        "{test}: the glTF validator is required under CI (.ci/run installs nodejs and runs npm ci --prefix tests/node): {why}"
+    );
+    eprintln!("SKIPPED {test}: {why}");
+    None
+}
+
+/// The validator's reports of `files`, one each.
+fn validate(script: &Path, files: &[&Path]) -> Vec<Value> {
+    let o = Command::new("node")
+        .arg(script)
+        .args(files)
+        .output()
+        .expect("node runs");
+    assert!(
+        o.status.success(),
+        "validate-gltf.mjs failed: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let reports: Vec<Value> = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(reports.len(), files.len());
+    reports
+}
+
+/// What a `.glb` read back with the `gltf` crate holds.
+struct ReadBack {
+    /// Translations of the nodes named `probe N`, by N.
+    probes: Vec<[f32; 3]>,
+    /// The `extras` of those nodes.
+    extras: Vec<Value>,
+    /// Triangles of the mesh of the node named `scene` (0 without).
+    scene_triangles: usize,
+}
+
+fn read_back(glb: &Path) -> ReadBack {
+    let doc = gltf::Gltf::from_slice(&std::fs::read(glb).unwrap()).unwrap();
+    let blob = doc.blob.clone().expect("a GLB carries its buffer");
+    let mut probes = Vec::new();
+    let mut extras = Vec::new();
+    let mut scene_triangles = 0;
+    for node in doc.nodes() {
+        let name = node.name().unwrap_or("");
+        if let Some(n) = name.strip_prefix("probe ") {
+            assert_eq!(
+                n.parse::<usize>().unwrap(),
+                probes.len(),
+                "{name} out of order"
+            );
+            probes.push(node.transform().decomposed().0);
+            let raw = node.extras().as_ref().expect("probe extras");
+            extras.push(serde_json::from_str(raw.get()).unwrap());
+        }
+        if name == "scene" {
+            for p in node.mesh().unwrap().primitives() {
+                let reader = p.reader(|_| Some(&blob[..]));
+                scene_triangles += reader.read_positions().unwrap().count() / 3;
+            }
+        }
+    }
+    ReadBack {
+        probes,
+        extras,
+        scene_triangles,
+    }
+}
+
+/// A node of a Godot `.tscn`.
+struct TscnNode {
+    name: String,
+    kind: String,
+    parent: Option<String>,
+    /// Its `key = value` lines.
+    properties: Vec<(String, String)>,
+}
+
+/// The nodes of a Godot `.tscn` after checking that it is well formed:
+/// a `[gd_scene … format=3]` header first (its `load_steps`, when given,
+/// the resources plus one), then headings and `key = value` lines only;
+/// one root without a parent, first; unique names.
+fn tscn_nodes(text: &str) -> Vec<TscnNode> {
+    let mut lines = text.lines();
+    let header = lines.next().unwrap();
+    assert!(
+        header.starts_with("[gd_scene ") && header.ends_with(']') && header.contains(" format=3"),
+        "{header}"
+    );
+    let attr = |heading: &str, key: &str| -> Option<String> {
+        let at = heading.find(&format!(" {key}="))? + key.len() + 2;
+        let rest = &heading[at..];
+        Some(match rest.strip_prefix('"') {
+            Some(q) => q[..q.find('"').unwrap()].to_string(),
+            None => rest[..rest.find([' ', ']']).unwrap()].to_string(),
+        })
+    };
+    let mut nodes: Vec<TscnNode> = Vec::new();
+    let mut resources = 0;
+    for line in lines.filter(|l| !l.trim().is_empty() && !l.starts_with(';')) {
+        if line.starts_with("[node ") {
+            assert!(line.ends_with(']'), "{line}");
+            nodes.push(TscnNode {
+                name: attr(line, "name").expect("a node has a name"),
+                kind: attr(line, "type").expect("a node has a type"),
+                parent: attr(line, "parent"),
+                properties: Vec::new(),
+            });
+        } else if line.starts_with("[ext_resource ") || line.starts_with("[sub_resource ") {
+            resources += 1;
+        } else {
+            let (key, value) = line
+                .split_once(" = ")
+                .unwrap_or_else(|| panic!("not key = value: {line}"));
+            nodes
+                .last_mut()
+                .expect("a property before any node")
+                .properties
+                .push((key.into(), value.into()));
+        }
+    }
+    if let Some(steps) = attr(header, "load_steps") {
+        assert_eq!(steps.parse::<usize>().unwrap(), resources + 1, "{header}");
+    }
+    assert!(nodes[0].parent.is_none(), "the root has a parent");
+    assert!(
+        nodes[1..].iter().all(|n| n.parent.is_some()),
+        "a second root"
+    );
+    let names: BTreeSet<(&Option<String>, &String)> =
+        nodes.iter().map(|n| (&n.parent, &n.name)).collect();
+    assert_eq!(
+        names.len(),
+        nodes.len(),
+        "node names repeat under one parent"
+    );
+    nodes
+}
+
+/// The positions of a `.tscn`'s `LightmapProbe` nodes, in order.
+fn tscn_probes(path: &Path) -> Vec<[f64; 3]> {
+    let nodes = tscn_nodes(&std::fs::read_to_string(path).unwrap());
+    assert_eq!(nodes[0].kind, "Node3D");
+    nodes
+        .iter()
+        .filter(|n| n.kind == "LightmapProbe")
+        .map(|n| {
+            assert_eq!(n.parent.as_deref(), Some("."), "{}", n.name);
+            let t = &n
+                .properties
+                .iter()
+                .find(|(k, _)| k == "transform")
+                .unwrap()
+                .1;
+            let inner = t
+                .strip_prefix("Transform3D(")
+                .unwrap()
+                .strip_suffix(')')
+                .unwrap();
+            let v: Vec<f64> = inner.split(", ").map(|x| x.parse().unwrap()).collect();
+            assert_eq!(v[..9], [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0]);
+            [v[9], v[10], v[11]]
+        })
+        .collect()
+}
+
+/// The acceptance: Sponza's probes as `.glb`, without and with the scene
+/// mesh, pass the Khronos validator with no error and no warning, read back
+/// as one node per probe at its position; the `.tscn` lists every probe.
+#[test]
+fn sponza_exports_pass_the_khronos_validator() {
+    shared_scenes();
+    let run = shared_job("place", "configs/sponza.ron", &[]);
+    let tmp = tempfile::tempdir().unwrap();
+    let copy = tmp.path().join("sponza");
+    copy_dir(&run.dir, &copy);
+    let (bare, full) = (tmp.path().join("bare"), tmp.path().join("full"));
+    let copy_arg = copy.to_str().unwrap();
+    export(&[
+        copy_arg,
+        "--format",
+        "glb,tscn",
+        "--out",
+        bare.to_str().unwrap(),
+    ]);
+    export(&[
+        copy_arg,
+        "--format",
+        "glb",
+        "--scene",
+        "--out",
+        full.to_str().unwrap(),
+    ]);
+    // The copy is untouched; each output holds the run whole, with its exports.
+    let before: BTreeSet<_> = std::fs::read_dir(&copy)
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert!(!before
+        .iter()
+        .any(|n| n.to_string_lossy().starts_with("probes.glb")));
+    for out in [&bare, &full] {
+        for name in &before {
+            assert_eq!(
+                std::fs::read(copy.join(name)).unwrap(),
+                std::fs::read(out.join(name)).unwrap(),
+                "{name:?}"
+            );
+        }
+        let o = probeplace(&["inspect", out.to_str().unwrap(), "--quiet"]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    }
+
+    let expected = positions(&copy.join("probes.json"));
+    let report = &run.report;
+    let (bare_glb, full_glb) = (bare.join("probes.glb"), full.join("probes.glb"));
+    for (glb, with_scene) in [(&bare_glb, false), (&full_glb, true)] {
+        let back = read_back(glb);
+        assert_eq!(back.probes.len(), expected.len(), "{}", glb.display());
+        for (i, (got, want)) in back.probes.iter().zip(&expected).enumerate() {
+            for a in 0..3 {
+                assert_eq!(got[a], want[a] as f32, "probe {i}");
+            }
+            assert_eq!(back.extras[i]["index"], i);
+            assert!(back.extras[i]["clearance"].as_f64().unwrap() > 0.0);
+            // Sponza's every probe is listed by some leaf of its octree.
+            let b = &back.extras[i]["influence_box"];
+            let (lo, hi): ([f64; 3], [f64; 3]) = (
+                serde_json::from_value(b["min"].clone()).unwrap(),
+                serde_json::from_value(b["max"].clone()).unwrap(),
+            );
+            // Within the domain's leaves: the last leaf may reach past it.
+            let domain = &report["domain"];
+            let leaf = report["svo"]["leaf_size"].as_f64().unwrap();
+            for a in 0..3 {
+                assert!(lo[a] < hi[a], "probe {i}: {b}");
+                assert!(
+                    lo[a] >= domain["min"][a].as_f64().unwrap() - 1e-6,
+                    "probe {i}: {b}"
+                );
+                assert!(
+                    hi[a] <= domain["max"][a].as_f64().unwrap() + leaf,
+                    "probe {i}: {b}"
+                );
+            }
+        }
+        let triangles = report["scene"]["triangles"].as_u64().unwrap() as usize;
+        assert_eq!(back.scene_triangles, if with_scene { triangles } else { 0 });
+    }
+    let bytes = |p: &Path| std::fs::metadata(p).unwrap().len();
+    eprintln!(
+        "sponza: {} probes; probes.glb {} bytes, with the scene {} bytes",
+        expected.len(),
+        bytes(&bare_glb),
+        bytes(&full_glb)
+    );
+    assert!(bytes(&full_glb) > bytes(&bare_glb));
+
+    let tscn = tscn_probes(&bare.join("probes.tscn"));
+    assert_eq!(tscn.len(), expected.len());
+    assert_eq!(
+        tscn, expected,
+        "the .tscn writes probes.json's positions as they are"
+    );
+
+    let Some(script) = validator("sponza_exports_pass_the_khronos_validator") else {
+        return;
+    };
+    for r in validate(&script, &[&bare_glb, &full_glb]) {
+        let issues = &r["issues"];
+        let codes: Vec<String> = issues["messages"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|m| {
+                format!(
+                    "{} (severity {}) at {}: {}",
+                    m["code"], m["severity"], m["pointer"], m["message"]
+                )
+            })
+            .collect();
+        eprintln!(
+            "{}: {} errors, {} warnings, {} infos, {} hints {codes:?}",
+            r["file"],
+            issues["numErrors"],
+            issues["numWarnings"],
+            issues["numInfos"],
+            issues["numHints"]
+        );
+        assert_eq!(issues["numErrors"], 0, "{}: {codes:?}", r["file"]);
+        assert_eq!(issues["numWarnings"], 0, "{}: {codes:?}", r["file"]);
+        assert_eq!(
+            r["info"]["generator"],
+            format!("probeplace {}", env!("CARGO_PKG_VERSION"))
+        );
+    }
+}
+
+/// An 8 m closed room as an OBJ (the hostile suite's 2 m cube room scaled
+/// by 4 in its config).
+const ROOM: &str = "v 0 0 0\nv 2 0 0\nv 2 0 2\nv 0 0 2\nv 0 2 0\nv 2 2 0\nv 2 2 2\nv 0 2 2\n\
+f 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\n";
+
+/// A relocated 8³ grid in the 8 m room, unrefined, with every export in
+/// its config: 1 m cells, so the 4³ probes at least 2.5 m from every wall
+/// see no surface within a cell diagonal and are switched off.
+fn relocated_room(dir: &Path) -> PathBuf {
+    std::fs::write(dir.join("room.obj"), ROOM).unwrap();
+    let config = dir.join("room.ron");
+    std::fs::write(
+        &config,
+        "(\n    scene: \"room.obj\",\n    scale: 4.0,\n    voxel_size: 0.25,\n    placement: Relocated((cells: (8, 8, 8))),\n    refine: (enabled: false),\n    coverage: (samples: 2000, reference_points: 512),\n    output: \"out\",\n    bake: (resolution: 16, irradiance_resolution: 8, samples: 1, bounces: 1),\n    export: [Ddgi, Unity, Tscn, Glb],\n)\n",
+    )
+    .unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_probeplace"))
+        .args(["place", "room.ron", "--quiet"])
+        .current_dir(dir)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    dir.join("out")
+}
+
+/// The config's `export` list writes every export with the run, and
+/// `probeplace export` of the directory gives the same bytes; the DDGI
+/// volume lists the grid in RTXGI's order and reproduces every probe.
+#[test]
+fn a_relocated_grid_exports_its_ddgi_volume() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = relocated_room(tmp.path());
+    let report = read_json(&out.join("report.json"));
+    let expected = positions(&out.join("probes.json"));
+    let names = [
+        "ddgi.json",
+        "probes.unity.json",
+        "probes.tscn",
+        "probes.glb",
+    ];
+    let again = tmp.path().join("again");
+    export(&[
+        out.to_str().unwrap(),
+        "--format",
+        "ddgi,unity,tscn,glb",
+        "--out",
+        again.to_str().unwrap(),
+    ]);
+    // Into the directory itself: the other files stay as they were.
+    let listing = |d: &Path| -> Vec<(String, Vec<u8>)> {
+        let mut v: Vec<_> = std::fs::read_dir(d)
+            .unwrap()
+            .map(|e| {
+                let e = e.unwrap();
+                (
+                    e.file_name().to_string_lossy().into_owned(),
+                    std::fs::read(e.path()).unwrap(),
+                )
+            })
+            .collect();
+        v.sort();
+        v
+    };
+    let before = listing(&again);
+    export(&[again.to_str().unwrap(), "--format", "tscn"]);
+    assert_eq!(listing(&again), before);
+    // bake --from writes them again from the placement it reuses.
+    let baked = tmp.path().join("baked");
+    let o = probeplace(&[
+        "bake",
+        "--from",
+        out.to_str().unwrap(),
+        "--out",
+        baked.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(baked.join("lightfield.bin").is_file());
+    for name in names {
+        let a = std::fs::read(out.join(name)).unwrap();
+        assert!(
+            a == std::fs::read(again.join(name)).unwrap(),
+            "{name}: place and export wrote different bytes"
+        );
+        assert!(
+            a == std::fs::read(baked.join(name)).unwrap(),
+            "{name}: place and bake wrote different bytes"
+        );
+    }
+
+    let d = read_json(&out.join("ddgi.json"));
+    assert_eq!(d["format"], "probeplace.ddgi");
+    assert_eq!(
+        d["provenance"]["config_hash"],
+        report["provenance"]["config_hash"]
+    );
+    let n: [u32; 3] = serde_json::from_value(d["counts"].clone()).unwrap();
+    assert_eq!(n, [8, 8, 8]);
+    let (origin, spacing): ([f64; 3], [f64; 3]) = (
+        serde_json::from_value(d["origin"].clone()).unwrap(),
+        serde_json::from_value(d["spacing"].clone()).unwrap(),
+    );
+    let probes = d["probes"].as_array().unwrap();
+    assert_eq!(probes.len(), 512);
+    let off = report["placement_stats"]["switched_off_no_surface"]
+        .as_u64()
+        .unwrap()
+        + report["placement_stats"]["switched_off_inside"]
+            .as_u64()
+            .unwrap();
+    assert!(off > 0, "the room's middle probes are switched off");
+    assert_eq!(d["inactive"], off);
+    assert_eq!(d["active"], expected.len());
+    let mut seen = vec![false; expected.len()];
+    for (k, e) in probes.iter().enumerate() {
+        let c: [u32; 3] = serde_json::from_value(e["coords"].clone()).unwrap();
+        // RTXGI's DDGIGetProbeIndex, Y up: x fastest, then z, then y.
+        assert_eq!((c[0] + n[0] * c[2] + n[0] * n[2] * c[1]) as usize, k);
+        let offset: [f64; 3] = serde_json::from_value(e["offset"].clone()).unwrap();
+        match e["state"].as_str().unwrap() {
+            "active" => {
+                let i = e["probe"].as_u64().unwrap() as usize;
+                assert!(!seen[i], "probe {i} listed twice");
+                seen[i] = true;
+                for a in 0..3 {
+                    let rebuilt = origin[a] + f64::from(c[a]) * spacing[a] + offset[a];
+                    assert!(
+                        (rebuilt - expected[i][a]).abs() <= 1e-6 * spacing[a],
+                        "probe {i}: {rebuilt} against {}",
+                        expected[i][a]
+                    );
+                    assert!(
+                        offset[a].abs() <= 0.45 * spacing[a] * (1.0 + 1e-6),
+                        "probe {i}: {offset:?}"
+                    );
+                }
+            }
+            "inactive" => {
+                assert!(e["probe"].is_null());
+                assert_eq!(offset, [0.0; 3]);
+                // Switched off for seeing no wall: the room's middle.
+                assert!(c.iter().all(|&v| (2..6).contains(&v)), "{c:?}");
+            }
+            s => panic!("state {s}"),
+        }
+    }
+    assert!(
+        seen.iter().all(|&s| s),
+        "every probe of probes.json is in the volume"
+    );
+    let moved = probes
+        .iter()
+        .filter(|e| e["offset"] != serde_json::json!([0.0, 0.0, 0.0]))
+        .count();
+    assert_eq!(
+        moved as u64,
+        report["placement_stats"]["relocated"].as_u64().unwrap()
+    );
+
+    // The Unity file matches the importer's schema, and holds the probes.
+    let unity = read_json(&out.join("probes.unity.json"));
+    let schema = read_json(&root().join("integrations/unity/probes.unity.schema.json"));
+    check_schema(&unity, &schema, "probes.unity.json");
+    let flat: Vec<f64> = serde_json::from_value(unity["positions"].clone()).unwrap();
+    assert_eq!(flat, expected.iter().flatten().copied().collect::<Vec<_>>());
+    assert_eq!(unity["count"], expected.len());
+    // And the Godot scene and the glTF hold them as well.
+    assert_eq!(tscn_probes(&out.join("probes.tscn")), expected);
+    assert_eq!(
+        read_back(&out.join("probes.glb")).probes.len(),
+        expected.len()
+    );
+}
+
+/// Checks `value` against the JSON-schema subset the Unity schema uses:
+/// `type`, `const`, `required`, `properties`, `additionalProperties:
+/// false`, `items`, `minimum`.
+fn check_schema(value: &Value, schema: &Value, at: &str) {
+    if let Some(c) = schema.get("const") {
+        assert_eq!(value, c, "{at}");
+    }
+    if let Some(t) = schema["type"].as_str() {
+        let ok = match t {
+            "object" => value.is_object(),
+            "array" => value.is_array(),
+            "string" => value.is_string(),
+            "integer" => value.is_i64() || value.is_u64(),
+            "number" => value.is_number(),
+            "boolean" => value.is_boolean(),
+            other => panic!("schema type {other} not supported here"),
+        };
+        assert!(ok, "{at}: {value} is not of type {t}");
+    }
+    if let Some(m) = schema["minimum"].as_f64() {
+        assert!(value.as_f64().unwrap() >= m, "{at}: {value} < {m}");
+    }
+    if let Some(required) = schema["required"].as_array() {
+        for r in required {
+            assert!(
+                value.get(r.as_str().unwrap()).is_some(),
+                "{at}: {r} missing"
+            );
+        }
+    }
+    if let Some(props) = schema["properties"].as_object() {
+        for (k, v) in value.as_object().unwrap() {
+            match props.get(k) {
+                Some(s) => check_schema(v, s, &format!("{at}.{k}")),
+                None => assert!(
+                    schema["additionalProperties"] != false,
+                    "{at}: {k} is not in the schema"
+                ),
+            }
+        }
+    }
+    if let (Some(items), Some(a)) = (schema.get("items"), value.as_array()) {
+        for (i, v) in a.iter().enumerate() {
+            check_schema(v, items, &format!("{at}[{i}]"));
+        }
+    }
+}
+
+/// The Unity importer's `ProbesUnityFile` declares exactly the schema's
+/// fields, each with the C# type `JsonUtility` reads that JSON type into.
+#[test]
+fn the_unity_importer_declares_the_schema_fields() {
+    let dir = root().join("integrations/unity");
+    let schema = read_json(&dir.join("probes.unity.schema.json"));
+    let source = std::fs::read_to_string(dir.join("ProbeplaceImporter.cs")).unwrap();
+    let class = source
+        .split("public class ProbesUnityFile")
+        .nth(1)
+        .expect("ProbesUnityFile is declared");
+    let body = &class[class.find('{').unwrap() + 1..class.find('}').unwrap()];
+    let mut fields = std::collections::BTreeMap::new();
+    for line in body
+        .lines()
+        .map(str::trim)
+        .filter(|l| !l.is_empty() && !l.starts_with("//"))
+    {
+        let decl = line
+            .strip_prefix("public ")
+            .and_then(|l| l.strip_suffix(';'))
+            .unwrap_or_else(|| panic!("not a public field: {line}"));
+        let (ty, name) = decl.split_once(' ').unwrap();
+        fields.insert(name.to_string(), ty.to_string());
+    }
+    let props = schema["properties"].as_object().unwrap();
+    let declared: BTreeSet<&String> = fields.keys().collect();
+    let specified: BTreeSet<&String> = props.keys().collect();
+    assert_eq!(declared, specified, "ProbesUnityFile against the schema");
+    let required: BTreeSet<&str> = schema["required"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|r| r.as_str().unwrap())
+        .collect();
+    assert_eq!(required.len(), props.len(), "every field is required");
+    for (name, ty) in &fields {
+        let p = &props[name];
+        let json_type = match (p["type"].as_str(), &p["const"]) {
+            (Some(t), _) => t.to_string(),
+            (None, Value::String(_)) => "string".into(),
+            (None, Value::Number(n)) if n.is_u64() => "integer".into(),
+            other => panic!("{name}: {other:?}"),
+        };
+        let want = match json_type.as_str() {
+            "string" => "string",
+            "integer" => "int",
+            "array" => {
+                assert_eq!(p["items"]["type"], "number", "{name}");
+                "float[]"
+            }
+            other => panic!("{name}: {other}"),
+        };
+        assert_eq!(ty, want, "{name}");
+    }
+    // The importer checks the format the exporter writes.
+    assert!(source.contains("public const string Format = \"probeplace.unity\";"));
+    assert_eq!(schema["properties"]["format"]["const"], "probeplace.unity");
+}
+
+/// A DDGI volume of a placement that is no grid, a directory that is no
+/// output, an unknown format, `--scene` without glb: each one line, exit 2,
+/// nothing written.
+#[test]
+fn exports_that_cannot_be_written_are_refused() {
+    let run = shared_job("place", "configs/cornell.ron", &["--no-refine"]);
+    let tmp = tempfile::tempdir().unwrap();
+    let copy = tmp.path().join("run");
+    copy_dir(&run.dir, &copy);
+    let before: Vec<_> = std::fs::read_dir(&copy)
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    let refused = |args: &[&str]| refused_in(tmp.path(), args, &[]).line;
+
+    let e = refused(&["export", "run", "--format", "ddgi", "--out", "out"]);
+    assert!(
+        e.starts_with("error: run: --format ddgi: a DDGI volume needs"),
+        "{e}"
+    );
+    assert!(e.contains("sdf-skeleton"), "{e}");
+    std::fs::write(tmp.path().join("notes.txt"), "mine").unwrap();
+    let e = refused(&["export", ".", "--format", "glb", "--out", "out"]);
+    assert!(e.contains("holds no report.json"), "{e}");
+    let e = refused(&["export", "run", "--format", "fbx"]);
+    assert!(
+        e.contains("fbx") && e.contains("glb, tscn, unity, ddgi"),
+        "{e}"
+    );
+    let e = refused(&["export", "run", "--format", "tscn", "--scene"]);
+    assert!(e.contains("--scene"), "{e}");
+    // A probes.json of another run beside this report.
+    let other = shared_job("place", "configs/cornell.ron", &[]);
+    std::fs::copy(other.dir.join("probes.json"), copy.join("probes.json")).unwrap();
+    let e = refused(&["export", "run", "--format", "glb", "--out", "out"]);
+    assert!(
+        e.starts_with("error: run/probes.json: comes from another run"),
+        "{e}"
+    );
+    let after: Vec<_> = std::fs::read_dir(&copy)
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert_eq!(before, after, "a refused export wrote into the run");
+}
+
+/// A config's `export` list is checked before any stage: an unknown
+/// format, and a DDGI volume of a placement that is no unrefined grid, are
+/// refused naming the field where it is written.
+#[test]
+fn config_exports_are_checked_before_any_stage() {
+    let tmp = tempfile::tempdir().unwrap();
+    std::fs::write(tmp.path().join("room.obj"), ROOM).unwrap();
+    for (placement, why) in [
+        ("SdfSkeleton(())", "another method"),
+        ("Relocated((cells: (2, 2, 2)))", "refinement"),
+    ] {
+        std::fs::write(
+            tmp.path().join("room.ron"),
+            format!("(\n    scene: \"room.obj\",\n    voxel_size: 0.25,\n    placement: {placement},\n    output: \"out\",\n    export: [Glb, Ddgi],\n)\n"),
+        )
+        .unwrap();
+        let e = refused_in(tmp.path(), &["place", "room.ron"], &[]).line;
+        assert!(
+            e.starts_with("error: room.ron:6:5: export: Ddgi needs"),
+            "{e}"
+        );
+        assert!(e.contains(why), "{e}");
+    }
+    std::fs::write(
+        tmp.path().join("room.ron"),
+        "(\n    scene: \"room.obj\",\n    export: [Glb, Fbx],\n)\n",
+    )
+    .unwrap();
+    let e = refused_in(tmp.path(), &["place", "room.ron"], &[]).line;
+    assert!(e.starts_with("error: room.ron:3:19: export[1]: "), "{e}");
+    assert!(e.contains("Fbx") && e.contains("GlbWithScene"), "{e}");
+}
