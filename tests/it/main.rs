@@ -15,6 +15,7 @@ mod jobs;
 mod lightfield;
 mod medial_axis;
 mod place;
+mod readers;
 mod real_scenes;
 mod refine;
 mod render;
