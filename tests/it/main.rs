@@ -18,6 +18,7 @@ mod jobs;
 mod lightfield;
 mod medial_axis;
 mod place;
+mod readers;
 mod real_scenes;
 mod refine;
 mod render;

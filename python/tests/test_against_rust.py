@@ -1,0 +1,139 @@
+"""The Python readers against probeplace's Rust ones, on the files
+tests/it/readers.rs writes. That test names a manifest of cases in
+``PROBEPLACE_READERS_MANIFEST`` and checks afterwards that every case was
+verified here (each test appends its case to the manifest's ``verified``
+file). Without the variable (pytest run by hand) these tests are skipped;
+test_readers.py needs nothing from Rust.
+"""
+
+import json
+import os
+
+import numpy as np
+import pytest
+
+import probeplace as pp
+
+_MANIFEST_PATH = os.environ.get("PROBEPLACE_READERS_MANIFEST")
+MANIFEST = {}
+if _MANIFEST_PATH:
+    with open(_MANIFEST_PATH) as f:
+        MANIFEST = json.load(f)
+
+
+def cases(section):
+    return [pytest.param(c, id=c["name"]) for c in MANIFEST.get(section, [])]
+
+
+def verified(key):
+    with open(MANIFEST["verified"], "a") as f:
+        f.write(key + "\n")
+
+
+def assert_answers(svo, points_path, answers_path, non_empty=None):
+    """``svo.probes_at`` on every point equals Rust's answers."""
+    pts = np.fromfile(points_path, dtype="<f4").astype(np.float32).reshape(-1, 3)
+    ans = np.fromfile(answers_path, dtype="<u4").astype(np.uint32).reshape(-1, 9)
+    assert len(pts) == len(ans)
+    k = svo.max_probes
+    assert np.all(ans[:, 1 + k:] == pp.NO_PROBE), "Rust lists more than max_probes"
+    lists, counts = svo.probes_at(pts)
+    assert lists.shape == (len(pts), k) and counts.shape == (len(pts),)
+    bad = np.nonzero((counts != ans[:, 0]) | np.any(lists != ans[:, 1:1 + k], axis=1))[0]
+    assert len(bad) == 0, "; ".join(
+        f"point {i} {pts[i].tolist()}: Python {lists[i, :counts[i]].tolist()}, "
+        f"Rust {ans[i, 1:1 + ans[i, 0]].tolist()}" for i in bad[:5])
+    if non_empty is not None:
+        assert int(np.count_nonzero(counts)) == non_empty
+    # One point at a time, and in another shape, as a renderer might ask.
+    for i in range(0, len(pts), 97):
+        assert svo.probes_list(pts[i]).tolist() == ans[i, 1:1 + ans[i, 0]].tolist()
+    n = len(pts) // 6 * 6
+    if n:
+        grid_lists, grid_counts = svo.probes_at(pts[:n].reshape(2, -1, 3, 3))
+        assert np.array_equal(grid_counts.reshape(-1), counts[:n])
+        assert np.array_equal(grid_lists.reshape(-1, k), lists[:n])
+
+
+def assert_field(field, case):
+    """``field`` holds what Rust's ``LightField::read`` read: the header's
+    figures and every value, bit for bit once widened to f32."""
+    n, m = case["resolution"], case["irradiance_resolution"]
+    assert (field.probe_count, field.resolution, field.irradiance_resolution) == (
+        case["probes"], n, m)
+    assert len(field.pyramid) == case["levels"]
+    assert int(np.float32(field.max_distance).view(np.uint32)) == case["max_distance_bits"]
+    assert field.provenance.to_bytes().hex() == case["provenance"]
+    p = field.probe_count
+    assert field.radiance.shape == (p, n, n, 3) and field.moments.shape == (p, m, m, 2)
+    parts = [field.positions, field.radiance, field.normal, field.distance,
+             *field.pyramid, field.irradiance, field.moments]
+    values = np.concatenate([np.asarray(a, dtype=np.float32).ravel() for a in parts])
+    want = np.fromfile(case["dump"], dtype="<f4").astype(np.float32)
+    assert values.shape == want.shape
+    bad = np.nonzero(values.view(np.uint32) != want.view(np.uint32))[0]
+    assert len(bad) == 0, f"{len(bad)} values differ, first at {bad[0]}: " \
+                          f"{values[bad[0]]} against Rust's {want[bad[0]]}"
+
+
+@pytest.mark.parametrize("case", cases("probes_at"))
+def test_probes_at_answers_as_rust(case):
+    svo = pp.load_svo(case["svo"])
+    assert len(np.fromfile(case["points"], dtype="<f4")) == 3 * case["count"]
+    assert_answers(svo, case["points"], case["answers"], case["non_empty"])
+    verified(f"probes_at:{case['name']}")
+
+
+@pytest.mark.parametrize("case", cases("runs"))
+def test_output_directory_reads_as_one_run(case):
+    run = pp.open_run(case["dir"])
+    assert run.provenance.to_bytes().hex() == case["provenance"]
+    assert run.probes.provenance == run.provenance
+    assert len(run.probes) == run.svo.probe_count == case["probes"]
+    want = np.fromfile(case["positions"], dtype="<f8").astype(np.float64).reshape(-1, 3)
+    assert np.array_equal(run.probes.positions.view(np.uint64), want.view(np.uint64))
+    assert run.probes.cluster_size.tolist() == case["cluster_size"]
+    assert (run.lightfield is not None) == case["lightfield"]
+    if run.lightfield is not None:
+        assert run.lightfield.provenance == run.provenance
+        # Positions in lightfield.bin are probes.json's, rounded to f32.
+        assert np.array_equal(run.lightfield.positions, run.probes.positions.astype(np.float32))
+    verified(f"run:{case['name']}")
+
+
+@pytest.mark.parametrize("case", cases("lightfields"))
+def test_light_field_reads_as_rust(case):
+    assert_field(pp.load_lightfield(case["path"]), case)
+    verified(f"lightfield:{case['name']}")
+
+
+LOADERS = {
+    "svo": pp.load_svo,
+    "lightfield": pp.load_lightfield,
+    "probes": pp.load_probes,
+    "run": pp.open_run,
+}
+
+
+@pytest.mark.parametrize("case", cases("damaged"))
+def test_damaged_file_is_refused_as_rust_refuses_it(case):
+    load = LOADERS[case["kind"]]
+    if "error" in case:
+        with pytest.raises(pp.ProbeplaceError) as raised:
+            load(case["path"])
+        message = str(raised.value)
+        assert "\n" not in message
+        if case.get("exact", True):
+            assert message == case["error"]
+        else:
+            assert message.startswith(case["path"] + ": ")
+    else:
+        got = load(case["path"])
+        if case["kind"] == "svo":
+            assert_answers(got, case["points"], case["answers"])
+        elif case["kind"] == "lightfield":
+            assert_field(got, case["field"])
+        elif case["kind"] == "probes":
+            assert got.positions.ravel().tolist() == case["positions"]
+            assert got.cluster_size.tolist() == case["cluster_size"]
+    verified(f"damaged:{case['kind']}:{case['name']}")
