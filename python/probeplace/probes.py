@@ -30,7 +30,7 @@ class Probes:
     """The probes of a ``probes.json`` (or of a bare array of positions),
     in file order: the order ``svo.bin``'s indices and ``lightfield.bin``'s
     maps refer to. Fields a file lacks are ``None`` (scalars), NaN
-    (``clearance``, ``position_file``) or 0 (``cluster_size``)."""
+    (``clearance``, ``position_file``) or 0 (``cluster_size``), ``False`` (``fixed``)."""
 
     path: str
     positions: np.ndarray  # (P, 3) float64, world space
@@ -38,6 +38,7 @@ class Probes:
     clearance: np.ndarray  # (P,) float64; NaN where the file has null
     position_file: np.ndarray  # (P, 3) float64, the OBJ's coordinates
     voxel_class: list  # "free", "solid", "outside" or None, per probe
+    fixed: np.ndarray  # (P,) bool: the config's fixed_probes (they come first)
     method: "str | None" = None
     seed: "int | None" = None
     scene: "str | None" = None
@@ -103,6 +104,7 @@ def from_bytes(data: bytes, path: str = "probes.json") -> Probes:
     clearance = np.full(count, np.nan)
     position_file = np.full((count, 3), np.nan)
     classes: list = [None] * count
+    fixed = np.zeros(count, dtype=bool)
     for i, e in enumerate(entries):
         if isinstance(e, dict):
             position, size = e.get("position"), e.get("cluster_size")
@@ -126,7 +128,8 @@ def from_bytes(data: bytes, path: str = "probes.json") -> Probes:
                 position_file[i] = [_number(x) for x in f]
             if isinstance(e.get("voxel_class"), str):
                 classes[i] = e["voxel_class"]
-    for a in (positions, cluster, clearance, position_file):
+            fixed[i] = e.get("fixed") is True
+    for a in (positions, cluster, clearance, position_file, fixed):
         a.flags.writeable = False
     text = lambda k: top.get(k) if isinstance(top.get(k), str) else None  # noqa: E731
     seed = top.get("seed")
@@ -137,6 +140,7 @@ def from_bytes(data: bytes, path: str = "probes.json") -> Probes:
         clearance=clearance,
         position_file=position_file,
         voxel_class=classes,
+        fixed=fixed,
         method=text("method"),
         seed=seed if isinstance(seed, int) and not isinstance(seed, bool) else None,
         scene=text("scene"),

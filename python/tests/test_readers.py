@@ -222,8 +222,12 @@ def test_probes_read_both_forms_and_refuse_what_probeplace_refuses(tmp_path):
     assert p.positions.tolist() == [[0.1, 0.2, 0.3]] and p.cluster_size.tolist() == [5]
     assert np.isnan(p.clearance[0]) and p.voxel_class == [None] and p.seed == 3
     assert p.provenance is None
+    assert p.fixed.tolist() == [False]
+    doc["probes"][0]["fixed"] = True
+    assert pp.probes.from_bytes(json.dumps(doc).encode()).fixed.tolist() == [True]
     bare = pp.probes.from_bytes(b"[[1, 2, 3], [4, 5, 6]]")
     assert len(bare) == 2 and bare.cluster_size.tolist() == [0, 0]
+    assert bare.fixed.tolist() == [False, False]
     for text, reason in [
         (b"{}", "has no `probes` array"),
         (b"[]", "holds no probe"),

@@ -34,8 +34,9 @@ fn export(args: &[&str]) {
 }
 
 /// The Khronos glTF validator's script, with its package installed by
-/// `npm ci --prefix tests/node`; `None` (the test skips) without node or
-/// the package, except under CI, which installs both.
+/// `python3 tests/node/install.py` (or `npm ci --prefix tests/node`);
+/// `None` (the test skips) without node or the package, except under CI,
+/// which installs both.
 fn validator(test: &str) -> Option<PathBuf> {
     let script = root().join("tests/node/validate-gltf.mjs");
     let installed = root()
@@ -45,13 +46,13 @@ fn validator(test: &str) -> Option<PathBuf> {
     let why = match (&node, installed) {
         (Ok(o), true) if o.status.success() => return Some(script),
         (Ok(o), _) if o.status.success() => {
-            "gltf-validator is not installed (npm ci --prefix tests/node)"
+            "gltf-validator is not installed (python3 tests/node/install.py)"
         }
         _ => "no node on PATH",
     };
     assert!(
         std::env::var_os("CI").is_none(),
-        "{test}: the glTF validator is required under CI (.ci/run installs nodejs and runs npm ci --prefix tests/node): {why}"
+        "{test}: the glTF validator is required under CI (.ci/run installs nodejs and runs tests/node/install.py): {why}"
     );
     eprintln!("SKIPPED {test}: {why}");
     None
