@@ -6,7 +6,7 @@
 //! `probe N` after its index in `probes.json`, at its world position
 //! (`translation`, f64 as written in `probes.json`), drawing a shared
 //! marker mesh, an octahedron whose radius is 1% of the domain's diagonal,
-//! and carrying `extras`: `index`, `clearance` and `influence_box`
+//! and carrying `extras`: `index`, `clearance`, `influence_box` and `fixed`
 //! ([`super::SourceProbe::influence`]). With the scene, node `scene`
 //! holds its triangles, one primitive per material with the material's
 //! base colour (`Kd`, linear) and emission; its vertices are relative to
@@ -138,6 +138,7 @@ pub fn encode(source: &Source, scene: Option<&Scene>) -> Vec<u8> {
                     "index": i,
                     "clearance": p.clearance,
                     "influence_box": p.influence,
+                    "fixed": p.fixed,
                 },
             })
         })

@@ -50,6 +50,9 @@ pub fn encode(source: &Source) -> String {
         if let Some(c) = probe.clearance {
             let _ = writeln!(out, "metadata/clearance = {}", real(c));
         }
+        if probe.fixed {
+            let _ = writeln!(out, "metadata/fixed = true");
+        }
     }
     out
 }

@@ -65,6 +65,8 @@ pub struct SourceProbe {
     /// best `svo.max_probes`, widened by the cells that fall back to it
     /// and by collapsed leaves; `None` when no leaf lists the probe.
     pub influence: Option<WorldBox>,
+    /// One of the config's `fixed_probes`, placed by hand.
+    pub fixed: bool,
 }
 
 /// What every export is computed from: one run's probes, report and octree.
@@ -95,6 +97,8 @@ struct ProbesIn {
 struct ProbeIn {
     position: [f64; 3],
     clearance: Option<f64>,
+    #[serde(default)]
+    fixed: bool,
 }
 
 impl Source {
@@ -165,6 +169,7 @@ impl Source {
                     position: p.position,
                     clearance: p.clearance,
                     influence,
+                    fixed: p.fixed,
                 })
                 .collect(),
             stats: report["placement_stats"]
