@@ -58,7 +58,7 @@ fn fixed_probes_stay_put_and_the_placer_adds_only_what_they_miss() {
         "configs/holodeck.ron",
         &[("fixed_probes", &format!("[{}]", list.join(", ")))],
     );
-    let (_out, r, probes) = place_into(&config, &[]);
+    let (out, r, probes) = place_into(&config, &[]);
     for (i, p) in fixed.iter().enumerate() {
         assert_eq!(position(&probes[i]), *p, "fixed probe {i} moved");
         assert_eq!(probes[i]["fixed"], true);
@@ -79,6 +79,12 @@ fn fixed_probes_stay_put_and_the_placer_adds_only_what_they_miss() {
         "coverage {coverage} under the target"
     );
     assert!(r["refine"]["removed"].as_u64().unwrap() > 0);
+    // The engines learn which probes were pinned.
+    let dir = out.path().to_str().unwrap();
+    let o = probeplace(&["export", dir, "--format", "tscn", "-q"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let tscn = std::fs::read_to_string(out.path().join("probes.tscn")).unwrap();
+    assert_eq!(tscn.matches("metadata/fixed = true").count(), 3);
 }
 
 /// A fixed probe in solid, outside the domain, inside an exclude box, or
