@@ -44,7 +44,7 @@ pub fn bake(options: &RunOptions) -> Result<Outcome> {
     let prepared = job.prepare()?;
     let mut placement = place::placement(&mut job, &prepared)?;
     bake_stage(&mut job, &prepared, &mut placement)?;
-    job.finish("report.json", placement.report)
+    placement.finish(job, &prepared)
 }
 
 /// The bake's and the reference's limits, checked before any stage runs

@@ -77,7 +77,7 @@ pub fn render(options: &RunOptions) -> Result<Outcome> {
     placement.report["render"] =
         serde_json::to_value(&report).map_err(|e| Error::Internal(e.to_string()))?;
     push_warnings(&mut placement.report, &warnings);
-    job.finish("report.json", placement.report)
+    placement.finish(job, &prepared)
 }
 
 /// Renders `view` through `field` with each of `variants`, adds the images

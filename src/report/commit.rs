@@ -51,6 +51,20 @@ impl OutputSet {
         self.carried.push((name, from));
     }
 
+    /// The contents of `name`: added bytes, or a carried file read back
+    /// (`report.html` embeds the run's images, computed or reused);
+    /// `None` when the set has no such file.
+    pub fn contents(&self, name: &str) -> Result<Option<std::borrow::Cow<'_, [u8]>>> {
+        if let Some((_, bytes)) = self.files.iter().find(|(n, _)| n == name) {
+            return Ok(Some(std::borrow::Cow::Borrowed(bytes)));
+        }
+        match self.carried.iter().find(|(n, _)| n == name) {
+            Some((_, from)) => crate::input::read(from, name, crate::limits::memory_budget())
+                .map(|b| Some(std::borrow::Cow::Owned(b))),
+            None => Ok(None),
+        }
+    }
+
     /// Drops `name` from the set.
     pub fn remove(&mut self, name: &str) {
         self.files.retain(|(n, _)| n != name);

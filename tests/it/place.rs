@@ -87,6 +87,7 @@ fn cornell_default_run_meets_the_acceptance_bar() {
             "atlas.png",
             "placement.png",
             "probes.json",
+            "report.html",
             "report.json",
             "svo.bin"
         ]
