@@ -189,7 +189,8 @@ h3 small{font-weight:normal;color:#666}.plots{display:flex;flex-wrap:wrap;gap:16
 .sw{display:inline-block;width:11px;height:11px;margin:0 3px 0 6px;vertical-align:-1px;border:1px solid #888}\
 .grad{display:inline-block;width:120px;height:11px;margin:0 4px;vertical-align:-1px;border:1px solid #888}\
 #page-errors{color:#900;background:#fee;padding:6px;white-space:pre-wrap}\
-.figures td:last-child,.figures th:last-child{text-align:left;color:#555}";
+.figures td:last-child,.figures th:last-child{text-align:left;color:#555}\
+figure.small img{width:320px;image-rendering:pixelated}";
 
 fn count_figures(f: &Figures) -> usize {
     f.references.len()

@@ -622,11 +622,26 @@ fn images(h: &mut String, r: &Value, set: &OutputSet) -> Result<usize> {
         let Some(png) = set.contents(name)? else {
             continue;
         };
-        html::figure_with(h, &png, name, caption, "run");
+        // Small images (the maps of a few probes, a test-size render) are
+        // scaled up, pixels kept sharp.
+        let class = match png_width(&png) {
+            Some(w) if w < SMALL => "run small",
+            _ => "run",
+        };
+        html::figure_with(h, &png, name, caption, class);
         shown += 1;
     }
     h.push_str("</div>\n");
     Ok(shown)
+}
+
+/// Images narrower than this many pixels are shown at this width.
+const SMALL: u32 = 320;
+
+/// The width of a PNG, from its header (`IHDR`, bytes 16–19).
+fn png_width(png: &[u8]) -> Option<u32> {
+    let w = png.get(16..20)?;
+    Some(u32::from_be_bytes([w[0], w[1], w[2], w[3]]))
 }
 
 /// The run's warnings.
