@@ -25,7 +25,7 @@
 //! | competing placements: relocated grid, greedy voxels | [`placement`] | RTXGI; Silvennoinen & Lehtinen 2017 §4.1 |
 //! | comparisons against grids and competitors | [`jobs::compare`] | Wang §5, Figs. 8–12, Tables 1–2 |
 //! | stock-config runs on any scene against the grids | [`generality`] | Wang §5, Table 1 |
-//! | outputs, `compare`'s HTML report | [`report`] | — |
+//! | outputs, the HTML reports and their 3D view | [`report`] | — |
 //!
 //! [`stages`] composes them into typed products; [`jobs`] composes the
 //! stages into what the command line runs; the `probeplace` binary is a

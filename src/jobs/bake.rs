@@ -46,7 +46,7 @@ pub fn bake(options: &RunOptions) -> Result<Outcome> {
     let mut placement = place::placement(&mut job, &prepared)?;
     bake_stage(&mut job, &prepared, &mut placement)?;
     super::export::add_configured(&mut job, &placement.report, &prepared.scene)?;
-    job.finish("report.json", placement.report)
+    placement.finish(job, &prepared)
 }
 
 /// The bake's and the reference's limits, checked before any stage runs

@@ -35,7 +35,7 @@ use crate::report::compare::{
     PlacementRow,
 };
 use crate::report::html::{self, Figures, PlacementFigures};
-use crate::report::{self, exr};
+use crate::report::{self, exr, view3d};
 use crate::stages::validate::{self, Tracer, View};
 use crate::stages::{self, Placed, Prepared};
 use crate::svo::Svo;
@@ -104,6 +104,7 @@ pub fn compare(options: &RunOptions) -> Result<Outcome> {
         warnings,
         rows: Vec::new(),
         figures: Vec::new(),
+        sets: Vec::new(),
     };
     let ours_count = bench.ours(&mut job)?;
     bench.given(&mut job)?;
@@ -155,6 +156,7 @@ fn write(mut job: Job, bench: Bench, views: &[View], context: Option<&Context>) 
             .map(|v| png(&v.reference.full, v, "reference"))
             .collect::<Result<_>>()?,
         placements: bench.figures,
+        view: view3d::View::new(&bench.prepared.scene, &bench.prepared.domain, bench.sets),
     };
     job.set.add("compare.csv", to_csv(&report).into_bytes());
     job.set
@@ -321,6 +323,8 @@ struct Bench<'a> {
     warnings: Vec<String>,
     rows: Vec<PlacementRow>,
     figures: Vec<PlacementFigures>,
+    /// Every placement's probes for the 3D view, in row order.
+    sets: Vec<view3d::ProbeSet>,
 }
 
 impl Bench<'_> {
@@ -538,6 +542,14 @@ impl Bench<'_> {
             renders,
             errors,
         });
+        self.sets.push(view3d::ProbeSet::new(
+            name,
+            &positions,
+            sdf,
+            &svo,
+            &report::hole_sample(&holes),
+            holes.len(),
+        ));
         Ok(())
     }
 

@@ -3,7 +3,7 @@
 //!
 //! | job | stages | writes |
 //! |---|---|---|
-//! | [`place()`] | prepare → place | `probes.json`, `svo.bin`, `placement.png`, `atlas.png`, `report.json` |
+//! | [`place()`] | prepare → place | `probes.json`, `svo.bin`, `placement.png`, `atlas.png`, `report.json`, `report.html` |
 //! | [`bake()`] | … → bake → reference | + `lightfield.bin`, map previews, `reference*` |
 //! | [`render()`] | … → validate per variant | + `render_*`, `error_*` |
 //! | [`compare()`] | prepare → (place → bake → validate per camera) per placement | `compare.json`, `compare.csv`, `report.html` |
@@ -37,6 +37,7 @@ use crate::error::{Error, Result};
 use crate::progress::{Progress, Stopwatch};
 use crate::provenance::{self, Overrides, Provenance};
 use crate::report::commit::{self, OutputSet};
+use crate::report::view3d::View;
 use crate::stages::{self, Prepared};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
@@ -316,20 +317,31 @@ impl Job {
     }
 
     /// Finishes `report` (timings, what was reused) as `name` and commits
-    /// the whole set.
-    pub fn finish(self, name: &str, report: Value) -> Result<Outcome> {
-        let summary = summary(&report);
-        self.finish_with(name, report, summary)
-    }
-
-    /// [`Job::finish`] with the summary lines given.
+    /// the whole set, `summary` the lines the command line prints.
     pub fn finish_with(
-        mut self,
+        self,
         name: &str,
         mut report: Value,
         summary: Vec<String>,
     ) -> Result<Outcome> {
-        // This run's stages only: what it reused took no time.
+        self.stamp(&mut report);
+        self.write(name, report, summary)
+    }
+
+    /// Finishes a run's `report` (`place`, `bake`, `render`) as
+    /// `report.json`, writes `report.html` beside it (its figures, the
+    /// images of the set, `view`), and commits the whole set.
+    pub fn finish_run(mut self, mut report: Value, view: &View) -> Result<Outcome> {
+        self.stamp(&mut report);
+        let page = crate::report::run_html::page(&report, &self.set, view)?;
+        self.set.add("report.html", page.into_bytes());
+        let summary = summary(&report);
+        self.write("report.json", report, summary)
+    }
+
+    /// Sets the report's `timings_ms` (this run's stages only: what it
+    /// reused took no time) and `reused`.
+    fn stamp(&self, report: &mut Value) {
         let mut timings = serde_json::Map::new();
         for (k, v) in self.watch.to_map() {
             timings.insert(k, v.into());
@@ -337,6 +349,10 @@ impl Job {
         timings.insert("total".into(), self.watch.elapsed_ms().into());
         report["timings_ms"] = Value::Object(timings);
         report["reused"] = self.reused.clone().into();
+    }
+
+    /// Adds `report` as `name` and commits the set.
+    fn write(mut self, name: &str, report: Value, summary: Vec<String>) -> Result<Outcome> {
         self.set.add(name, crate::report::to_json(&report)?);
         commit::commit(&self.out_dir, &self.set, &self.inputs)?;
         Ok(Outcome {

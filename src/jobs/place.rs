@@ -17,8 +17,8 @@ pub(crate) const FILES: [&str; 4] = ["probes.json", "svo.bin", "placement.png", 
 /// Runs `probeplace place`.
 ///
 /// Contract: on success the output directory holds exactly `probes.json`,
-/// `svo.bin`, `placement.png`, `report.json` and (refined) `atlas.png`, all
-/// of one provenance; on any error it is as it was. User mistakes come back
+/// `svo.bin`, `placement.png`, `report.json`, `report.html` and (refined)
+/// `atlas.png`, all of one provenance; on any error it is as it was. User mistakes come back
 /// as [`Error::User`] naming the file or field.
 pub fn place(options: &RunOptions) -> Result<Outcome> {
     compute(options)?.commit()
@@ -50,7 +50,8 @@ impl PlaceRun {
     pub fn commit(mut self) -> Result<Outcome> {
         let value = to_value(&self.report)?;
         super::export::add_configured(&mut self.job, &value, &self.prepared.scene)?;
-        self.job.finish("report.json", value)
+        let view = view(&self.prepared, &value, &self.probes, &self.svo);
+        self.job.finish_run(value, &view)
     }
 }
 
@@ -71,6 +72,24 @@ pub fn compute(options: &RunOptions) -> Result<PlaceRun> {
     })
 }
 
+/// The 3D view of `report.html` for the placement `probes` (with its
+/// `svo`, in the scene's frame) whose report so far is `report`.
+pub(crate) fn view(
+    prepared: &Prepared,
+    report: &Value,
+    probes: &ProbeSet,
+    svo: &Svo,
+) -> crate::report::view3d::View {
+    report::run_html::view(
+        &prepared.scene,
+        &prepared.domain,
+        &prepared.sdf,
+        report,
+        &probes.positions(),
+        svo,
+    )
+}
+
 /// The placement a later job builds on.
 pub(crate) struct Placement {
     /// The probes.
@@ -79,6 +98,15 @@ pub(crate) struct Placement {
     pub svo: Svo,
     /// `report.json` so far.
     pub report: Value,
+}
+
+impl Placement {
+    /// Finishes the run of a job built on this placement (`bake`,
+    /// `render`): its `report.json`, and `report.html` with the 3D view.
+    pub fn finish(self, job: Job, prepared: &Prepared) -> Result<Outcome> {
+        let view = view(prepared, &self.report, &self.probes, &self.svo);
+        job.finish_run(self.report, &view)
+    }
 }
 
 /// The placement of `job`: loaded from `--from DIR` when that holds one,

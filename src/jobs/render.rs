@@ -79,7 +79,7 @@ pub fn render(options: &RunOptions) -> Result<Outcome> {
         serde_json::to_value(&report).map_err(|e| Error::Internal(e.to_string()))?;
     push_warnings(&mut placement.report, &warnings);
     super::export::add_configured(&mut job, &placement.report, &prepared.scene)?;
-    job.finish("report.json", placement.report)
+    placement.finish(job, &prepared)
 }
 
 /// Renders `view` through `field` with each of `variants`, adds the images

@@ -47,9 +47,9 @@ use view::{ProbeView, Viewer};
 pub const ATLAS_PANEL_PIXELS: u32 = 1 << 20;
 
 /// Colour of atlas texels some probe sees.
-const SEEN: [u8; 3] = [70, 180, 95];
+pub(crate) const SEEN: [u8; 3] = [70, 180, 95];
 /// Colour of atlas texels no probe sees.
-const UNSEEN: [u8; 3] = [225, 45, 40];
+pub(crate) const UNSEEN: [u8; 3] = [225, 45, 40];
 
 /// What refinement did, for `report.json` (docs/formats.md).
 #[derive(Debug, Clone, PartialEq, Serialize)]

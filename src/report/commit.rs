@@ -51,16 +51,16 @@ impl OutputSet {
         self.carried.push((name, from));
     }
 
-    /// The contents of `name` in the set: its bytes, or those of the file
-    /// it carries (read now); `None` when the set has no such file.
-    pub fn contents(&self, name: &str) -> Result<Option<Vec<u8>>> {
+    /// The contents of `name`: added bytes, or a carried file read back
+    /// (`report.html` embeds the run's images, computed or reused);
+    /// `None` when the set has no such file.
+    pub fn contents(&self, name: &str) -> Result<Option<std::borrow::Cow<'_, [u8]>>> {
         if let Some((_, bytes)) = self.files.iter().find(|(n, _)| n == name) {
-            return Ok(Some(bytes.clone()));
+            return Ok(Some(std::borrow::Cow::Borrowed(bytes)));
         }
         match self.carried.iter().find(|(n, _)| n == name) {
-            Some((_, from)) => std::fs::read(from)
-                .map(Some)
-                .map_err(|e| Error::io(from, e)),
+            Some((_, from)) => crate::input::read(from, name, crate::limits::memory_budget())
+                .map(|b| Some(std::borrow::Cow::Owned(b))),
             None => Ok(None),
         }
     }

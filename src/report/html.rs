@@ -1,7 +1,9 @@
-//! `report.html`: the comparison at a glance, in one self-contained file
-//! (images inlined as base64 PNG, plots as inline SVG, no scripts or fonts
-//! fetched), so it opens in a browser with no network and can be mailed or
-//! attached to a review as it is.
+//! `report.html` of `compare`: the comparison at a glance, in one
+//! self-contained file (images inlined as base64 PNG, plots as inline SVG,
+//! the 3D view with three.js inlined, nothing fetched), so it opens in a
+//! browser with no network and can be mailed or attached to a review as it
+//! is. The page frame and the helpers here (head and tail, tables,
+//! figures, escaping) serve the run report too ([`super::run_html`]).
 //!
 //! The plots are drawn here as SVG rather than with a plotting crate: two
 //! scatter plots need only axes, ticks and polylines, and hand-written SVG
@@ -26,6 +28,8 @@ pub struct Figures {
     pub references: Vec<Vec<u8>>,
     /// Per placement, in the order of `CompareReport::placements`.
     pub placements: Vec<PlacementFigures>,
+    /// The 3D view: the scene and every placement's probes.
+    pub view: super::view3d::View,
 }
 
 /// The page for `report` with `figures`.
@@ -35,12 +39,8 @@ pub struct Figures {
 pub fn page(report: &CompareReport, figures: &Figures) -> String {
     let mut h = String::with_capacity(1 << 20);
     let scene = escape(&report.scene);
-    let _ = write!(
-        h,
-        "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n\
-         <title>probeplace compare: {scene}</title>\n<style>{STYLE}</style>\n</head>\n<body>\n\
-         <h1>Probe placement compared: {scene}</h1>\n"
-    );
+    head(&mut h, &format!("probeplace compare: {}", report.scene));
+    let _ = writeln!(h, "<h1>Probe placement compared: {scene}</h1>");
     let _ = writeln!(
         h,
         "<p class=\"meta\">config <code>{}</code> · seed {} · grids traced by McGuire's bi-level march and grid selection, the rest by Wang's Hi-Z march and SVO selection, on <b>{}</b> · \
@@ -56,6 +56,10 @@ pub fn page(report: &CompareReport, figures: &Figures) -> String {
     );
     summary(&mut h, report);
     placements_table(&mut h, report);
+    figures.view.section(
+        &mut h,
+        "Every placement of the table in the scene: choose one with the selector.",
+    );
     matches_table(&mut h, report);
 
     h.push_str(
@@ -112,13 +116,60 @@ pub fn page(report: &CompareReport, figures: &Figures) -> String {
         }
         h.push_str("</ul>\n");
     }
-    let _ = write!(
-        h,
-        "<p class=\"meta\" id=\"figures\">{} figures inlined.</p>\n<script>{CHECK}</script>\n</body>\n</html>\n",
-        count_figures(figures)
-    );
+    tail(&mut h, count_figures(figures), Some(&figures.view));
     h
 }
+
+/// Opens a page: the doctype, the head (title, the style sheet, a content
+/// policy that forbids every fetch, the error log's listeners) and
+/// `<body>`.
+///
+/// The policy makes "self-contained" checkable: images may only be
+/// `data:` URIs, scripts only inline or the `blob:` modules of the 3D view
+/// ([`super::view3d`]), and anything else the page tried to load would be
+/// refused and logged.
+pub(crate) fn head(h: &mut String, title: &str) {
+    let _ = write!(
+        h,
+        "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n\
+         <meta http-equiv=\"Content-Security-Policy\" content=\"{POLICY}\">\n\
+         <title>{}</title>\n<style>{STYLE}{}</style>\n<script>{ERRORS}</script>\n</head>\n<body>\n",
+        escape(title),
+        super::view3d::STYLE
+    );
+}
+
+/// Closes a page: the error log, the line saying how many of its
+/// `figures` images decoded, the 3D view's data and scripts (when it has
+/// one), `</body>`.
+pub(crate) fn tail(h: &mut String, figures: usize, view: Option<&super::view3d::View>) {
+    let _ = writeln!(
+        h,
+        "<pre id=\"page-errors\" data-count=\"0\" hidden></pre>\n\
+         <p class=\"meta\" id=\"figures\">{figures} figures inlined.</p>\n<script>{CHECK}</script>"
+    );
+    if let Some(v) = view {
+        v.scripts(h);
+    }
+    h.push_str("</body>\n</html>\n");
+}
+
+/// The page's content policy: nothing may be fetched.
+const POLICY: &str = "default-src 'none'; img-src data:; style-src 'unsafe-inline'; script-src 'unsafe-inline' blob:";
+
+/// Collects the page's errors (script errors, failed loads, refused
+/// fetches, rejected promises, `console.error`) into `#page-errors`,
+/// whose `data-count` says how many there were, so that a reader (or a
+/// headless browser) sees a broken page as broken.
+const ERRORS: &str = "(function(){var log=[];function show(){var e=document.getElementById('page-errors');\
+if(!e){return;}e.textContent=log.join('\\n');e.dataset.count=log.length;e.hidden=log.length===0;}\
+function add(m){log.push(String(m));show();}\
+window.addEventListener('error',function(e){var t=e.target;if(t&&t!==window&&(t.src||t.href)){add('failed to load '+(t.src||t.href).slice(0,80));}\
+else{add('error: '+e.message+' ('+(e.filename||'').slice(0,60)+':'+(e.lineno||0)+')');}},true);\
+window.addEventListener('unhandledrejection',function(e){add('unhandled rejection: '+(e.reason&&e.reason.message||e.reason));});\
+document.addEventListener('securitypolicyviolation',function(e){add('refused by the page policy: '+e.blockedURI+' ('+e.violatedDirective+')');});\
+var ce=console.error;console.error=function(){add('console.error: '+Array.prototype.map.call(arguments,String).join(' '));return ce.apply(console,arguments);};\
+document.addEventListener('DOMContentLoaded',show);})();";
 
 /// Marks the page with how many of its images decoded, so a reader (or a
 /// headless browser) sees at once whether the file arrived whole.
@@ -134,7 +185,12 @@ th{background:#f2f2f2}td:first-child,th:first-child{text-align:left}tr.ours td{b
 figcaption{font-size:0.8em;color:#555}img{display:block;max-width:100%;image-rendering:auto}\
 .card{border:1px solid #ddd;border-radius:6px;padding:6px 10px;margin:10px 0}.card.ours{border-color:#5a5}\
 h3 small{font-weight:normal;color:#666}.plots{display:flex;flex-wrap:wrap;gap:16px}\
-.summary li{margin:0.3em 0}";
+.summary li{margin:0.3em 0}figure.run{max-width:620px}figure.run figcaption{font-size:0.85em;margin-top:3px}\
+.sw{display:inline-block;width:11px;height:11px;margin:0 3px 0 6px;vertical-align:-1px;border:1px solid #888}\
+.grad{display:inline-block;width:120px;height:11px;margin:0 4px;vertical-align:-1px;border:1px solid #888}\
+#page-errors{color:#900;background:#fee;padding:6px;white-space:pre-wrap}\
+.figures td:last-child,.figures th:last-child{text-align:left;color:#555}\
+figure.small img{width:320px;image-rendering:pixelated}";
 
 fn count_figures(f: &Figures) -> usize {
     f.references.len()
@@ -286,13 +342,36 @@ fn matches_table(h: &mut String, report: &CompareReport) {
 }
 
 fn figure(h: &mut String, png: &[u8], caption: &str, class: &str) {
+    figure_with(h, png, caption, &escape(caption), class);
+}
+
+/// A figure: the PNG inlined, `alt` text (escaped here) and a caption
+/// already in HTML.
+pub(crate) fn figure_with(h: &mut String, png: &[u8], alt: &str, caption_html: &str, class: &str) {
     let _ = writeln!(
         h,
-        "<figure class=\"{class}\"><img alt=\"{}\" src=\"data:image/png;base64,{}\"><figcaption>{}</figcaption></figure>",
-        escape(caption),
+        "<figure class=\"{class}\"><img alt=\"{}\" src=\"data:image/png;base64,{}\"><figcaption>{caption_html}</figcaption></figure>",
+        escape(alt),
         base64(png),
-        escape(caption)
     );
+}
+
+/// A table with `id`, a header row of `header` (escaped) and `rows` of
+/// cells already in HTML, the first column left-aligned.
+pub(crate) fn table(h: &mut String, id: &str, header: &[&str], rows: &[Vec<String>]) {
+    let _ = write!(h, "<table id=\"{id}\">\n<tr>");
+    for c in header {
+        let _ = write!(h, "<th>{}</th>", escape(c));
+    }
+    h.push_str("</tr>\n");
+    for r in rows {
+        h.push_str("<tr>");
+        for c in r {
+            let _ = write!(h, "<td>{c}</td>");
+        }
+        h.push_str("</tr>\n");
+    }
+    h.push_str("</table>\n");
 }
 
 /// Plot area and margins of the SVG plots, in pixels.
@@ -616,11 +695,12 @@ fn tick_label(v: f64) -> String {
 }
 
 /// `v` in scientific notation with three significant digits.
-fn sci(v: f64) -> String {
+pub(crate) fn sci(v: f64) -> String {
     format!("{v:.3e}")
 }
 
-fn bytes(b: u64) -> String {
+/// A byte count in B, KiB or MiB.
+pub(crate) fn bytes(b: u64) -> String {
     match b {
         0..=9_999 => format!("{b} B"),
         10_000..=9_999_999 => format!("{:.1} KiB", b as f64 / 1024.0),

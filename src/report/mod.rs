@@ -1,6 +1,7 @@
 //! Outputs of a run: `probes.json` (what a renderer loads), `report.json`
-//! (what a person or a script checks), `placement.png` (what an artist looks
-//! at). Formats are specified in docs/formats.md.
+//! (what a script checks), `placement.png` and `report.html` (what a person
+//! looks at: [`run_html`], with the 3D view of [`view3d`]). Formats are
+//! specified in docs/formats.md.
 //!
 //! Every coordinate written is a world coordinate in f64, converted from the
 //! stages' scene-local f32 ones by [`Scene::to_world`] here, at the boundary.
@@ -17,6 +18,8 @@ pub mod exr;
 pub mod html;
 pub mod preview;
 pub mod render;
+pub mod run_html;
+pub mod view3d;
 
 use crate::config::UpAxis;
 use crate::coverage::Coverage;
@@ -236,6 +239,11 @@ pub struct Report {
     pub resolution: Option<crate::resolution::Resolution>,
     /// Sample counts behind `coverage`.
     pub coverage_detail: Coverage,
+    /// World positions of up to [`HOLE_SAMPLE`] coverage holes (coverable
+    /// samples no probe sees), every k-th in sample order ([`hole_sample`]):
+    /// what `report.html` draws, kept here so that a later job reusing the
+    /// placement (`--from`) draws them too.
+    pub coverage_holes: Vec<[f64; 3]>,
     /// What the placement method's steps kept and dropped (see docs/formats.md).
     pub placement_stats: BTreeMap<&'static str, u64>,
     /// The placement method's parameters as used, defaults resolved.
@@ -323,6 +331,10 @@ impl Report {
             sdf: sdf.into(),
             resolution: Some(prepared.resolution),
             coverage_detail: *coverage,
+            coverage_holes: hole_sample(&placed.holes)
+                .iter()
+                .map(|h| scene.to_world(*h).to_array())
+                .collect(),
             placement_stats: probes.stats.clone(),
             placement_params: probes.params.clone(),
             refine,
@@ -334,6 +346,18 @@ impl Report {
             warnings,
         }
     }
+}
+
+/// Most coverage holes `report.json` and `report.html` keep.
+pub const HOLE_SAMPLE: usize = 512;
+
+/// At most [`HOLE_SAMPLE`] of `holes`: all of them when they are few, else
+/// every k-th from the first, k = ⌈n / HOLE_SAMPLE⌉ (deterministic, and
+/// spread over the surface as the samples are: they are drawn area-uniformly
+/// in stratified order, [`crate::coverage`]).
+pub fn hole_sample<T: Copy>(holes: &[T]) -> Vec<T> {
+    let step = holes.len().div_ceil(HOLE_SAMPLE).max(1);
+    holes.iter().step_by(step).copied().collect()
 }
 
 /// Pixel size of each of the two views in `placement.png`.

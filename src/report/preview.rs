@@ -73,9 +73,9 @@ const BACKGROUND: [u8; 3] = [48, 48, 48];
 /// Colour of the strip separating the two views.
 const GAP_COLOR: [u8; 3] = [20, 20, 20];
 /// Colour of the domain-bounds rectangle.
-const BOUNDS_COLOR: [u8; 3] = [200, 200, 200];
+pub(crate) const BOUNDS_COLOR: [u8; 3] = [200, 200, 200];
 /// Fill colour of a probe marker.
-const PROBE_FILL: [u8; 3] = [255, 221, 0];
+pub(crate) const PROBE_FILL: [u8; 3] = [255, 221, 0];
 /// Outline colour of a probe marker.
 const PROBE_OUTLINE: [u8; 3] = [0, 0, 0];
 /// Linear colour used for triangles that have no entry in `colors`.
@@ -391,7 +391,7 @@ fn draw_scene(
 }
 
 /// Colour of a coverage-hole mark.
-const HOLE_COLOR: [u8; 3] = [235, 40, 40];
+pub(crate) const HOLE_COLOR: [u8; 3] = [235, 40, 40];
 
 /// Marks each hole that lies on the surface drawn at its pixel (within 2% of
 /// the view's depth range) and was not cut away, as a 2×2 red square.

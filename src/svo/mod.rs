@@ -123,42 +123,6 @@ impl Svo {
         (&self.nodes, &self.payload)
     }
 
-    /// Every leaf node with the cube of leaf-size cells it stands for: the
-    /// cube's lower cell, its edge in cells (2^level), and the leaf's probe
-    /// list, depth first in child order. A cube may reach past
-    /// [`Svo::dims`] (the root cube is 2^depth cells on an edge, the domain
-    /// perhaps fewer); points there list nothing, so callers clip it.
-    pub fn leaf_cubes(&self) -> Vec<(UVec3, u32, &[u32])> {
-        let mut out = Vec::new();
-        let mut stack = vec![(0usize, UVec3::ZERO, self.depth)];
-        while let Some((node, lo, level)) = stack.pop() {
-            let Some(&word) = self.nodes.get(node) else {
-                continue;
-            };
-            if word & LEAF_BIT != 0 {
-                let count = ((word >> PAYLOAD_OFFSET_BITS) & 7) as usize + 1;
-                let offset = (word & ((1 << PAYLOAD_OFFSET_BITS) - 1)) as usize;
-                if let Some(list) = self.payload.get(offset..offset + count) {
-                    out.push((lo, 1u32 << level, list));
-                }
-                continue;
-            }
-            let mask = word & 0xFF;
-            if level == 0 {
-                continue;
-            }
-            let half = 1u32 << (level - 1);
-            let first = (word >> CHILD_MASK_BITS) as usize;
-            // Pushed in reverse so that children pop in increasing order.
-            for c in (0..8u32).rev().filter(|c| mask & (1 << c) != 0) {
-                let index = first + (mask & ((1 << c) - 1)).count_ones() as usize;
-                let at = lo + UVec3::new(c & 1, (c >> 1) & 1, (c >> 2) & 1) * half;
-                stack.push((index, at, level - 1));
-            }
-        }
-        out
-    }
-
     /// Nodes in the array (inner nodes and leaves).
     pub fn nodes(&self) -> usize {
         self.nodes.len()
@@ -180,6 +144,58 @@ impl Svo {
         offsets.sort_unstable();
         offsets.dedup();
         offsets.len()
+    }
+
+    /// Per probe, the leaf-size cells whose lists name it: what a renderer
+    /// reading `svo.bin` consults the probe for, fallback cells included
+    /// (a probe whose influence region, [`influence`], overlaps a cell it
+    /// sees, or the nearest that sees a cell no such probe sees). The
+    /// report's 3D view shows each probe's box.
+    ///
+    /// Contract: one entry per probe index below [`Svo::probe_count`];
+    /// `cells == 0` (and an empty box) for a probe no leaf lists; boxes
+    /// lie within [`Svo::dims`]; O(nodes + listed entries).
+    pub fn listings(&self) -> Vec<Listing> {
+        let mut out = vec![Listing::default(); self.probe_count as usize];
+        // (node index, level, lower corner in leaf cells)
+        let mut stack = vec![(0usize, self.depth, UVec3::ZERO)];
+        while let Some((index, level, base)) = stack.pop() {
+            let Some(&word) = self.nodes.get(index) else {
+                continue;
+            };
+            if word & LEAF_BIT != 0 {
+                let lo = base.min(self.dims);
+                let hi = (base + UVec3::splat(1 << level)).min(self.dims);
+                if lo.cmpge(hi).any() {
+                    continue;
+                }
+                let cells = (hi - lo).as_u64vec3().element_product();
+                let count = ((word >> PAYLOAD_OFFSET_BITS) & 7) as usize + 1;
+                let offset = (word & ((1 << PAYLOAD_OFFSET_BITS) - 1)) as usize;
+                let list = self.payload.get(offset..offset + count).unwrap_or(&[]);
+                for (rank, &probe) in list.iter().enumerate() {
+                    if let Some(l) = out.get_mut(probe as usize) {
+                        l.add(lo, hi, cells, rank == 0);
+                    }
+                }
+                continue;
+            }
+            let mask = word & 0xFF;
+            if level == 0 {
+                continue;
+            }
+            let half = 1u32 << (level - 1);
+            let first = (word >> CHILD_MASK_BITS) as usize;
+            for child in 0..8u32 {
+                if mask & (1 << child) == 0 {
+                    continue;
+                }
+                let at = first + (mask & ((1 << child) - 1)).count_ones() as usize;
+                let offset = UVec3::new(child & 1, (child >> 1) & 1, child >> 2) * half;
+                stack.push((at, level - 1, base + offset));
+            }
+        }
+        out
     }
 
     /// Size of `svo.bin` in bytes.
@@ -206,6 +222,33 @@ impl Svo {
     /// The bytes of `svo.bin`.
     pub fn to_bytes(&self) -> Vec<u8> {
         format::to_bytes(self)
+    }
+}
+
+/// Where one probe is listed ([`Svo::listings`]), in leaf cells.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Listing {
+    /// Lower corner of the bounding box of the cells listing the probe.
+    pub lo: UVec3,
+    /// Upper corner (exclusive): the box is `lo..hi` in leaf cells, i.e.
+    /// `origin + lo · leaf_size .. origin + hi · leaf_size`.
+    pub hi: UVec3,
+    /// Leaf-size cells whose list names the probe.
+    pub cells: u64,
+    /// Of those, cells whose list names it first.
+    pub first: u64,
+}
+
+impl Listing {
+    /// Counts the `cells` cells `lo..hi` of one leaf in.
+    fn add(&mut self, lo: UVec3, hi: UVec3, cells: u64, first: bool) {
+        if self.cells == 0 {
+            (self.lo, self.hi) = (lo, hi);
+        } else {
+            (self.lo, self.hi) = (self.lo.min(lo), self.hi.max(hi));
+        }
+        self.cells += cells;
+        self.first += u64::from(first) * cells;
     }
 }
 
@@ -483,30 +526,36 @@ mod tests {
     }
 
     #[test]
-    fn leaf_cubes_answer_as_queries_do() {
+    fn listings_bound_every_cell_that_lists_a_probe() {
         let (baked, ..) = bake_room(&SvoParams::default());
         let svo = &baked.svo;
-        let cubes = svo.leaf_cubes();
-        assert_eq!(cubes.len(), svo.leaves());
-        // Every cell's query answers the list of the one cube that holds it.
-        for x in 0..svo.dims.x {
+        let listings = svo.listings();
+        assert_eq!(listings.len(), 3);
+        // Every cell centre's list is inside each listed probe's box, and
+        // the counts add up to the cells each probe is queried at.
+        let mut counted = [0u64; 3];
+        let mut first = [0u64; 3];
+        for z in 0..svo.dims.z {
             for y in 0..svo.dims.y {
-                for z in 0..svo.dims.z {
-                    let cell = UVec3::new(x, y, z);
-                    let centre = svo.origin + (cell.as_vec3() + 0.5) * svo.leaf_size;
-                    let holding: Vec<&[u32]> = cubes
-                        .iter()
-                        .filter(|(lo, edge, _)| {
-                            cell.cmpge(*lo).all() && cell.cmplt(*lo + *edge).all()
-                        })
-                        .map(|c| c.2)
-                        .collect();
-                    match svo.probes_at(centre) {
-                        [] => assert!(holding.is_empty(), "{cell}"),
-                        list => assert_eq!(holding, vec![list], "{cell}"),
+                for x in 0..svo.dims.x {
+                    let c = UVec3::new(x, y, z);
+                    let p = svo.origin + (c.as_vec3() + 0.5) * svo.leaf_size;
+                    for (rank, &k) in svo.probes_at(p).iter().enumerate() {
+                        let l = &listings[k as usize];
+                        assert!(
+                            c.cmpge(l.lo).all() && c.cmplt(l.hi).all(),
+                            "{c} outside {l:?}"
+                        );
+                        counted[k as usize] += 1;
+                        first[k as usize] += u64::from(rank == 0);
                     }
                 }
             }
+        }
+        for (k, l) in listings.iter().enumerate() {
+            assert_eq!(l.cells, counted[k], "probe {k}");
+            assert_eq!(l.first, first[k], "probe {k}");
+            assert!(l.cells > 0 && l.hi.cmple(svo.dims).all(), "{l:?}");
         }
     }
 

@@ -9,9 +9,10 @@
 //! is not part of the suite: `probeplace compare configs/pillared-hall.ron
 //! --cpu` measures it, and docs/results.md publishes whatever it finds.
 
+use crate::browser;
 use crate::common::*;
 use serde_json::Value;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 /// Runs `compare` on `config` into `dir`; returns the JSON.
 fn run_compare(config: &str, dir: &Path, extra: &[&str]) -> Value {
@@ -183,67 +184,21 @@ fn report_has_every_placement_and_figure() {
     );
 }
 
-/// Chromium, or why there is none: skipping is visible, and fails under CI.
-fn chromium() -> Option<PathBuf> {
-    for name in ["chromium", "chromium-browser", "google-chrome"] {
-        let found = std::process::Command::new("which")
-            .arg(name)
-            .output()
-            .ok()
-            .filter(|o| o.status.success())
-            .map(|o| PathBuf::from(String::from_utf8_lossy(&o.stdout).trim()));
-        if found.is_some() {
-            return found;
-        }
-    }
-    assert!(
-        std::env::var_os("CI").is_none(),
-        "headless Chromium is required under CI (.ci/run installs it)"
-    );
-    eprintln!("SKIPPED report_html_opens_in_headless_chromium: no chromium on PATH");
-    None
-}
-
-/// The DOM Chromium builds from `page` after its load event, offline.
-fn dump_dom(chromium: &Path, page: &Path) -> String {
-    let profile = tempfile::tempdir().unwrap();
-    let o = std::process::Command::new(chromium)
-        .args([
-            "--headless",
-            "--no-sandbox",
-            "--disable-gpu",
-            "--no-first-run",
-            "--disable-extensions",
-            "--disable-dev-shm-usage",
-            "--virtual-time-budget=10000",
-        ])
-        .arg(format!("--user-data-dir={}", profile.path().display()))
-        .arg("--dump-dom")
-        .arg(format!("file://{}", page.display()))
-        .output()
-        .expect("chromium runs");
-    assert!(
-        o.status.success(),
-        "chromium failed: {}",
-        String::from_utf8_lossy(&o.stderr)
-    );
-    String::from_utf8_lossy(&o.stdout).into_owned()
-}
-
 #[test]
 fn report_html_opens_in_headless_chromium() {
-    let Some(chromium) = chromium() else {
+    let Some(chromium) = browser::chromium("report_html_opens_in_headless_chromium") else {
         return;
     };
     let Shared { dir, report: r } = cornell_glossy_test_quality();
     let page = dir.join("report.html");
     let html = std::fs::read_to_string(&page).unwrap();
-    // Nothing is fetched: no remote sources, links or style URLs (the SVG
-    // namespace is a name, not a fetch).
-    for remote in ["src=\"http", "href=\"http", "url(http", "@import"] {
-        assert!(!html.contains(remote), "the page refers to {remote}…");
-    }
-    let dom = dump_dom(&chromium, &page);
+    // Nothing is fetched (the SVG namespace is a name, not a fetch).
+    browser::assert_self_contained(&html, "compare report.html");
+    let loaded = browser::load(&chromium, &page);
+    loaded.assert_clean("compare report.html");
+    // The 3D view draws, with one probe set per placement to choose from.
+    loaded.assert_view_drawn("compare report.html");
+    let dom = &loaded.dom;
     for id in ["placements-table", "matches-table", "summary", "gallery"] {
         assert!(dom.contains(&format!("id=\"{id}\"")), "no #{id} in the DOM");
     }
@@ -252,19 +207,13 @@ fn report_html_opens_in_headless_chromium() {
     let table = dom.split("id=\"placements-table\"").nth(1).unwrap();
     let table = table.split("</table>").next().unwrap();
     assert_eq!(table.matches("<tr").count(), 1 + placements);
+    let selector = dom.split("id=\"v3-set\"").nth(1).unwrap_or_default();
+    let selector = selector.split("</select>").next().unwrap();
+    assert_eq!(selector.matches("<option").count(), placements);
     // Every image decoded in the browser: the page's own check says so.
-    let status = dom
-        .split("id=\"figures\"")
-        .nth(1)
-        .and_then(|s| s.split('>').nth(1))
-        .unwrap_or_default()
-        .to_string();
     let cameras = r["cameras"].as_array().unwrap().len();
     let expected = cameras + placements * (1 + 2 * cameras);
-    assert!(
-        status.starts_with(&format!("{expected} of {expected} figures decoded")),
-        "image check: {status:?}"
-    );
+    assert_eq!(loaded.decoded_images("compare report.html"), expected);
     assert!(dom.matches("<svg").count() >= 2, "the two plots");
     for name in ["sdf-skeleton", "medial-axis"] {
         assert!(dom.contains(name));

@@ -3,6 +3,7 @@
 //! `cargo test --release -- MODULE::` runs one module, e.g.
 //! `cargo test --release -- refine:: --nocapture`.
 
+mod browser;
 mod common;
 
 mod bad_input;
@@ -22,5 +23,6 @@ mod readers;
 mod real_scenes;
 mod refine;
 mod render;
+mod report_html;
 mod svo;
 mod translation;

@@ -87,6 +87,7 @@ fn cornell_default_run_meets_the_acceptance_bar() {
             "atlas.png",
             "placement.png",
             "probes.json",
+            "report.html",
             "report.json",
             "svo.bin"
         ]
@@ -206,6 +207,13 @@ fn one_thread_and_the_default_pool_give_identical_outputs() {
         r
     };
     assert_eq!(untimed(ra), untimed(read_json(&b.join("report.json"))));
+    let page = |d: &std::path::Path| {
+        crate::browser::untimed(&std::fs::read_to_string(d.join("report.html")).unwrap())
+    };
+    assert!(
+        page(a.path()) == page(&b),
+        "report.html differs between 1 thread and the default pool, timings aside"
+    );
 }
 
 #[test]

@@ -188,22 +188,12 @@ impl Source {
 /// Each probe's influence box ([`SourceProbe::influence`]) from the leaves
 /// of `svo`, whose leaf (0, 0, 0) starts at the world point `origin`.
 fn influence_boxes(svo: &Svo, origin: DVec3, probes: usize) -> Vec<Option<WorldBox>> {
-    let mut cells: Vec<Option<(glam::UVec3, glam::UVec3)>> = vec![None; probes];
-    for (lo, edge, list) in svo.leaf_cubes() {
-        // Clipped to the domain's cells: beyond them the tree answers nothing.
-        let hi = (lo + edge).min(svo.dims);
-        if hi.cmple(lo).any() {
-            continue;
-        }
-        for &k in list {
-            if let Some(slot) = cells.get_mut(k as usize) {
-                *slot = Some(match *slot {
-                    Some((a, b)) => (a.min(lo), b.max(hi)),
-                    None => (lo, hi),
-                });
-            }
-        }
-    }
+    let mut cells: Vec<Option<(glam::UVec3, glam::UVec3)>> = svo
+        .listings()
+        .into_iter()
+        .map(|l| (l.cells > 0).then_some((l.lo, l.hi)))
+        .collect();
+    cells.resize(probes, None);
     let leaf = f64::from(svo.leaf_size);
     cells
         .into_iter()

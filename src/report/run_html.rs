@@ -1,0 +1,697 @@
+//! `report.html` of `place`, `bake` and `render`: the run's figures from
+//! `report.json`, its 3D view ([`super::view3d`]) and every image it wrote,
+//! captioned, in one self-contained page (the frame, tables and figures of
+//! [`super::html`]).
+//!
+//! The figures are read from the report as written (a `serde_json` value),
+//! since a job that reuses a placement (`--from`) has its figures only
+//! there. Everything on the page is deterministic but the `#timings`
+//! section, which holds what `report.json`'s determinism leaves out too:
+//! `timings_ms` (every one of them), GPU times and the list of reused
+//! files.
+
+use super::commit::OutputSet;
+use super::html::{self, bytes, escape, sci};
+use super::view3d::{self, View};
+use crate::error::Result;
+use crate::scene::{Bounds, Scene};
+use crate::sdf::Sdf;
+use crate::svo::Svo;
+use glam::{DVec3, Vec3};
+use serde_json::Value;
+use std::fmt::Write as _;
+
+/// The page of the run whose `report.json` is `r`, with the images in
+/// `set` and `view`.
+///
+/// Contract: deterministic outside `#timings`; every image is a `data:`
+/// URI; missing sections of the report (no refinement, no bake) leave
+/// their tables out.
+pub fn page(r: &Value, set: &OutputSet, view: &View) -> Result<String> {
+    let mut h = String::with_capacity(4 << 20);
+    let job = if r["render"].is_object() {
+        "render"
+    } else if r["bake"].is_object() {
+        "bake"
+    } else {
+        "place"
+    };
+    let scene = text(&r["scene"]["path"]);
+    html::head(&mut h, &format!("probeplace {job}: {scene}"));
+    let p = &r["provenance"];
+    let _ = writeln!(
+        h,
+        "<h1>probeplace {job}: {}</h1>\n<p class=\"meta\">config <code>{}</code> · seed {} · method <b>{}</b> · {} · config hash {} · scene hash {}</p>",
+        escape(&scene),
+        escape(&text(&r["config"])),
+        r["seed"],
+        escape(&text(&r["method"])),
+        escape(&text(&p["tool"])),
+        escape(&text(&p["config_hash"])),
+        escape(&text(&p["scene_hash"])),
+    );
+    summary(&mut h, r);
+    view.section(
+        &mut h,
+        "The scene with the run's probes, coloured by clearance, and its coverage holes.",
+    );
+    placement_tables(&mut h, r);
+    svo_table(&mut h, r);
+    bake_table(&mut h, r);
+    render_table(&mut h, r);
+    let shown = images(&mut h, r, set)?;
+    warnings(&mut h, r);
+    timings(&mut h, r);
+    html::tail(&mut h, shown, Some(view));
+    Ok(h)
+}
+
+/// The 3D view of a run: `scene` over `domain`, its probes at `positions`
+/// (local coordinates) indexed by `svo` and scored against `sdf`, and the
+/// coverage holes `report` keeps (`coverage_holes`, world coordinates:
+/// the same whether the placement was computed or reused).
+pub fn view(
+    scene: &Scene,
+    domain: &Bounds,
+    sdf: &Sdf,
+    report: &Value,
+    positions: &[Vec3],
+    svo: &Svo,
+) -> View {
+    let holes: Vec<Vec3> = report["coverage_holes"]
+        .as_array()
+        .map(|a| {
+            a.iter()
+                .filter_map(|p| {
+                    let c: Vec<f64> = p.as_array()?.iter().filter_map(Value::as_f64).collect();
+                    (c.len() == 3).then(|| scene.to_local(DVec3::new(c[0], c[1], c[2])))
+                })
+                .collect()
+        })
+        .unwrap_or_default();
+    let d = &report["coverage_detail"];
+    let total = d["coverable_samples"]
+        .as_u64()
+        .unwrap_or(0)
+        .saturating_sub(d["covered_samples"].as_u64().unwrap_or(0)) as usize;
+    let set = view3d::ProbeSet::new(&text(&report["method"]), positions, sdf, svo, &holes, total);
+    View::new(scene, domain, vec![set])
+}
+
+/// A JSON string's text (`?` when absent).
+fn text(v: &Value) -> String {
+    v.as_str().unwrap_or("?").to_string()
+}
+
+/// A JSON number as a table shows it: whole numbers as they are, others
+/// with four significant digits; `–` when absent.
+fn num(v: &Value) -> String {
+    match v {
+        Value::Number(n) if n.is_u64() || n.is_i64() => n.to_string(),
+        Value::Number(n) => {
+            let x = n.as_f64().unwrap_or(f64::NAN);
+            if x != 0.0 && (x.abs() < 1e-3 || x.abs() >= 1e6) {
+                sci(x)
+            } else {
+                let s = format!("{x:.4}");
+                let s = s.trim_end_matches('0');
+                s.trim_end_matches('.').to_string()
+            }
+        }
+        Value::Null => "–".into(),
+        other => escape(&other.to_string()),
+    }
+}
+
+/// A fraction as a percentage with two decimals.
+fn pct(v: &Value) -> String {
+    v.as_f64()
+        .map_or("–".into(), |x| format!("{:.2}%", 100.0 * x))
+}
+
+/// `[x, y, z]` as `(x, y, z)`.
+fn triple(v: &Value) -> String {
+    match v.as_array() {
+        Some(a) => format!("({})", a.iter().map(num).collect::<Vec<_>>().join(", ")),
+        None => "–".into(),
+    }
+}
+
+/// A table of (figure, value, what it means) rows.
+fn figures_table(h: &mut String, id: &str, title: &str, rows: Vec<[String; 3]>) {
+    let _ = writeln!(
+        h,
+        "<h2 id=\"{id}-section\">{title}</h2>\n<div class=\"figures\">"
+    );
+    let rows: Vec<Vec<String>> = rows.into_iter().map(Vec::from).collect();
+    html::table(h, id, &["figure", "value", "meaning"], &rows);
+    h.push_str("</div>\n");
+}
+
+/// One row of a figures table; `meaning` is escaped, `value` is HTML.
+fn row(name: &str, value: String, meaning: &str) -> [String; 3] {
+    [escape(name), value, escape(meaning)]
+}
+
+/// The placement's headline figures.
+fn summary(h: &mut String, r: &Value) {
+    let d = &r["coverage_detail"];
+    let holes = d["coverable_samples"]
+        .as_u64()
+        .unwrap_or(0)
+        .saturating_sub(d["covered_samples"].as_u64().unwrap_or(0));
+    let res = &r["resolution"];
+    let scene = &r["scene"];
+    let rows = vec![
+        row(
+            "method",
+            escape(&text(&r["method"])),
+            "the placement method; +refine when refinement ran (Wang et al. 2019 §3.3)",
+        ),
+        row("probes", num(&r["probe_count"]), "probes placed"),
+        row(
+            "coverage",
+            format!(
+                "<b>{}</b> ± {}",
+                pct(&r["coverage"]),
+                pct(&r["coverage_ci95"])
+            ),
+            "share of the coverable surface some probe sees, with its 95% interval",
+        ),
+        row(
+            "coverage holes",
+            holes.to_string(),
+            "coverable surface samples no probe sees (red in the views)",
+        ),
+        row(
+            "coverable surface",
+            format!(
+                "{} of {} samples ({})",
+                num(&d["coverable_samples"]),
+                num(&d["samples"]),
+                pct(&d["coverable_fraction"])
+            ),
+            "surface some free point sees; the rest counts for no method",
+        ),
+        row(
+            "in solid",
+            num(&r["probes_in_solid"]),
+            "probes inside objects or walls",
+        ),
+        row(
+            "near surfaces",
+            num(&r["probes_below_clearance"]),
+            "probes filling placed below the placement's clearance",
+        ),
+        row(
+            "outside the scene",
+            num(&r["probes_outside_scene"]),
+            "probes in voxels classified outside",
+        ),
+        row(
+            "outside the domain",
+            num(&r["probes_outside_domain"]),
+            "probes outside the domain box",
+        ),
+        row(
+            "best view incidence",
+            r["best_view_incidence_deg"]
+                .as_f64()
+                .map_or("–".into(), |v| format!("{v:.1}°")),
+            "mean angle of each covered sample's best view (0° head-on)",
+        ),
+        row(
+            "voxel size",
+            format!(
+                "{} ({})",
+                num(&r["sdf"]["voxel_size"]),
+                escape(&text(&res["source"]))
+            ),
+            "the SDF's voxel edge, and whether the config gave it or it was chosen from the scene",
+        ),
+        row(
+            "SDF grid",
+            triple(&r["sdf"]["dims"]),
+            "voxels along x, y, z",
+        ),
+        row(
+            "scene",
+            format!(
+                "{} triangles ({} dropped), area {}",
+                num(&scene["triangles"]),
+                num(&scene["dropped_triangles"]),
+                num(&scene["area"])
+            ),
+            "usable triangles, faces dropped as degenerate, one-sided surface area",
+        ),
+        row(
+            "domain",
+            format!(
+                "{} to {}",
+                triple(&r["domain"]["min"]),
+                triple(&r["domain"]["max"])
+            ),
+            "where probes may go (world coordinates)",
+        ),
+    ];
+    figures_table(h, "summary-table", "Summary", rows);
+}
+
+/// The placement method's own figures and refinement's.
+fn placement_tables(h: &mut String, r: &Value) {
+    let mut rows = Vec::new();
+    for key in ["placement_stats", "placement_params"] {
+        if let Some(m) = r[key].as_object() {
+            for (k, v) in m {
+                let what = if key == "placement_stats" {
+                    "a count of the method's steps"
+                } else {
+                    "a parameter as used"
+                };
+                rows.push(row(k, num(v), what));
+            }
+        }
+    }
+    if !rows.is_empty() {
+        figures_table(h, "placement-table", "Placement method", rows);
+    }
+    let f = &r["refine"];
+    if !f.is_object() {
+        return;
+    }
+    let arrow = |a: &str, b: &str| format!("{} → {}", pct(&f[a]), pct(&f[b]));
+    let rows = vec![
+        row(
+            "iterations",
+            num(&f["iterations"]),
+            "sweeps over all probes",
+        ),
+        row(
+            "proposals",
+            format!(
+                "{} ({} accepted, {} illegal)",
+                num(&f["proposals"]),
+                num(&f["accepted"]),
+                num(&f["rejected_illegal"])
+            ),
+            "moves proposed, accepted by the Gibbs test, refused as illegal positions",
+        ),
+        row(
+            "coverage",
+            arrow("coverage_initial", "coverage_final"),
+            "before and after refinement, filling and pruning",
+        ),
+        row(
+            "atlas coverage",
+            arrow("atlas_coverage_initial", "atlas_coverage_final"),
+            "share of the atlas the probes' rays see (atlas.png)",
+        ),
+        row(
+            "probes",
+            format!(
+                "{} → {} ({} removed, {} added)",
+                num(&f["probes_initial"]),
+                num(&f["probes_final"]),
+                num(&f["removed"]),
+                num(&f["added"])
+            ),
+            "pruning removes, filling adds",
+        ),
+        row(
+            "fitness R",
+            format!("{} → {}", num(&f["r_initial"]), num(&f["r_final"])),
+            "eq. 1 of Wang et al. 2019, area-weighted (comparable within a scene)",
+        ),
+        row(
+            "fill rounds",
+            f["fill_rounds"].as_array().map_or(0, Vec::len).to_string(),
+            "rounds of filling",
+        ),
+    ];
+    figures_table(h, "refine-table", "Refinement", rows);
+}
+
+/// The SVO's figures.
+fn svo_table(h: &mut String, r: &Value) {
+    let s = &r["svo"];
+    if !s.is_object() {
+        return;
+    }
+    let rows = vec![
+        row(
+            "nodes",
+            format!(
+                "{} ({} leaves), depth {}",
+                num(&s["nodes"]),
+                num(&s["leaves"]),
+                num(&s["depth"])
+            ),
+            "inner nodes and leaves of svo.bin; the root is 2^depth leaves along an edge",
+        ),
+        row(
+            "size",
+            format!(
+                "{} (dense texture: {})",
+                bytes(s["bytes"].as_u64().unwrap_or(0)),
+                bytes(s["dense_bytes"].as_u64().unwrap_or(0))
+            ),
+            "svo.bin against the paper's dense RGBA8 texture at the same leaf size",
+        ),
+        row(
+            "leaf size",
+            format!("{} over {}", num(&s["leaf_size"]), triple(&s["dims"])),
+            "leaf edge and leaves along x, y, z",
+        ),
+        row(
+            "free cells",
+            format!(
+                "{} ({} by fallback)",
+                num(&s["free_cells"]),
+                num(&s["fallback_cells"])
+            ),
+            "leaf cells holding free space; fallback cells list the nearest probe that sees them",
+        ),
+        row(
+            "without a visible probe",
+            num(&s["leaves_without_visible_probe"]),
+            "free cells no probe sees (on open scenes mostly above the roof)",
+        ),
+        row(
+            "distinct lists",
+            num(&s["distinct_lists"]),
+            "different probe lists in the payload",
+        ),
+        row(
+            "first probe visible",
+            pct(&s["first_probe_visible"]),
+            "random free points whose first listed probe sees them",
+        ),
+    ];
+    figures_table(h, "svo-table", "Sparse voxel octree (svo.bin)", rows);
+}
+
+/// The bake's figures, after `bake` and `render`.
+fn bake_table(h: &mut String, r: &Value) {
+    let b = &r["bake"];
+    if !b.is_object() {
+        return;
+    }
+    let t = &b["tracer"];
+    let seen = t["seen"].as_f64().unwrap_or(0.0);
+    let agree = if seen > 0.0 {
+        format!("{:.2}%", 100.0 * t["agree"].as_f64().unwrap_or(0.0) / seen)
+    } else {
+        "–".into()
+    };
+    let mut rows = vec![
+        row(
+            "maps",
+            format!(
+                "{}² (irradiance {}²)",
+                num(&b["resolution"]),
+                num(&b["irradiance_resolution"])
+            ),
+            "side of each probe's radiance, normal and distance maps, and of its irradiance maps",
+        ),
+        row(
+            "probes",
+            format!(
+                "{}, {} paths a texel, {} bounces",
+                num(&b["probes"]),
+                num(&b["samples"]),
+                num(&b["bounces"])
+            ),
+            "probes baked, radiance paths per texel, indirect bounces",
+        ),
+        row(
+            "lightfield.bin",
+            bytes(b["bytes"].as_u64().unwrap_or(0)),
+            "size of the baked probes",
+        ),
+        row(
+            "lights",
+            format!(
+                "{} emissive triangles, {} config lights",
+                num(&b["area_lights"]),
+                num(&b["config_lights"])
+            ),
+            "what lights the scene",
+        ),
+        row(
+            "tracer agreement",
+            format!(
+                "<b>{agree}</b> of {} seen rays ({} rays, {} unknown)",
+                num(&t["seen"]),
+                num(&t["rays"]),
+                num(&t["unknown"])
+            ),
+            "the CPU light-field tracer against exact ray casts: hits within two texels",
+        ),
+        row(
+            "escaping rays",
+            format!(
+                "{} ({} called a miss)",
+                num(&t["escaping"]),
+                num(&t["escaping_missed"])
+            ),
+            "rays that truly leave the scene, and those the tracer calls a miss",
+        ),
+    ];
+    let f = &b["reference"];
+    if f.is_object() {
+        rows.push(row(
+            "reference",
+            format!(
+                "{}×{}, {} paths a pixel, {} bounces; mean {}, glossy {}",
+                num(&f["width"]),
+                num(&f["height"]),
+                num(&f["samples_per_pixel"]),
+                num(&f["bounces"]),
+                triple(&f["mean"]),
+                triple(&f["glossy_indirect_mean"])
+            ),
+            "the path-traced reference of the config's camera",
+        ));
+    }
+    figures_table(h, "bake-table", "Light-field bake (lightfield.bin)", rows);
+}
+
+/// The validation render's figures per variant, after `render`.
+fn render_table(h: &mut String, r: &Value) {
+    let x = &r["render"];
+    let Some(variants) = x["variants"].as_object() else {
+        return;
+    };
+    let _ = writeln!(
+        h,
+        "<h2 id=\"render-table-section\">Validation render</h2>\n<p class=\"meta\">{}×{} pixels, {} glossy rays, on <b>{}</b>; errors against the reference (Wang et al. 2019 §5.1).</p>",
+        num(&x["width"]),
+        num(&x["height"]),
+        num(&x["glossy_rays"]),
+        escape(&text(&x["adapter"]))
+    );
+    let rows: Vec<Vec<String>> = variants
+        .iter()
+        .map(|(name, v)| {
+            vec![
+                escape(name),
+                format!(
+                    "{} + {}",
+                    escape(&text(&v["march"])),
+                    escape(&text(&v["selection"]))
+                ),
+                num(&v["mse_glossy"]),
+                num(&v["mse_glossy_filtered"]),
+                num(&v["mse_full"]),
+                num(&v["texel_fetches_per_ray"]),
+                num(&v["surfel_fetches_per_ray"]),
+                num(&v["probe_switches_per_ray"]),
+                format!(
+                    "{} / {} / {}",
+                    num(&v["unresolved_rays"]),
+                    num(&v["hits"]),
+                    num(&v["misses"])
+                ),
+            ]
+        })
+        .collect();
+    html::table(
+        h,
+        "render-table",
+        &[
+            "variant",
+            "march + selection",
+            "glossy MSE",
+            "filtered glossy MSE",
+            "full MSE",
+            "texel fetches / ray",
+            "surfel fetches / ray",
+            "probe switches / ray",
+            "unresolved / hits / misses",
+        ],
+        &rows,
+    );
+}
+
+/// A colour swatch.
+fn swatch(c: [u8; 3]) -> String {
+    format!(
+        "<i class=\"sw\" style=\"background:#{:02x}{:02x}{:02x}\"></i>",
+        c[0], c[1], c[2]
+    )
+}
+
+/// A gradient bar through `stops` (CSS colours).
+fn gradient(stops: &str) -> String {
+    format!("<i class=\"grad\" style=\"background:linear-gradient(to right,{stops})\"></i>")
+}
+
+/// The run's images in the order of the files list of docs/formats.md,
+/// each with what it shows and what to look for; returns how many.
+fn images(h: &mut String, r: &Value, set: &OutputSet) -> Result<usize> {
+    use super::preview::{BOUNDS_COLOR, HOLE_COLOR, PROBE_FILL};
+    use crate::refine::{SEEN, UNSEEN};
+    let mut list: Vec<(String, String)> = vec![
+        (
+            "placement.png".into(),
+            format!(
+                "<b>placement.png</b>: top view (left, looking down −Y, +X right) and side view (right). {}probes, {}coverage holes (coverable surface samples no probe sees), {}the domain; surfaces darken with distance, back faces are culled. Look for red clusters: surface no probe sees.",
+                swatch(PROBE_FILL),
+                swatch(HOLE_COLOR),
+                swatch(BOUNDS_COLOR)
+            ),
+        ),
+        (
+            "atlas.png".into(),
+            format!(
+                "<b>atlas.png</b>: the visibility atlas (Wang et al. 2019 Fig. 5) before refinement (left) and after (right), one chart per triangle. {}seen by some probe, {}seen by none. Look for red charts that turn green on the right; speckle is what a probe's rays miss between them.",
+                swatch(SEEN),
+                swatch(UNSEEN)
+            ),
+        ),
+        (
+            "radiance.png".into(),
+            "<b>radiance.png</b>: each probe's radiance map (octahedral, McGuire et al. 2017 §3), tiled row by row from probe 0 at the top left, auto-exposed. Each tile is what its probe sees all around.".into(),
+        ),
+        (
+            "irradiance.png".into(),
+            "<b>irradiance.png</b>: each probe's irradiance map, the radiance integrated over the cosine lobe, tiled as the radiance; smooth by construction.".into(),
+        ),
+        (
+            "distance.png".into(),
+            format!(
+                "<b>distance.png</b>: the distance to the surface each texel sees, {} bright near to dark far, {}nothing seen (the ray escapes).",
+                gradient("#fff,#000"),
+                swatch([40, 60, 160])
+            ),
+        ),
+        (
+            "normal.png".into(),
+            "<b>normal.png</b>: the normal of the surface each texel sees, x, y, z mapped from [−1, 1] to red, green, blue (so +Y up is green).".into(),
+        ),
+        (
+            "reference.png".into(),
+            "<b>reference.png</b>: the path-traced reference from the config's camera, the image the renders are measured against.".into(),
+        ),
+        (
+            "reference-glossy.png".into(),
+            "<b>reference-glossy.png</b>: its glossy indirect part (light the glossy lobe reflects after at least one bounce), at the same exposure; the errors are measured on it.".into(),
+        ),
+    ];
+    if let Some(variants) = r["render"]["variants"].as_object() {
+        let heat = gradient("#000 0%,#f00 33.3%,#ff0 66.7%,#fff 100%");
+        for name in variants.keys() {
+            let name = escape(name);
+            list.push((
+                format!("render_{name}.png"),
+                format!("<b>render_{name}.png</b>: the camera's view rendered through the probes ({name} march): direct light, the probes' irradiance and one glossy ray a pixel. Compare with reference.png."),
+            ));
+            list.push((
+                format!("render_{name}-glossy.png"),
+                format!("<b>render_{name}-glossy.png</b>: its glossy indirect part. Compare with reference-glossy.png."),
+            ));
+            list.push((
+                format!("error_{name}.png"),
+                format!("<b>error_{name}.png</b>: |luminance(glossy − reference glossy)|, {heat} from 0 (black) through red and yellow to 4× the reference glossy mean (white). Look for bright areas: where the probes misjudge reflections."),
+            ));
+        }
+    }
+    h.push_str("<h2 id=\"images\">Images</h2>\n<div class=\"row\">\n");
+    let mut shown = 0;
+    for (name, caption) in &list {
+        let Some(png) = set.contents(name)? else {
+            continue;
+        };
+        // Small images (the maps of a few probes, a test-size render) are
+        // scaled up, pixels kept sharp.
+        let class = match png_width(&png) {
+            Some(w) if w < SMALL => "run small",
+            _ => "run",
+        };
+        html::figure_with(h, &png, name, caption, class);
+        shown += 1;
+    }
+    h.push_str("</div>\n");
+    Ok(shown)
+}
+
+/// Images narrower than this many pixels are shown at this width.
+const SMALL: u32 = 320;
+
+/// The width of a PNG, from its header (`IHDR`, bytes 16–19).
+fn png_width(png: &[u8]) -> Option<u32> {
+    let w = png.get(16..20)?;
+    Some(u32::from_be_bytes([w[0], w[1], w[2], w[3]]))
+}
+
+/// The run's warnings.
+fn warnings(h: &mut String, r: &Value) {
+    let Some(w) = r["warnings"].as_array().filter(|w| !w.is_empty()) else {
+        return;
+    };
+    h.push_str("<h2 id=\"warnings\">Warnings</h2>\n<ul>\n");
+    for x in w {
+        let _ = writeln!(h, "<li>{}</li>", escape(&text(x)));
+    }
+    h.push_str("</ul>\n");
+}
+
+/// Every timing of the report, the GPU times and the reused files: the
+/// one section that differs between runs of the same inputs.
+fn timings(h: &mut String, r: &Value) {
+    h.push_str("<section id=\"timings\">\n<h2>Timings</h2>\n");
+    let mut rows = Vec::new();
+    let mut add = |prefix: &str, t: &Value| {
+        if let Some(m) = t.as_object() {
+            for (k, v) in m {
+                rows.push(vec![escape(&format!("{prefix}{k}")), num(v)]);
+            }
+        }
+    };
+    add("", &r["timings_ms"]);
+    add("bake.", &r["bake"]["timings_ms"]);
+    add("render.", &r["render"]["timings_ms"]);
+    if let Some(variants) = r["render"]["variants"].as_object() {
+        for (name, v) in variants {
+            if v["gpu_ms"].is_number() {
+                rows.push(vec![
+                    escape(&format!("render.{name}.gpu_ms")),
+                    num(&v["gpu_ms"]),
+                ]);
+            }
+        }
+    }
+    html::table(h, "timings-table", &["stage", "ms"], &rows);
+    let reused: Vec<String> = r["reused"]
+        .as_array()
+        .map(|a| a.iter().map(|v| escape(&text(v))).collect())
+        .unwrap_or_default();
+    if !reused.is_empty() {
+        let _ = writeln!(
+            h,
+            "<p class=\"meta\">Reused from the earlier run (<code>--from</code>): {}.</p>",
+            reused.join(", ")
+        );
+    }
+    h.push_str("</section>\n");
+}
