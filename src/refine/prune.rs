@@ -1014,25 +1014,12 @@ mod tests {
         assert!(r.kept.starts_with(&[0, 1]), "{r:?}");
         assert!(!r.kept.contains(&2), "the unpinned copy goes: {r:?}");
 
-        let single = matrix.fill_and_prune(
-            &positions[..1],
-            &tiers,
-            0.999,
-            true,
-            true,
-            Rules::default(),
-            &p,
-        );
+        let one_probe = |m: &CoverMatrix| {
+            m.fill_and_prune(&[one], &tiers, 0.999, true, true, Rules::default(), &p)
+        };
+        let single = one_probe(&matrix);
         let twice = CoverMatrix::new(&reference, &bvh).with_need(|_, _| 2);
-        let r = twice.fill_and_prune(
-            &positions[..1],
-            &tiers,
-            0.999,
-            true,
-            true,
-            Rules::default(),
-            &p,
-        );
+        let r = one_probe(&twice);
         let mut all = vec![one];
         all.extend(&r.added);
         let kept: Vec<Vec3> = r.kept.iter().map(|&k| all[k]).collect();
