@@ -96,10 +96,35 @@ fn shift_points(ron: &str, key: &str, shift: [f64; 3]) -> String {
     out + rest
 }
 
+/// The artist controls of [`controls_place_alike_wherever_the_box_sits`],
+/// for the box at the origin (metres): a fixed probe, an exclude box, a
+/// budget and a density over the left half; `point` turns a point of the
+/// box into the case's world coordinates.
+fn controls(point: impl Fn([f64; 3]) -> [f64; 3]) -> Vec<(&'static str, String)> {
+    let p = |v: [f64; 3]| {
+        let w = point(v);
+        format!("({:.6}, {:.6}, {:.6})", w[0], w[1], w[2])
+    };
+    let region = |lo, hi| format!("Box((min: {}, max: {}))", p(lo), p(hi));
+    vec![
+        ("fixed_probes", format!("[{}]", p([0.1, 0.45, 0.1]))),
+        (
+            "exclude",
+            format!("[{}]", region([0.3, 0.3, 0.3], [0.5, 0.5, 0.5])),
+        ),
+        ("max_probes", "6".into()),
+        (
+            "probe_density",
+            format!("[({}, 2.0)]", region([-1.0, -1.0, -1.0], [0.278, 2.0, 2.0])),
+        ),
+    ]
+}
+
 /// Writes `case`'s scene and a config with configs/cornell.ron's fields
 /// (scene and scale aside, points shifted with the scene), at test quality,
-/// into `dir`; returns the config's path.
-fn write_case(dir: &Path, case: &Case) -> PathBuf {
+/// with the [`controls`] when `with_controls`, into `dir`; returns the
+/// config's path.
+fn write_case(dir: &Path, case: &Case, with_controls: bool) -> PathBuf {
     let fixture = probeplace::fixtures::cornell_box();
     let divide = if case.metres { 1e3 } else { 1.0 };
     let obj = shifted_obj(&fixture.obj, case.shift_mm, divide);
@@ -133,7 +158,11 @@ fn write_case(dir: &Path, case: &Case) -> PathBuf {
         text = shift_points(&text, key, case.shift_m());
     }
     // Invariance holds at any quality: the cases run at test quality.
-    let quality = test_quality_fields(&text);
+    let mut quality = test_quality_fields(&text);
+    if with_controls {
+        let shift = case.shift_m();
+        quality.extend(controls(|v| [0, 1, 2].map(|i| v[i] + shift[i])));
+    }
     let fields: Vec<(&str, &str)> = quality.iter().map(|(k, v)| (*k, v.as_str())).collect();
     let text = set_ron_fields(&text, &fields);
     let path = dir.join(format!("{}.ron", case.name));
@@ -152,17 +181,60 @@ fn distance(a: [f64; 3], b: [f64; 3]) -> f64 {
 
 #[test]
 fn cornell_box_places_alike_wherever_it_sits_and_whatever_its_units() {
+    let runs = place_cases(false);
+    assert!(
+        runs[0].0["warnings"].as_array().unwrap().is_empty(),
+        "{}",
+        runs[0].0
+    );
+    assert_alike(&runs);
+}
+
+/// The artist controls hold wherever the box sits and whatever its units:
+/// the fixed probe stands exactly at its (shifted) point, and the rest is
+/// the same placement, shifted.
+#[test]
+fn controls_place_alike_wherever_the_box_sits() {
+    let runs = place_cases(true);
+    assert_alike(&runs);
+    for (case, (report, probes)) in CASES.iter().zip(&runs) {
+        let shift = case.shift_m();
+        let fixed = [0.1 + shift[0], 0.45 + shift[1], 0.1 + shift[2]];
+        let first = &probes["probes"][0];
+        assert_eq!(first["fixed"], true, "{}", case.name);
+        assert!(
+            distance(point(&first["position"]), fixed) < 1e-6,
+            "{}: {}",
+            case.name,
+            first
+        );
+        assert_eq!(report["controls"], runs[0].0["controls"], "{}", case.name);
+    }
+    assert!(
+        runs[0].0["controls"]["samples_with_density"]
+            .as_u64()
+            .unwrap()
+            > 0
+    );
+}
+
+/// `place` of every case; its report and probes.json.
+fn place_cases(with_controls: bool) -> Vec<(serde_json::Value, serde_json::Value)> {
     let dir = tempfile::tempdir().unwrap();
-    let runs: Vec<(serde_json::Value, serde_json::Value)> = CASES
+    CASES
         .iter()
         .map(|case| {
-            let config = write_case(dir.path(), case);
+            let config = write_case(dir.path(), case, with_controls);
             let out = dir.path().join(format!("out-{}", case.name));
             let report = place(&config, &out, &[]);
             (report, read_json(&out.join("probes.json")))
         })
-        .collect();
+        .collect()
+}
 
+/// Every case has the origin's probe count, coverage and warnings, and its
+/// probes are the origin's, shifted, each matched once.
+fn assert_alike(runs: &[(serde_json::Value, serde_json::Value)]) {
     let (first, first_probes) = &runs[0];
     let count = first["probe_count"].as_u64().unwrap();
     assert!(count > 0);
@@ -172,7 +244,7 @@ fn cornell_box_places_alike_wherever_it_sits_and_whatever_its_units() {
         .iter()
         .map(|p| point(&p["position"]))
         .collect();
-    for (case, (report, probes)) in CASES.iter().zip(&runs) {
+    for (case, (report, probes)) in CASES.iter().zip(runs) {
         let name = case.name;
         assert_eq!(report["probe_count"].as_u64().unwrap(), count, "{name}");
         let (a, b) = (
@@ -180,10 +252,7 @@ fn cornell_box_places_alike_wherever_it_sits_and_whatever_its_units() {
             first["coverage"].as_f64().unwrap(),
         );
         assert!((a - b).abs() <= 1e-9, "{name}: coverage {a} against {b}");
-        assert!(
-            report["warnings"].as_array().unwrap().is_empty(),
-            "{name}: {report}"
-        );
+        assert_eq!(report["warnings"], first["warnings"], "{name}");
 
         let shift = case.shift_m();
         let moved = |p: [f64; 3]| [p[0] + shift[0], p[1] + shift[1], p[2] + shift[2]];
