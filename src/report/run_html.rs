@@ -56,6 +56,7 @@ pub fn page(r: &Value, set: &OutputSet, view: &View) -> Result<String> {
         "The scene with the run's probes, coloured by clearance, and its coverage holes.",
     );
     placement_tables(&mut h, r);
+    controls_table(&mut h, r);
     svo_table(&mut h, r);
     bake_table(&mut h, r);
     render_table(&mut h, r);
@@ -332,6 +333,55 @@ fn placement_tables(h: &mut String, r: &Value) {
 }
 
 /// The SVO's figures.
+/// What the artist controls did, when the config set any
+/// (`report.json`'s `controls`).
+fn controls_table(h: &mut String, r: &Value) {
+    let c = &r["controls"];
+    let set = c["fixed_probes"].as_u64().unwrap_or(0) > 0
+        || c["excluded"].as_u64().unwrap_or(0) > 0
+        || !c["max_probes"].is_null()
+        || c["density_regions"].as_u64().unwrap_or(0) > 0;
+    if !set {
+        return;
+    }
+    let rows = vec![
+        row(
+            "fixed probes",
+            num(&c["fixed_probes"]),
+            "the config's fixed_probes: the first probes, never moved or pruned",
+        ),
+        row(
+            "excluded",
+            num(&c["excluded"]),
+            "placement probes dropped for standing in an exclude box",
+        ),
+        row(
+            "budget",
+            format!(
+                "{} (before it: {})",
+                num(&c["max_probes"]),
+                num(&c["probes_before_budget"])
+            ),
+            "max_probes, and the probes the run had before the budget cut them",
+        ),
+        row(
+            "density regions",
+            format!(
+                "{} ({} samples)",
+                num(&c["density_regions"]),
+                num(&c["samples_with_density"])
+            ),
+            "probe_density boxes, and the coverage samples whose demand they change",
+        ),
+        row(
+            "demand met",
+            pct(&c["demand_met"]),
+            "samples seen as many times as their density asks",
+        ),
+    ];
+    figures_table(h, "controls-table", "Artist controls", rows);
+}
+
 fn svo_table(h: &mut String, r: &Value) {
     let s = &r["svo"];
     if !s.is_object() {

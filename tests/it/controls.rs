@@ -79,6 +79,11 @@ fn fixed_probes_stay_put_and_the_placer_adds_only_what_they_miss() {
         "coverage {coverage} under the target"
     );
     assert!(r["refine"]["removed"].as_u64().unwrap() > 0);
+    // The page says what the controls did; a run without them has no table.
+    let page = |d: &Path| std::fs::read_to_string(d.join("report.html")).unwrap();
+    assert!(page(out.path()).contains("id=\"controls-table\""));
+    let base_dir = &shared_job("place", "configs/holodeck.ron", &[]).dir;
+    assert!(!page(base_dir).contains("id=\"controls-table\""));
     // The engines learn which probes were pinned.
     let dir = out.path().to_str().unwrap();
     let o = probeplace(&["export", dir, "--format", "tscn", "-q"]);
