@@ -332,7 +332,6 @@ fn placement_tables(h: &mut String, r: &Value) {
     figures_table(h, "refine-table", "Refinement", rows);
 }
 
-/// The SVO's figures.
 /// What the artist controls did, when the config set any
 /// (`report.json`'s `controls`).
 fn controls_table(h: &mut String, r: &Value) {
@@ -382,6 +381,7 @@ fn controls_table(h: &mut String, r: &Value) {
     figures_table(h, "controls-table", "Artist controls", rows);
 }
 
+/// The SVO's figures.
 fn svo_table(h: &mut String, r: &Value) {
     let s = &r["svo"];
     if !s.is_object() {
