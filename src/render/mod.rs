@@ -28,6 +28,7 @@ pub mod lights;
 pub mod material;
 pub mod probes;
 pub mod reference;
+pub mod views;
 
 pub use camera::Camera;
 pub use integrator::{Renderer, Split};
