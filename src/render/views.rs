@@ -54,8 +54,18 @@ pub struct View {
     pub seen_samples: usize,
 }
 
-/// Up to `count` views of `scene` (module docs) with vertical field of view
-/// `fov_degrees`, seeded by `seed`.
+/// What [`choose_views`] is asked for.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Request {
+    /// Most views.
+    pub count: usize,
+    /// Vertical field of view of each, degrees.
+    pub fov_degrees: f32,
+    /// Seed of the candidates.
+    pub seed: u64,
+}
+
+/// Up to `request.count` views of `scene` (module docs).
 ///
 /// Contract: deterministic for the same inputs whatever the thread count;
 /// every view's eye is in a free voxel of `sdf`, inside `domain`, above a
@@ -67,10 +77,13 @@ pub fn choose_views(
     sdf: &Sdf,
     domain: &Bounds,
     reference: &CoverageReference,
-    count: usize,
-    fov_degrees: f32,
-    seed: u64,
+    request: Request,
 ) -> Vec<View> {
+    let Request {
+        count,
+        fov_degrees,
+        seed,
+    } = request;
     let coverable: Vec<usize> = (0..reference.samples.len())
         .filter(|&i| reference.coverable[i])
         .collect();
@@ -185,6 +198,12 @@ mod tests {
     use crate::progress::Progress;
     use crate::scene::testing::room_sdf;
 
+    const REQUEST: Request = Request {
+        count: 4,
+        fov_degrees: 60.0,
+        seed: 1,
+    };
+
     fn room() -> (Scene, SceneBvh, Sdf, CoverageReference) {
         let (scene, bvh, sdf) = room_sdf(0.25, 2);
         let params = CoverageParams {
@@ -200,7 +219,7 @@ mod tests {
     fn views_stand_over_the_floor_spread_out_and_look_at_the_room() {
         let (scene, bvh, sdf, reference) = room();
         let domain = scene.bounds;
-        let views = choose_views(&scene, &bvh, &sdf, &domain, &reference, 4, 60.0, 1);
+        let views = choose_views(&scene, &bvh, &sdf, &domain, &reference, REQUEST);
         assert_eq!(views.len(), 4);
         for v in &views {
             let eye = scene.to_local(glam::DVec3::from(v.camera.position.0));
@@ -219,14 +238,24 @@ mod tests {
         }
         // Deterministic; in this small room every free voxel is a
         // candidate, so the four corners win whatever the seed.
-        let again = choose_views(&scene, &bvh, &sdf, &domain, &reference, 4, 60.0, 1);
+        let again = choose_views(&scene, &bvh, &sdf, &domain, &reference, REQUEST);
         assert_eq!(views, again);
     }
 
     #[test]
     fn a_view_looks_the_way_that_sees_the_most() {
         let (scene, bvh, sdf, reference) = room();
-        let views = choose_views(&scene, &bvh, &sdf, &scene.bounds, &reference, 1, 60.0, 1);
+        let views = choose_views(
+            &scene,
+            &bvh,
+            &sdf,
+            &scene.bounds,
+            &reference,
+            Request {
+                count: 1,
+                ..REQUEST
+            },
+        );
         let v = &views[0];
         let eye = scene.to_local(glam::DVec3::from(v.camera.position.0));
         let cone = 30f32.to_radians().cos();
