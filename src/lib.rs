@@ -92,6 +92,7 @@ pub mod scene;
 pub mod sdf;
 pub(crate) mod skeleton;
 pub mod stages;
+pub mod stats;
 pub mod svo;
 pub mod trace;
 
