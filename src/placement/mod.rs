@@ -10,6 +10,7 @@
 //! ship, and [`greedy`], Silvennoinen & Lehtinen 2017's greedy thinning of
 //! voxels near surfaces.
 
+pub mod adaptive;
 pub mod controls;
 pub mod file;
 pub mod greedy;
