@@ -520,6 +520,25 @@ pub enum Placement {
     /// Silvennoinen & Lehtinen 2017 §4.1: greedy thinning of candidate
     /// voxels near surfaces by kernel density. A competitor.
     Greedy(GreedyParams),
+    /// Unity's Adaptive Probe Volumes, as documented: bricks of 4×4×4
+    /// probes subdivided where geometry is near, probes in geometry pushed
+    /// out or dropped. A competitor ([`crate::placement::adaptive`]).
+    Adaptive(AdaptiveConfig),
+}
+
+/// Parameters of the adaptive (APV-style) baseline.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AdaptiveConfig {
+    /// The finest probe spacing (world units).
+    pub min_spacing: Positive,
+    /// Subdivision levels: the coarsest spacing is `min_spacing` × 3^(levels − 1).
+    #[serde(default = "default_adaptive_levels")]
+    pub levels: Count<4>,
+}
+
+fn default_adaptive_levels() -> Count<4> {
+    Count(3)
 }
 
 impl Default for Placement {
@@ -548,6 +567,7 @@ impl Placement {
             Placement::Grid(g) => format!("grid:{}", g.dims_text()),
             Placement::Relocated(g) => format!("relocated:{}", g.dims_text()),
             Placement::Greedy(g) => format!("greedy:{}", short(g.spacing.0)),
+            Placement::Adaptive(a) => format!("adaptive:{}", short(a.min_spacing.0)),
         }
     }
 
@@ -587,8 +607,22 @@ impl Placement {
             let spacing = Positive::try_from(v).map_err(|e| bad(&format!("spacing {e}")))?;
             return Ok(Placement::Greedy(GreedyParams { spacing }));
         }
+        if let Some(spacing) = text.strip_prefix("adaptive:") {
+            let v: f64 = spacing.parse().map_err(|_| {
+                bad("the minimum spacing must be a number in world units, e.g. adaptive:0.5")
+            })?;
+            let min_spacing = Positive::try_from(v).map_err(|e| bad(&format!("spacing {e}")))?;
+            let levels = match base {
+                Placement::Adaptive(a) => a.levels,
+                _ => default_adaptive_levels(),
+            };
+            return Ok(Placement::Adaptive(AdaptiveConfig {
+                min_spacing,
+                levels,
+            }));
+        }
         Err(bad(
-            "unknown method; expected sdf-skeleton, medial-axis, grid:NxMxK, relocated:NxMxK or greedy:SPACING",
+            "unknown method; expected sdf-skeleton, medial-axis, grid:NxMxK, relocated:NxMxK, greedy:SPACING or adaptive:MIN_SPACING",
         ))
     }
 }
@@ -1793,6 +1827,20 @@ mod tests {
             m.contains("relocated:NxMxK") && m.contains("greedy:SPACING"),
             "{m}"
         );
+        // The adaptive baseline keeps the config's levels.
+        let a = Placement::parse_cli("adaptive:0.25", &base).unwrap();
+        assert_eq!(a.name(), "adaptive:0.25");
+        assert_eq!(Placement::parse_cli(&a.name(), &base).unwrap(), a);
+        let two = Placement::Adaptive(AdaptiveConfig {
+            min_spacing: Positive(1.0),
+            levels: Count(2),
+        });
+        match Placement::parse_cli("adaptive:0.5", &two).unwrap() {
+            Placement::Adaptive(c) => assert_eq!((c.min_spacing.0, c.levels.0), (0.5, 2)),
+            other => panic!("{other:?}"),
+        }
+        assert!(cli_error("adaptive:-1").contains("greater than 0"));
+        assert!(cli_error("adaptive:x").contains("adaptive:0.5"));
     }
 
     #[test]

@@ -51,8 +51,8 @@ struct RunArgs {
     /// Output directory (default: the --from directory, else the config's `output`).
     #[arg(long)]
     out: Option<PathBuf>,
-    /// Placement method: `sdf-skeleton`, `medial-axis`, `grid:NxMxK`, `relocated:NxMxK` or
-    /// `greedy:SPACING` (default: the config's).
+    /// Placement method: `sdf-skeleton`, `medial-axis`, `grid:NxMxK`, `relocated:NxMxK`,
+    /// `greedy:SPACING` or `adaptive:MIN_SPACING` (default: the config's).
     #[arg(long)]
     method: Option<String>,
     /// Score the probes of FILE.json (a probes.json, or an array of [x, y, z]) instead of placing.

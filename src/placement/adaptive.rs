@@ -25,7 +25,8 @@
 //!    spacing from where it started, or stands outside the scene, is
 //!    dropped (Unity's invalid probes, left to dilation).
 //!
-//! Not wired into the config or `compare` yet.
+//! `--method adaptive:MIN_SPACING` or `placement: Adaptive((min_spacing:
+//! s, levels: 3))`; not yet among `compare`'s competitors.
 
 use super::{grid_min_clearance, PlacementInput, Probe, ProbeSet};
 use crate::error::{Error, Result};

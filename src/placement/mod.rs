@@ -41,6 +41,13 @@ pub fn place(method: &Placement, input: &PlacementInput) -> Result<ProbeSet> {
         Placement::MedialAxis(p) => skeleton::medial_axis(p, input)?,
         Placement::Relocated(g) => relocate::relocated_grid(g, input)?,
         Placement::Greedy(p) => greedy::greedy(p, input)?,
+        Placement::Adaptive(a) => adaptive::adaptive(
+            &adaptive::AdaptiveParams {
+                min_spacing: a.min_spacing.0,
+                levels: a.levels.0,
+            },
+            input,
+        )?,
     })
 }
 
