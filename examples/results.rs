@@ -672,10 +672,10 @@ fn render_section(md: &mut String, reports: &[Value]) {
 // ---------------------------------------------------------------- compare
 
 fn family_rank(f: &str) -> usize {
-    ["ours", "grid", "relocated", "greedy"]
+    ["ours", "grid", "relocated", "greedy", "adaptive"]
         .iter()
         .position(|x| *x == f)
-        .unwrap_or(4)
+        .unwrap_or(5)
 }
 
 /// Mean over cameras of a per-camera figure.

@@ -538,7 +538,7 @@ pub struct AdaptiveConfig {
 }
 
 fn default_adaptive_levels() -> Count<4> {
-    Count(3)
+    Count(crate::placement::adaptive::DEFAULT_LEVELS)
 }
 
 impl Default for Placement {

@@ -430,8 +430,9 @@ impl Bench<'_> {
     }
 
     /// The competitors: what engines ship (the grid nearest our count,
-    /// relocated and classified), and Silvennoinen & Lehtinen's greedy
-    /// placement with as many probes as ours.
+    /// relocated and classified, and Unity's adaptive probe volumes with
+    /// the minimum spacing whose count is nearest ours), and Silvennoinen &
+    /// Lehtinen's greedy placement with as many probes as ours.
     fn competitors(
         &mut self,
         job: &mut Job,
@@ -453,6 +454,22 @@ impl Bench<'_> {
             }),
             Family::Greedy,
         ));
+        let input = self
+            .prepared
+            .placement_input(self.config.seed, &self.progress);
+        if let Some(min_spacing) = placement::adaptive::spacing_for_count(
+            &input,
+            crate::placement::adaptive::DEFAULT_LEVELS,
+            ours_count.max(1),
+        ) {
+            competitors.push((
+                Placement::Adaptive(crate::config::AdaptiveConfig {
+                    min_spacing: Positive(min_spacing),
+                    levels: crate::config::Count(crate::placement::adaptive::DEFAULT_LEVELS),
+                }),
+                Family::Adaptive,
+            ));
+        }
         for (method, family) in competitors {
             let t = std::time::Instant::now();
             let name = method.name();

@@ -38,6 +38,56 @@ use std::collections::BTreeMap;
 /// `min_spacing` is too fine for the domain.
 pub const MAX_POINTS: usize = 4 * crate::limits::MAX_PROBES;
 
+/// Levels `compare` gives the baseline (the config's default too).
+pub const DEFAULT_LEVELS: u32 = 3;
+
+/// Bisection steps [`spacing_for_count`] takes on the log of the spacing.
+pub const SPACING_STEPS: u32 = 40;
+
+/// The minimum spacing, between one SDF voxel and the domain's diagonal,
+/// whose probe count at `levels` is nearest `target` (ties: the larger
+/// count), found by bisection on its logarithm (the count falls as the
+/// spacing grows, though not strictly); `None` when no spacing places a
+/// probe.
+pub fn spacing_for_count(input: &PlacementInput, levels: u32, target: usize) -> Option<f32> {
+    let count = |s: f32| {
+        adaptive(
+            &AdaptiveParams {
+                min_spacing: s,
+                levels,
+            },
+            input,
+        )
+        .map(|set| set.probes.len())
+        .ok()
+    };
+    let (mut lo, mut hi) = (
+        input.sdf.voxel_size.ln(),
+        input.domain.size().length().max(input.sdf.voxel_size).ln(),
+    );
+    let mut best: Option<(usize, usize, f32)> = None;
+    for _ in 0..SPACING_STEPS {
+        let mid = 0.5 * (lo + hi);
+        let s = mid.exp();
+        match count(s) {
+            Some(n) => {
+                let key = (n.abs_diff(target), usize::MAX - n);
+                if best.is_none_or(|(d, m, _)| key < (d, m)) {
+                    best = Some((key.0, key.1, s));
+                }
+                if n > target {
+                    lo = mid;
+                } else {
+                    hi = mid;
+                }
+            }
+            // Too fine (over the point limit) or no probe at all.
+            None => lo = mid,
+        }
+    }
+    best.map(|(_, _, s)| s)
+}
+
 /// The baseline's parameters.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct AdaptiveParams {

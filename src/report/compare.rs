@@ -19,6 +19,8 @@ pub enum Family {
     Relocated,
     /// Silvennoinen & Lehtinen 2017's greedy voxel placement.
     Greedy,
+    /// Unity's Adaptive Probe Volumes, as documented.
+    Adaptive,
     /// A probe set made elsewhere (`--probes FILE.json`), scored as given.
     Given,
 }
@@ -31,6 +33,7 @@ impl Family {
             Family::Grid => "grid",
             Family::Relocated => "relocated",
             Family::Greedy => "greedy",
+            Family::Adaptive => "adaptive",
             Family::Given => "given",
         }
     }
@@ -42,6 +45,7 @@ impl Family {
             Family::Grid => "uniform grid",
             Family::Relocated => "grid, relocated (RTXGI)",
             Family::Greedy => "greedy (Silvennoinen & Lehtinen)",
+            Family::Adaptive => "adaptive (Unity APV)",
             Family::Given => "given (--probes)",
         }
     }

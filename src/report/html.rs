@@ -389,6 +389,7 @@ fn style(f: Family) -> (&'static str, &'static str) {
         Family::Grid => ("#3060c0", "square"),
         Family::Relocated => ("#c07020", "diamond"),
         Family::Greedy => ("#a03090", "triangle"),
+        Family::Adaptive => ("#20a0a0", "diamond"),
         Family::Given => ("#202020", "circle"),
     }
 }
@@ -563,6 +564,7 @@ fn plot_legend(s: &mut String, points: &[PlotPoint]) {
         Family::Grid,
         Family::Relocated,
         Family::Greedy,
+        Family::Adaptive,
         Family::Given,
     ] {
         if !points.iter().any(|p| p.0.family == f) {

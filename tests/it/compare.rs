@@ -135,7 +135,7 @@ fn ours_beats_grids_on_cornell_glossy() {
 fn report_has_every_placement_and_figure() {
     let Shared { dir, report: r } = cornell_glossy_test_quality();
     let placements = r["placements"].as_array().unwrap();
-    for family in ["ours", "grid", "relocated", "greedy"] {
+    for family in ["ours", "grid", "relocated", "greedy", "adaptive"] {
         assert!(
             placements.iter().any(|p| p["family"] == family),
             "no {family} placement"
