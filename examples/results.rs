@@ -92,7 +92,22 @@ fn run() -> Result<(), Error> {
 
     let files = render(&mut inputs);
     let out_dir = output.parent().unwrap_or(Path::new("."));
+    let default_output = output == Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/results.md");
     let mut all: Vec<(PathBuf, String)> = vec![(output.clone(), files.markdown)];
+    // The README's headline is the same summary, between its markers.
+    if default_output && !files.summary.is_empty() {
+        let readme = Path::new(env!("CARGO_MANIFEST_DIR")).join("README.md");
+        let text = std::fs::read_to_string(&readme)?;
+        all.push((
+            readme.clone(),
+            splice(&text, &files.summary).ok_or_else(|| {
+                format!(
+                    "{}: no `{README_BEGIN}` … `{README_END}` block to fill",
+                    readme.display()
+                )
+            })?,
+        ));
+    }
     for (name, svg) in files.plots {
         all.push((out_dir.join(name), svg));
     }
@@ -145,7 +160,7 @@ impl Inputs {
         let compare = dir.join("compare.json");
         if compare.is_file() {
             let v = read_json(&compare)?;
-            expect_format(&compare, &v, "probeplace-compare")?;
+            expect_format(&compare, &v, "probeplace.compare")?;
             self.compares.push(v);
         }
         let mut subdirs: Vec<PathBuf> = std::fs::read_dir(dir)?
@@ -337,6 +352,119 @@ impl Table {
 struct Files {
     markdown: String,
     plots: Vec<(String, String)>,
+    /// The comparisons at a glance, also README.md's generated block.
+    summary: String,
+}
+
+/// The markers of README.md's generated block.
+const README_BEGIN: &str = "<!-- results:compare begin (examples/results.rs writes this block) -->";
+const README_END: &str = "<!-- results:compare end -->";
+
+/// `text` with the block between [`README_BEGIN`] and [`README_END`]
+/// replaced by `block`; `None` without both markers.
+fn splice(text: &str, block: &str) -> Option<String> {
+    let start = text.find(README_BEGIN)? + README_BEGIN.len();
+    let end = start + text[start..].find(README_END)?;
+    Some(format!("{}\n{block}{}", &text[..start], &text[end..]))
+}
+
+/// Our default method.
+const OURS_DEFAULT: &str = "sdf-skeleton";
+
+/// One table of every comparison: our default method against each rival
+/// at about its count, with intervals and tracers, and what they add up to.
+fn compare_summary(compares: &[Value]) -> String {
+    let mut t = Table::new(&[
+        ("config", false),
+        ("materials", false),
+        ("views", true),
+        ("ours", true),
+        ("rival", false),
+        ("tracer", false),
+        ("probes", true),
+        ("filtered MSE ratio", false),
+        ("ꟻLIP ratio", false),
+        ("verdict", false),
+    ]);
+    let (mut scenes, mut grid_wins, mut strong) = (0, 0, 0);
+    for c in compares {
+        let Some(x) = at(c, "comparisons")
+            .and_then(Value::as_array)
+            .and_then(|a| a.iter().find(|x| text(x, "placement") == OURS_DEFAULT))
+        else {
+            continue;
+        };
+        scenes += 1;
+        let ratios: Vec<&Value> = at(x, "ratios")
+            .and_then(Value::as_array)
+            .map(|a| a.iter().filter(|r| text(r, "family") != "ours").collect())
+            .unwrap_or_default();
+        let same_grid = ratios
+            .iter()
+            .find(|r| text(r, "family") == "grid" && text(r, "tracer") == "hiz+svo");
+        if same_grid.is_some_and(|r| r["win"] == true) {
+            grid_wins += 1;
+        }
+        let competitors: Vec<&&Value> = ratios
+            .iter()
+            .filter(|r| {
+                matches!(
+                    text(r, "family").as_str(),
+                    "relocated" | "greedy" | "adaptive"
+                )
+            })
+            .collect();
+        if !competitors.is_empty()
+            && competitors
+                .iter()
+                .all(|r| num(r, "mse_glossy_filtered.value").is_some_and(|v| v >= 1.25))
+        {
+            strong += 1;
+        }
+        let views = at(c, "cameras")
+            .and_then(Value::as_array)
+            .map_or(0, Vec::len);
+        for r in ratios {
+            t.rows.push(vec![
+                format!("`{}`", config_name(c)),
+                at(c, "materials")
+                    .and_then(Value::as_str)
+                    .unwrap_or("scene")
+                    .to_string(),
+                views.to_string(),
+                int(num(x, "probes")),
+                format!("`{}` ({})", text(r, "against"), text(r, "family")),
+                text(r, "tracer"),
+                int(num(r, "probes")),
+                interval(at(r, "mse_glossy_filtered")),
+                interval(at(r, "flip")),
+                verdict(r).to_string(),
+            ]);
+        }
+    }
+    if scenes == 0 {
+        return String::new();
+    }
+    let mut md = String::new();
+    let _ = writeln!(
+        md,
+        "Our `{OURS_DEFAULT}` against each rival at about its probe count, per comparison: the \
+         rival's pooled error over ours (above 1: ours is better) with its 95% interval (a \
+         two-stage paired bootstrap over views and 16-pixel blocks; bold where it excludes 1), \
+         and the rival's tracer (ours is always `hiz+svo`; a grid on `hiz+svo` isolates \
+         placement, on `bilevel+grid` it is what engines trace today). Generated by \
+         `examples/results.rs` from the `compare.json` files ([docs/results.md](docs/results.md) \
+         has every figure).\n"
+    );
+    md.push_str(&t.markdown());
+    let _ = writeln!(
+        md,
+        "\nAt equal count on the same tracer, ours has lower filtered MSE and ꟻLIP than the \
+         uniform grid, both intervals above 1, in **{grid_wins} of {scenes}** comparisons; its \
+         filtered MSE is at most 0.8× that of every competitor (relocated, greedy, adaptive) \
+         in **{strong} of {scenes}**.\n"
+    );
+    md
 }
 
 fn render(inputs: &mut Inputs) -> Files {
@@ -377,6 +505,12 @@ fn render(inputs: &mut Inputs) -> Files {
         natural(&config_name(a), &config_name(b)).then_with(|| a.to_string().cmp(&b.to_string()))
     });
 
+    let summary = compare_summary(&inputs.compares);
+    if !summary.is_empty() {
+        md.push_str("## Comparisons at a glance\n\n");
+        md.push_str(&summary.replace("](docs/results.md)", "](results.md)"));
+        md.push('\n');
+    }
     let mut plots = Vec::new();
     if !inputs.reports.is_empty() {
         placement_section(&mut md, &inputs.reports);
@@ -397,6 +531,7 @@ fn render(inputs: &mut Inputs) -> Files {
     Files {
         markdown: md,
         plots,
+        summary,
     }
 }
 
@@ -699,17 +834,28 @@ fn compare_section(md: &mut String, c: &Value, plots: &mut Vec<(String, String)>
     let cameras = at(c, "cameras")
         .and_then(Value::as_array)
         .map_or(0, Vec::len);
+    let chosen = at(c, "cameras")
+        .and_then(Value::as_array)
+        .map_or(0, |a| a.iter().filter(|v| v["chosen"] == true).count());
+    let materials = at(c, "materials")
+        .and_then(Value::as_str)
+        .unwrap_or("scene")
+        .to_string();
 
     let _ = writeln!(md, "## Compare: `{name}`\n");
     let _ = writeln!(
         md,
         "`probeplace compare {}` on `{scene_file}`: {}×{}, {} glossy rays per pixel, \
-         {cameras} camera{}, seed {}, traced on `{}`. Quality is `{quality}` (glossy \
+         {cameras} view{} ({chosen} chosen from the scene), materials `{materials}`, seed {}, \
+         traced on `{}`. Quality is `{quality}` (glossy \
          indirect MSE after a 7×7 box filter of both images: Wang Fig. 8; unfiltered it \
-         is mostly Monte Carlo noise, the same for every placement), performance \
-         `{perf}`. *Tracer*: `bilevel+grid` is McGuire's bi-level march with the cell's \
-         8 probes, as engines trace grids today; `hiz+svo` is Wang's Hi-Z march with \
-         SVO selection. *Unresolved rays*: glossy rays every candidate probe lost. *Rank*: by `{quality}`, 1 is best.\n",
+         is mostly Monte Carlo noise, the same for every placement), pooled as the mean \
+         over views; *ꟻLIP* is the mean perceptual error of the same images tone mapped; \
+         performance `{perf}`. *Tracer*: `hiz+svo` is Wang's Hi-Z march with SVO \
+         selection, which every placement is traced with; `bilevel+grid` is McGuire's \
+         bi-level march with the cell's 8 probes, as engines trace grids today, which the \
+         grids are also traced with. *Unresolved rays*: glossy rays every candidate probe \
+         lost (answered by the last probe's radiance). *Rank*: by `{quality}`, 1 is best.\n",
         text(c, "config"),
         int(num(c, "width")),
         int(num(c, "height")),
@@ -753,6 +899,8 @@ fn compare_section(md: &mut String, c: &Value, plots: &mut Vec<(String, String)>
         ("unresolved rays", true),
         ("glossy MSE", true),
         ("filtered glossy MSE", true),
+        ("relative MSE", true),
+        ("ꟻLIP", true),
         ("rank", true),
     ]);
     for (i, p) in placements.iter().enumerate() {
@@ -774,6 +922,8 @@ fn compare_section(md: &mut String, c: &Value, plots: &mut Vec<(String, String)>
             pct(camera_mean(p, "unresolved_fraction"), 3),
             sci(num(p, "mse_glossy")),
             sci(num(p, "mse_glossy_filtered")),
+            sci(num(p, "mse_glossy_relative")),
+            fixed(num(p, "flip"), 4),
             rank[i].map_or(DASH.into(), |r| r.to_string()),
         ]);
     }
@@ -792,6 +942,8 @@ fn compare_section(md: &mut String, c: &Value, plots: &mut Vec<(String, String)>
     );
     t.mark_best(&all, 9, &col(&|p| num(p, "mse_glossy")), true);
     t.mark_best(&all, 10, &col(&|p| num(p, "mse_glossy_filtered")), true);
+    t.mark_best(&all, 11, &col(&|p| num(p, "mse_glossy_relative")), true);
+    t.mark_best(&all, 12, &col(&|p| num(p, "flip")), true);
     md.push_str(&t.markdown());
     md.push('\n');
 
@@ -856,11 +1008,15 @@ fn compare_section(md: &mut String, c: &Value, plots: &mut Vec<(String, String)>
             ("placement", false),
             ("probes", true),
             ("error", true),
-            ("equal count", false),
+            ("equal count, hiz+svo", false),
             ("error ratio", true),
-            ("equal quality", false),
+            ("equal count, bilevel+grid", false),
+            ("error ratio", true),
+            ("equal quality, hiz+svo", false),
             ("probe ratio", true),
-            ("equal performance", false),
+            ("equal quality, bilevel+grid", false),
+            ("probe ratio", true),
+            ("equal performance, bilevel+grid", false),
             ("error ratio", true),
         ]);
         let grid = |g: Option<&Value>| match g {
@@ -882,8 +1038,8 @@ fn compare_section(md: &mut String, c: &Value, plots: &mut Vec<(String, String)>
             fa.cmp(&fb)
                 .then_with(|| text(a, "placement").cmp(&text(b, "placement")))
         });
-        for x in comparisons {
-            let probe_ratio = match num(x, "probe_ratio_at_equal_quality") {
+        for x in comparisons.iter().copied() {
+            let probe_ratio = |key: &str| match num(x, key) {
                 Some(r) if r < 1.0 => format!("{} (grid wins)", ratio(Some(r))),
                 r => ratio(r),
             };
@@ -893,14 +1049,19 @@ fn compare_section(md: &mut String, c: &Value, plots: &mut Vec<(String, String)>
                 sci(num(x, "error").or_else(|| num(x, "mse_glossy"))),
                 grid(at(x, "equal_count")),
                 error_ratio(num(x, "error_ratio_at_equal_count")),
+                grid(at(x, "equal_count_engine")),
+                error_ratio(num(x, "error_ratio_at_equal_count_engine")),
                 grid(at(x, "equal_quality")),
-                probe_ratio,
+                probe_ratio("probe_ratio_at_equal_quality"),
+                grid(at(x, "equal_quality_engine")),
+                probe_ratio("probe_ratio_at_equal_quality_engine"),
                 grid(at(x, "equal_performance")),
                 error_ratio(num(x, "error_ratio_at_equal_performance")),
             ]);
         }
         md.push_str(&m.markdown());
         md.push('\n');
+        ratios_table(md, &placements, &comparisons);
     }
 
     if let Some(w) = at(c, "warnings")
@@ -923,6 +1084,7 @@ fn compare_section(md: &mut String, c: &Value, plots: &mut Vec<(String, String)>
             Some(Point {
                 name: text(p, "name"),
                 grid: text(p, "family") == "grid",
+                engine: text(p, "tracer") == "bilevel+grid",
                 ours: text(p, "family") == "ours",
                 probes: num(p, "probes")?,
                 error: num(p, &quality),
@@ -938,7 +1100,10 @@ fn compare_section(md: &mut String, c: &Value, plots: &mut Vec<(String, String)>
         true,
         &format!("{quality} against probe count, {name} (lower is better)"),
     ) {
-        let _ = writeln!(md, "![{quality} against probe count, {name}]({mse_name})\n");
+        let _ = writeln!(
+            md,
+            "![{quality} against probe count, {name}]({mse_name})\n\nThe grid sweep on `hiz+svo` solid, on `bilevel+grid` dashed.\n"
+        );
         plots.push((mse_name, svg));
     }
     if let Some(svg) = plot(
@@ -952,9 +1117,91 @@ fn compare_section(md: &mut String, c: &Value, plots: &mut Vec<(String, String)>
     }
 }
 
+/// `value× [lo, hi]` of a ratio with its interval; bold when the interval
+/// excludes 1.
+fn interval(i: Option<&Value>) -> String {
+    let (Some(v), Some(lo), Some(hi)) = (
+        i.and_then(|i| num(i, "value")),
+        i.and_then(|i| num(i, "lo")),
+        i.and_then(|i| num(i, "hi")),
+    ) else {
+        return DASH.into();
+    };
+    let t = format!("{v:.2}× [{lo:.2}, {hi:.2}]");
+    if lo > 1.0 || hi < 1.0 {
+        format!("**{t}**")
+    } else {
+        t
+    }
+}
+
+/// The verdict of a ratio: both intervals above 1, below 1, or neither.
+fn verdict(x: &Value) -> &'static str {
+    match (x["win"].as_bool(), x["loss"].as_bool()) {
+        (Some(true), _) => "ours better",
+        (_, Some(true)) => "ours worse",
+        _ => "no clear difference",
+    }
+}
+
+/// Our placements against every rival, with intervals (`ratios`).
+fn ratios_table(md: &mut String, placements: &[&Value], comparisons: &[&Value]) {
+    let ours: Vec<&&Value> = comparisons
+        .iter()
+        .filter(|x| {
+            placements.iter().any(|p| {
+                text(p, "name") == text(x, "placement")
+                    && matches!(text(p, "family").as_str(), "ours" | "given")
+            })
+        })
+        .collect();
+    if ours.is_empty() {
+        return;
+    }
+    md.push_str(
+        "Ours against each rival at about equal count: the rival's pooled error over ours \
+         (above 1: ours is better) with its 95% interval, a two-stage paired bootstrap over \
+         views and 16-pixel blocks; bold where the interval excludes 1. Ours is traced with \
+         `hiz+svo`; a grid on `hiz+svo` isolates placement, on `bilevel+grid` it is what \
+         engines trace today.\n\n",
+    );
+    let mut t = Table::new(&[
+        ("ours", false),
+        ("probes", true),
+        ("rival", false),
+        ("tracer", false),
+        ("probes", true),
+        ("filtered MSE ratio", false),
+        ("ꟻLIP ratio", false),
+        ("verdict", false),
+    ]);
+    for x in ours {
+        for r in at(x, "ratios")
+            .and_then(Value::as_array)
+            .into_iter()
+            .flatten()
+        {
+            t.rows.push(vec![
+                format!("`{}`", text(x, "placement")),
+                int(num(x, "probes")),
+                format!("`{}` ({})", text(r, "against"), text(r, "family")),
+                text(r, "tracer"),
+                int(num(r, "probes")),
+                interval(at(r, "mse_glossy_filtered")),
+                interval(at(r, "flip")),
+                verdict(r).to_string(),
+            ]);
+        }
+    }
+    md.push_str(&t.markdown());
+    md.push('\n');
+}
+
 struct Point {
     name: String,
     grid: bool,
+    /// Traced with McGuire's bi-level tracer (a grid's second row).
+    engine: bool,
     ours: bool,
     probes: f64,
     error: Option<f64>,
@@ -1086,19 +1333,25 @@ fn plot(
         left + pw / 2.0,
         h - 12.0
     );
-    // The grid sweep as a line.
-    let mut grid: Vec<&(&Point, f64, f64)> = pts.iter().filter(|p| p.0.grid).collect();
-    grid.sort_by(|a, b| a.1.total_cmp(&b.1));
-    if grid.len() > 1 {
-        let line: Vec<String> = grid
+    // The grid sweep as a line per tracer: solid on Wang's, dashed on
+    // McGuire's.
+    for (engine, dash) in [(false, ""), (true, " stroke-dasharray=\"5 3\"")] {
+        let mut grid: Vec<&(&Point, f64, f64)> = pts
             .iter()
-            .map(|p| format!("{:.1},{:.1}", px(p.1), py(p.2)))
+            .filter(|p| p.0.grid && p.0.engine == engine)
             .collect();
-        let _ = writeln!(
-            s,
-            "<polyline fill=\"none\" stroke=\"#888\" stroke-width=\"1.5\" points=\"{}\"/>",
-            line.join(" ")
-        );
+        grid.sort_by(|a, b| a.1.total_cmp(&b.1));
+        if grid.len() > 1 {
+            let line: Vec<String> = grid
+                .iter()
+                .map(|p| format!("{:.1},{:.1}", px(p.1), py(p.2)))
+                .collect();
+            let _ = writeln!(
+                s,
+                "<polyline fill=\"none\" stroke=\"#888\" stroke-width=\"1.5\"{dash} points=\"{}\"/>",
+                line.join(" ")
+            );
+        }
     }
     for (p, x, v) in &pts {
         let colour = if p.ours {

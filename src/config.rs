@@ -1065,7 +1065,7 @@ impl Default for ReferenceParams {
 #[serde(deny_unknown_fields, default)]
 pub struct CompareParams {
     /// The uniform grids to compare against; empty: a sweep from a quarter
-    /// to eight times our probe count, in steps of about 2×.
+    /// to four times our probe count, in steps of about 2×.
     pub grids: Vec<GridParams>,
     /// Cameras besides `reference.camera`; every placement is rendered and
     /// measured from each.
@@ -1073,6 +1073,13 @@ pub struct CompareParams {
     /// Glossy rays per pixel of the validation renders. Placements differ
     /// by less than one ray's noise, so `compare` averages several.
     pub glossy_rays: Count<256>,
+    /// Views `compare` chooses from the scene alone, besides the cameras
+    /// (`render::views`): seeded, spread over the free space, at eye height
+    /// over a floor, each looking at much of the coverable surface.
+    pub views: Whole<64>,
+    /// The surfaces the comparison renders with: the scene's own, or all
+    /// glossy (Wang et al. 2019 §5.2 benchmark every surface glossy).
+    pub materials: Materials,
 }
 
 impl Default for CompareParams {
@@ -1080,9 +1087,23 @@ impl Default for CompareParams {
         CompareParams {
             grids: Vec::new(),
             cameras: Vec::new(),
-            glossy_rays: Count(32),
+            glossy_rays: Count(16),
+            views: Whole(8),
+            materials: Materials::Scene,
         }
     }
+}
+
+/// What surfaces `compare` measures on.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+pub enum Materials {
+    /// The scene's MTL materials as they are.
+    Scene,
+    /// Every material given a glossy lobe of this GGX roughness α
+    /// (`render::material::all_glossy`), as Wang et al. 2019 §5.2 render
+    /// "*all* surfaces as glossy for the purpose of benchmarking": in a
+    /// nearly matte scene one view cannot otherwise tell placements apart.
+    AllGlossy(Fraction),
 }
 
 /// A file for another tool, written with a run's outputs (the config's

@@ -90,6 +90,60 @@ pub fn paired_ratio(num: &[f64], den: &[f64], resamples: usize, seed: u64) -> In
     }
 }
 
+/// The ratio of two placements' pooled errors over several views, and its
+/// 95% interval by a two-stage paired bootstrap (Davison & Hinkley 1997
+/// §3.8, resampling clusters then units within them): each draw picks as
+/// many views as there are, with replacement, and within each picked view
+/// as many of its blocks, with replacement; the same draw applies to both
+/// placements. `num[v]` and `den[v]` are the block errors of view `v`. A
+/// placement's pooled error is the mean over views of each view's mean
+/// block error, so every view weighs alike whatever its size.
+///
+/// Contract: `num` and `den` have the same shape, at least one view of at
+/// least one block each; deterministic for the same inputs.
+pub fn paired_ratio_over_views(
+    num: &[Vec<f64>],
+    den: &[Vec<f64>],
+    resamples: usize,
+    seed: u64,
+) -> Interval {
+    assert_eq!(num.len(), den.len(), "paired views");
+    assert!(!num.is_empty(), "at least one view");
+    let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len().max(1) as f64;
+    let pooled = |m: &[Vec<f64>]| m.iter().map(|v| mean(v)).sum::<f64>();
+    let value = pooled(num) / pooled(den);
+    let views = num.len() as u64;
+    let mut ratios: Vec<f64> = (0..resamples as u64)
+        .map(|r| {
+            let draw = hash2(seed, r);
+            let (mut a, mut b) = (0.0, 0.0);
+            for slot in 0..views {
+                let v = (hash2(draw, slot) % views) as usize;
+                let (nv, dv) = (&num[v], &den[v]);
+                assert_eq!(nv.len(), dv.len(), "paired blocks");
+                let blocks = nv.len() as u64;
+                let pick = hash2(hash2(draw, slot), 0xB10C);
+                let (mut sa, mut sb) = (0.0, 0.0);
+                for i in 0..blocks {
+                    let k = (hash2(pick, i) % blocks) as usize;
+                    sa += nv[k];
+                    sb += dv[k];
+                }
+                a += sa / blocks as f64;
+                b += sb / blocks as f64;
+            }
+            a / b
+        })
+        .collect();
+    ratios.sort_by(f64::total_cmp);
+    let at = |q: f64| ratios[((q * (resamples - 1) as f64).round() as usize).min(resamples - 1)];
+    Interval {
+        value,
+        lo: at(0.025),
+        hi: at(0.975),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -138,5 +192,27 @@ mod tests {
             "{few:?} against {many:?}"
         );
         assert_eq!(few, paired_ratio(&num, &den, RESAMPLES, 1), "deterministic");
+    }
+
+    /// Views that disagree widen the interval: a placement better in half
+    /// the views and worse in the rest is no win, however many blocks each
+    /// view has, while one better in every view is.
+    #[test]
+    fn views_that_disagree_give_no_win() {
+        let view = |scale: f64, seed: u64| -> Vec<f64> {
+            (0..300)
+                .map(|i| scale * (0.5 + unit_f32(hash2(seed, i)) as f64))
+                .collect()
+        };
+        let den: Vec<Vec<f64>> = (0..8).map(|v| view(1.0, v)).collect();
+        let split: Vec<Vec<f64>> = (0..8)
+            .map(|v| view(if v % 2 == 0 { 0.5 } else { 1.6 }, v))
+            .collect();
+        let mixed = paired_ratio_over_views(&split, &den, RESAMPLES, 2);
+        assert!(!mixed.excludes_one(), "{mixed:?}");
+        let better: Vec<Vec<f64>> = (0..8).map(|v| view(0.7, v)).collect();
+        let win = paired_ratio_over_views(&better, &den, RESAMPLES, 2);
+        assert!(win.hi < 1.0 && win.lo > 0.6, "{win:?}");
+        assert!((win.value - 0.7).abs() < 1e-9, "{win:?}");
     }
 }

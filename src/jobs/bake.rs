@@ -66,7 +66,7 @@ pub(crate) fn precheck(job: &Job) -> Result<()> {
     };
     stages::bake::check(config, probes).map_err(|e| job.config_error(e))?;
     if config.reference.camera.is_some() {
-        validate::check_reference(config, 1).map_err(|e| job.config_error(e))?;
+        validate::check_reference(config, 1, 1.0).map_err(|e| job.config_error(e))?;
     }
     Ok(())
 }

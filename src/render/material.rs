@@ -64,6 +64,30 @@ pub fn alpha_from_shininess(ns: f32) -> f32 {
     (2.0 / (ns + 2.0)).sqrt().max(MIN_ALPHA)
 }
 
+/// Specular reflectance each channel of [`all_glossy`] gives at least.
+pub const ALL_GLOSSY_SPECULAR: f32 = 0.5;
+
+/// `materials` made all glossy for measurement (`compare.materials:
+/// AllGlossy(α)`; Wang et al. 2019 §5.2 render "*all* surfaces as glossy
+/// for the purpose of benchmarking"): every material's Phong exponent
+/// becomes the one whose GGX roughness is `alpha` (the inverse of
+/// [`alpha_from_shininess`], `Ns = 2/α² − 2`), and each channel of its
+/// specular colour is raised to at least [`ALL_GLOSSY_SPECULAR`]. Diffuse
+/// colour and emission stay; the BSDF's energy rule (module docs) then
+/// dims the diffuse lobe where the two would reflect more than arrives.
+///
+/// Contract: `alpha` in [0, 1]; below [`MIN_ALPHA`] it is a mirror.
+pub fn all_glossy(materials: &mut [Material], alpha: f32) {
+    let alpha = alpha.clamp(MIN_ALPHA, 1.0);
+    let shininess = 2.0 / (alpha * alpha) - 2.0;
+    for m in materials {
+        m.shininess = shininess;
+        for c in &mut m.specular {
+            *c = c.max(ALL_GLOSSY_SPECULAR);
+        }
+    }
+}
+
 /// The geometric normal `geometric` flipped, if needed, to face `wo` (the
 /// direction towards the viewer): the shading normal of two-sided shading.
 ///
@@ -301,6 +325,23 @@ fn smith_lambda(c: f32, alpha: f32) -> f32 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn all_glossy_gives_every_material_the_roughness_asked_for() {
+        let mut ms = vec![Material::fallback(), Material::fallback()];
+        ms[1].specular = [0.9, 0.2, 0.7];
+        ms[1].shininess = 1000.0;
+        all_glossy(&mut ms, 0.3);
+        for m in &ms {
+            assert!((alpha_from_shininess(m.shininess) - 0.3).abs() < 1e-5);
+            assert_eq!(m.diffuse, [0.8; 3]);
+        }
+        assert_eq!(ms[0].specular, [0.5; 3]);
+        assert_eq!(ms[1].specular, [0.9, 0.5, 0.7]);
+        let bsdf = Bsdf::from_material(&ms[0]);
+        assert!(bsdf.has_glossy() && bsdf.has_diffuse());
+        assert!((bsdf.alpha - 0.3).abs() < 1e-5);
+    }
     use crate::sampling::Sampler;
 
     fn material(kd: f32, ks: f32, ns: f32) -> Material {

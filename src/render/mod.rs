@@ -23,6 +23,7 @@
 //! gives the same bits whatever the thread schedule.
 
 pub mod camera;
+pub mod flip;
 pub mod integrator;
 pub mod lights;
 pub mod material;

@@ -3,9 +3,18 @@
 //! (Figs. 8–12, Tables 1–2): equal probe count, equal quality and equal
 //! performance.
 
+use crate::stages::validate::Blocks;
+use crate::stats::{paired_ratio_over_views, Interval, RESAMPLES};
+use rayon::prelude::*;
 use serde::Serialize;
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
+
+/// Wang et al. 2019's tracer: Hi-Z march, SVO selection.
+pub const TRACER_HIZ: &str = "hiz+svo";
+/// McGuire et al. 2017's tracer, for lattices: bi-level march, the cell's
+/// eight probes.
+pub const TRACER_BILEVEL: &str = "bilevel+grid";
 
 /// Which kind of placement a row is.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -61,8 +70,8 @@ pub struct PlacementRow {
     pub name: String,
     /// What kind of placement it is.
     pub family: Family,
-    /// The tracer: `bilevel+grid` (McGuire et al. 2017, for lattices) or
-    /// `hiz+svo` (Wang et al. 2019).
+    /// The tracer: `hiz+svo` (Wang et al. 2019) for every placement, and
+    /// for each grid a second row with `bilevel+grid` (McGuire et al. 2017).
     pub tracer: &'static str,
     /// Probes placed.
     pub probes: usize,
@@ -81,6 +90,13 @@ pub struct PlacementRow {
     /// afford, the unfiltered MSE is mostly Monte Carlo noise that every
     /// placement shares; filtering leaves the errors placement causes.
     pub mse_glossy_filtered: f64,
+    /// Mean over cameras of [`CameraRow::mse_glossy_relative`].
+    pub mse_glossy_relative: f64,
+    /// Mean over cameras of [`CameraRow::flip`].
+    pub flip: f64,
+    /// Mean over cameras of [`CameraRow::unresolved_fraction`]: glossy
+    /// rays no probe resolved, answered by the fallback.
+    pub unresolved_fraction: f64,
     /// Mean over cameras of [`CameraRow::texel_fetches_per_ray`].
     pub texel_fetches_per_ray: f64,
     /// Sum over cameras of [`CameraRow::gpu_ms`], where every camera has it.
@@ -90,6 +106,10 @@ pub struct PlacementRow {
     /// The method's own statistics (what relocation moved, what the
     /// greedy removal kept, what refinement pruned).
     pub stats: BTreeMap<String, f64>,
+    /// Per camera, the errors per pixel block the intervals resample (not
+    /// written).
+    #[serde(skip)]
+    pub blocks: Vec<Blocks>,
 }
 
 /// A grid picked by one of the three matches.
@@ -105,6 +125,28 @@ pub struct Matched {
     pub performance: f64,
 }
 
+/// One rival's errors over a placement's, with 95% intervals.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Ratio {
+    /// The rival placement's name.
+    pub against: String,
+    /// Its family.
+    pub family: Family,
+    /// The tracer of its row (the placement's own is always `hiz+svo`).
+    pub tracer: &'static str,
+    /// Its probe count.
+    pub probes: usize,
+    /// Its pooled filtered glossy MSE over ours, with the interval: above
+    /// 1, ours has the lower error.
+    pub mse_glossy_filtered: Interval,
+    /// The same for the pooled ꟻLIP error.
+    pub flip: Interval,
+    /// Both intervals lie wholly above 1: ours wins on both metrics.
+    pub win: bool,
+    /// Both intervals lie wholly below 1: the rival wins on both.
+    pub loss: bool,
+}
+
 /// The three matches for one placement.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Comparison {
@@ -114,19 +156,35 @@ pub struct Comparison {
     pub probes: usize,
     /// Its error ([`PlacementRow::error`]).
     pub error: f64,
-    /// The grid whose probe count is nearest (ties: the larger grid).
+    /// The grid whose probe count is nearest (ties: the larger grid), on
+    /// the same tracer (`hiz+svo`): placement alone.
     pub equal_count: Option<Matched>,
     /// `equal_count`'s error over ours: above 1, ours has lower error.
     pub error_ratio_at_equal_count: Option<f64>,
-    /// The smallest grid whose error is at or below ours; `None` when no grid
-    /// of the sweep reaches our quality.
+    /// The same grid on McGuire's tracer (`bilevel+grid`): what engines
+    /// trace today.
+    pub equal_count_engine: Option<Matched>,
+    /// `equal_count_engine`'s error over ours.
+    pub error_ratio_at_equal_count_engine: Option<f64>,
+    /// The smallest grid whose error is at or below ours on the same
+    /// tracer; `None` when no grid of the sweep reaches our quality.
     pub equal_quality: Option<Matched>,
     /// `equal_quality`'s probe count over ours: above 1, ours needs fewer.
     pub probe_ratio_at_equal_quality: Option<f64>,
-    /// The grid whose performance figure is nearest ours.
+    /// The same on McGuire's tracer.
+    pub equal_quality_engine: Option<Matched>,
+    /// `equal_quality_engine`'s probe count over ours.
+    pub probe_ratio_at_equal_quality_engine: Option<f64>,
+    /// The grid, on McGuire's tracer, whose performance figure is nearest
+    /// ours (the paper's equal-performance match: today's engine at our
+    /// cost).
     pub equal_performance: Option<Matched>,
     /// `equal_performance`'s error over ours.
     pub error_ratio_at_equal_performance: Option<f64>,
+    /// Every rival at about our count, with intervals: the equal-count
+    /// grid on each tracer, and each non-grid placement of another family
+    /// (relocated, greedy, adaptive; for ours also the other method).
+    pub ratios: Vec<Ratio>,
 }
 
 /// A camera the placements are measured from.
@@ -138,6 +196,8 @@ pub struct CameraRecord {
     pub look_at: [f64; 3],
     /// Vertical field of view.
     pub fov_degrees: f32,
+    /// Chosen from the scene (`compare.views`) rather than given.
+    pub chosen: bool,
     /// Mean of the reference's glossy indirect component, per channel.
     pub reference_glossy_mean: [f64; 3],
 }
@@ -170,6 +230,8 @@ pub struct CompareReport {
     pub height: u32,
     /// Glossy rays per pixel.
     pub glossy_rays: u32,
+    /// The surfaces rendered: `scene`, or `all-glossy:α`.
+    pub materials: String,
     /// The cameras.
     pub cameras: Vec<CameraRecord>,
     /// Every placement, ours first, then the grids by count, then the others.
@@ -210,64 +272,130 @@ pub fn performance_metric(adapter: &str, rows: &[PlacementRow]) -> &'static str 
     }
 }
 
-/// The three matches of every non-grid row against the grid rows.
+/// The three matches of every non-grid row against the grid rows, and its
+/// ratios against every rival with intervals (seeded by `seed`).
 ///
 /// Contract: deterministic; rows with family [`Family::Grid`] form the
-/// sweep; an empty sweep gives matches of `None`.
-pub fn comparisons(rows: &[PlacementRow], metric: &str) -> Vec<Comparison> {
-    let mut grids: Vec<&PlacementRow> = rows.iter().filter(|r| r.family == Family::Grid).collect();
-    grids.sort_by(|a, b| a.probes.cmp(&b.probes).then(a.name.cmp(&b.name)));
+/// sweep, one row per grid and tracer; an empty sweep gives matches of
+/// `None`; rows without blocks get ratios without spread.
+pub fn comparisons(rows: &[PlacementRow], metric: &str, seed: u64) -> Vec<Comparison> {
+    let sweep = |tracer: &str| {
+        let mut g: Vec<&PlacementRow> = rows
+            .iter()
+            .filter(|r| r.family == Family::Grid && r.tracer == tracer)
+            .collect();
+        g.sort_by(|a, b| a.probes.cmp(&b.probes).then(a.name.cmp(&b.name)));
+        g
+    };
+    let (same, engine) = (sweep(TRACER_HIZ), sweep(TRACER_BILEVEL));
     let matched = |g: &PlacementRow| Matched {
         grid: g.name.clone(),
         probes: g.probes,
         error: g.error(),
         performance: g.performance(metric),
     };
+    let nearest = |grids: &[&'_ PlacementRow], n: usize| -> Option<usize> {
+        (0..grids.len()).min_by(|&a, &b| {
+            let (a, b) = (grids[a], grids[b]);
+            a.probes
+                .abs_diff(n)
+                .cmp(&b.probes.abs_diff(n))
+                .then(b.probes.cmp(&a.probes))
+        })
+    };
+    let ratio = |a: f64, b: f64| (b > 0.0).then_some(a / b);
     rows.iter()
         .filter(|r| r.family != Family::Grid)
         .map(|r| {
-            let equal_count = grids
-                .iter()
-                .min_by(|a, b| {
-                    let da = a.probes.abs_diff(r.probes);
-                    let db = b.probes.abs_diff(r.probes);
-                    da.cmp(&db).then(b.probes.cmp(&a.probes))
-                })
-                .map(|g| matched(g));
-            let equal_quality = grids
-                .iter()
-                .find(|g| g.error() <= r.error())
-                .map(|g| matched(g));
+            let equal_count = nearest(&same, r.probes).map(|i| same[i]);
+            let equal_count_engine = nearest(&engine, r.probes).map(|i| engine[i]);
+            let equal_quality = same.iter().find(|g| g.error() <= r.error());
+            let equal_quality_engine = engine.iter().find(|g| g.error() <= r.error());
             let ours = r.performance(metric);
-            let equal_performance = grids
+            let equal_performance = engine
                 .iter()
                 .filter(|g| g.performance(metric).is_finite())
                 .min_by(|a, b| {
                     let da = (a.performance(metric) - ours).abs();
                     let db = (b.performance(metric) - ours).abs();
                     da.total_cmp(&db).then(a.probes.cmp(&b.probes))
-                })
-                .map(|g| matched(g));
-            let ratio = |a: f64, b: f64| (b > 0.0).then_some(a / b);
+                });
+            let mut rivals: Vec<&PlacementRow> =
+                equal_count.into_iter().chain(equal_count_engine).collect();
+            if matches!(r.family, Family::Ours | Family::Given) {
+                rivals.extend(rows.iter().filter(|o| {
+                    let itself = o.family == r.family && o.name == r.name;
+                    !(itself || matches!(o.family, Family::Grid | Family::Given))
+                }));
+            }
+            let ratios = rivals
+                .par_iter()
+                .map(|o| ratio_against(o, r, seed))
+                .collect();
             Comparison {
                 placement: r.name.clone(),
                 probes: r.probes,
                 error: r.error(),
-                error_ratio_at_equal_count: equal_count
-                    .as_ref()
-                    .and_then(|m| ratio(m.error, r.error())),
+                error_ratio_at_equal_count: equal_count.and_then(|m| ratio(m.error(), r.error())),
+                error_ratio_at_equal_count_engine: equal_count_engine
+                    .and_then(|m| ratio(m.error(), r.error())),
                 probe_ratio_at_equal_quality: equal_quality
-                    .as_ref()
+                    .and_then(|m| ratio(m.probes as f64, r.probes as f64)),
+                probe_ratio_at_equal_quality_engine: equal_quality_engine
                     .and_then(|m| ratio(m.probes as f64, r.probes as f64)),
                 error_ratio_at_equal_performance: equal_performance
-                    .as_ref()
-                    .and_then(|m| ratio(m.error, r.error())),
-                equal_count,
-                equal_quality,
-                equal_performance,
+                    .and_then(|m| ratio(m.error(), r.error())),
+                equal_count: equal_count.map(matched),
+                equal_count_engine: equal_count_engine.map(matched),
+                equal_quality: equal_quality.map(|g| matched(g)),
+                equal_quality_engine: equal_quality_engine.map(|g| matched(g)),
+                equal_performance: equal_performance.map(|g| matched(g)),
+                ratios,
             }
         })
         .collect()
+}
+
+/// `rival`'s pooled errors over `ours`, with two-stage bootstrap intervals
+/// over views and blocks.
+fn ratio_against(rival: &PlacementRow, ours: &PlacementRow, seed: u64) -> Ratio {
+    let interval = |f: fn(&Blocks) -> &Vec<f64>, mean: f64, ours_mean: f64| {
+        let paired = rival.blocks.len() == ours.blocks.len()
+            && !ours.blocks.is_empty()
+            && rival
+                .blocks
+                .iter()
+                .zip(&ours.blocks)
+                .all(|(a, b)| f(a).len() == f(b).len() && !f(a).is_empty());
+        if paired {
+            let num: Vec<Vec<f64>> = rival.blocks.iter().map(|b| f(b).clone()).collect();
+            let den: Vec<Vec<f64>> = ours.blocks.iter().map(|b| f(b).clone()).collect();
+            paired_ratio_over_views(&num, &den, RESAMPLES, seed)
+        } else {
+            let v = mean / ours_mean;
+            Interval {
+                value: v,
+                lo: v,
+                hi: v,
+            }
+        }
+    };
+    let mse = interval(
+        |b| &b.mse_glossy_filtered,
+        rival.mse_glossy_filtered,
+        ours.mse_glossy_filtered,
+    );
+    let flip = interval(|b| &b.flip, rival.flip, ours.flip);
+    Ratio {
+        against: rival.name.clone(),
+        family: rival.family,
+        tracer: rival.tracer,
+        probes: rival.probes,
+        win: mse.lo > 1.0 && flip.lo > 1.0,
+        loss: mse.hi < 1.0 && flip.hi < 1.0,
+        mse_glossy_filtered: mse,
+        flip,
+    }
 }
 
 /// One line per placement of ours: its three matches, for the terminal.
@@ -282,9 +410,22 @@ pub fn summary(report: &CompareReport) -> Vec<String> {
                 .any(|p| p.name == c.placement && matches!(p.family, Family::Ours | Family::Given))
         })
         .map(|c| {
-            let count = match (&c.equal_count, c.error_ratio_at_equal_count) {
-                (Some(m), Some(r)) => format!("{} has {r:.2}× the error", m.grid),
-                _ => "no grid".into(),
+            let count: Vec<String> = c
+                .ratios
+                .iter()
+                .filter(|r| r.family == Family::Grid)
+                .map(|r| {
+                    let m = &r.mse_glossy_filtered;
+                    format!(
+                        "{} on {} has {:.2}× [{:.2}, {:.2}] the error",
+                        r.against, r.tracer, m.value, m.lo, m.hi
+                    )
+                })
+                .collect();
+            let count = if count.is_empty() {
+                "no grid".to_string()
+            } else {
+                count.join(", ")
             };
             let quality = match (&c.equal_quality, c.probe_ratio_at_equal_quality) {
                 (Some(m), Some(r)) => format!("{} ({} probes, {r:.2}×)", m.grid, m.probes),
@@ -305,17 +446,18 @@ pub fn summary(report: &CompareReport) -> Vec<String> {
 /// `compare.csv`: one line per placement and camera, a header first.
 pub fn to_csv(report: &CompareReport) -> String {
     let mut out = String::from(
-        "placement,family,tracer,camera,probes,coverage,probes_in_solid,probe_bytes,svo_bytes,texel_fetches_per_ray,gpu_ms,mse_glossy,mse_glossy_filtered,mse_full,unresolved_fraction\n",
+        "placement,family,tracer,camera,chosen,probes,coverage,probes_in_solid,probe_bytes,svo_bytes,texel_fetches_per_ray,gpu_ms,mse_glossy,mse_glossy_filtered,mse_glossy_relative,flip,mse_full,unresolved_fraction\n",
     );
     for p in &report.placements {
         for (i, c) in p.cameras.iter().enumerate() {
             let gpu = c.gpu_ms.map(|v| format!("{v:.3}")).unwrap_or_default();
             let _ = writeln!(
                 out,
-                "{},{},{},{i},{},{:.6},{},{},{},{:.4},{gpu},{:.6e},{:.6e},{:.6e},{:.6}",
+                "{},{},{},{i},{},{},{:.6},{},{},{},{:.4},{gpu},{:.6e},{:.6e},{:.6e},{:.6},{:.6e},{:.6}",
                 p.name,
                 p.family.key(),
                 p.tracer,
+                report.cameras.get(i).is_some_and(|c| c.chosen),
                 p.probes,
                 p.coverage,
                 p.probes_in_solid,
@@ -324,6 +466,8 @@ pub fn to_csv(report: &CompareReport) -> String {
                 c.texel_fetches_per_ray,
                 c.mse_glossy,
                 c.mse_glossy_filtered,
+                c.mse_glossy_relative,
+                c.flip,
                 c.mse_full,
                 c.unresolved_fraction,
             );
@@ -348,11 +492,67 @@ mod tests {
             svo_bytes: 0,
             mse_glossy: mse,
             mse_glossy_filtered: mse,
+            mse_glossy_relative: mse,
+            flip: mse,
+            unresolved_fraction: 0.0,
             texel_fetches_per_ray: fetches,
             gpu_ms: None,
             cameras: vec![],
             stats: BTreeMap::new(),
+            blocks: vec![],
         }
+    }
+
+    /// `row` on McGuire's tracer.
+    fn engine(name: &str, probes: usize, mse: f64, fetches: f64) -> PlacementRow {
+        PlacementRow {
+            tracer: TRACER_BILEVEL,
+            ..row(name, Family::Grid, probes, mse, fetches)
+        }
+    }
+
+    /// Blocks of `views` views whose every block is `scale` times a
+    /// pattern shared by all placements (common random numbers).
+    fn blocks(scale: f64, views: usize) -> Vec<Blocks> {
+        (0..views)
+            .map(|v| {
+                let e: Vec<f64> = (0..50)
+                    .map(|i| scale * (1.0 + ((i * 7 + v) % 11) as f64))
+                    .collect();
+                Blocks {
+                    mse_glossy_filtered: e.clone(),
+                    flip: e,
+                }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn ratios_carry_intervals_and_call_a_win_only_when_both_exclude_one() {
+        let mut ours = row("ours", Family::Ours, 10, 1.0, 20.0);
+        ours.blocks = blocks(1.0, 4);
+        let mut grid = row("g8", Family::Grid, 8, 2.0, 30.0);
+        grid.blocks = blocks(2.0, 4);
+        let mut greedy = row("greedy", Family::Greedy, 10, 1.0, 20.0);
+        greedy.blocks = blocks(1.0, 4);
+        // Worse in half the views, better in the rest: no verdict.
+        let mut adaptive = row("adaptive", Family::Adaptive, 10, 1.0, 20.0);
+        adaptive.blocks = (0..4)
+            .map(|v| blocks(if v % 2 == 0 { 0.4 } else { 1.6 }, 1).remove(0))
+            .collect();
+        let rows = vec![ours, grid, greedy, adaptive];
+        let c = &comparisons(&rows, "texel_fetches_per_ray", 1)[0];
+        let by = |n: &str| c.ratios.iter().find(|r| r.against == n).unwrap();
+        let g = by("g8");
+        assert_eq!((g.mse_glossy_filtered.value, g.tracer), (2.0, TRACER_HIZ));
+        assert!(g.win && !g.loss && g.mse_glossy_filtered.lo > 1.0);
+        let tie = by("greedy");
+        assert_eq!((tie.flip.lo, tie.flip.hi), (1.0, 1.0));
+        assert!(!tie.win && !tie.loss);
+        let mixed = by("adaptive");
+        assert!(mixed.mse_glossy_filtered.lo < 1.0 && mixed.mse_glossy_filtered.hi > 1.0);
+        assert!(!mixed.win && !mixed.loss);
+        assert_eq!(c.ratios.len(), 3, "one equal-count grid, two competitors");
     }
 
     #[test]
@@ -363,14 +563,21 @@ mod tests {
             row("g12", Family::Grid, 12, 3.0, 21.0),
             row("g27", Family::Grid, 27, 1.9, 18.0),
             row("g64", Family::Grid, 64, 1.0, 15.0),
+            engine("g8", 8, 50.0, 30.0),
+            engine("g12", 12, 30.0, 21.0),
+            engine("g27", 27, 1.9, 18.0),
         ];
-        let c = &comparisons(&rows, "texel_fetches_per_ray")[0];
+        let c = &comparisons(&rows, "texel_fetches_per_ray", 1)[0];
         // 8 and 12 are both 2 away: the larger grid wins the tie.
         assert_eq!(c.equal_count.as_ref().unwrap().grid, "g12");
         assert_eq!(c.error_ratio_at_equal_count, Some(1.5));
         assert_eq!(c.equal_quality.as_ref().unwrap().grid, "g27");
         assert_eq!(c.probe_ratio_at_equal_quality, Some(2.7));
         assert_eq!(c.equal_performance.as_ref().unwrap().grid, "g12");
+        // McGuire's tracer: its own equal-count and equal-quality grids.
+        assert_eq!(c.error_ratio_at_equal_count_engine, Some(15.0));
+        assert_eq!(c.equal_quality_engine.as_ref().unwrap().grid, "g27");
+        assert_eq!(c.equal_performance.as_ref().unwrap().error, 30.0);
     }
 
     #[test]
@@ -380,7 +587,7 @@ mod tests {
             row("g8", Family::Grid, 8, 5.0, 30.0),
             row("reloc", Family::Relocated, 7, 6.0, 30.0),
         ];
-        let cs = comparisons(&rows, "texel_fetches_per_ray");
+        let cs = comparisons(&rows, "texel_fetches_per_ray", 1);
         assert_eq!(cs.len(), 2, "grids are not matched against themselves");
         assert!(cs[0].equal_quality.is_none());
         assert_eq!(cs[1].equal_quality.as_ref().unwrap().grid, "g8");

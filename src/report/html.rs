@@ -9,7 +9,10 @@
 //! scatter plots need only axes, ticks and polylines, and hand-written SVG
 //! keeps the page byte-identical from run to run without font files.
 
-use super::compare::{CompareReport, Comparison, Family, Matched, PlacementRow};
+use super::compare::{
+    CompareReport, Comparison, Family, Matched, PlacementRow, Ratio, TRACER_BILEVEL, TRACER_HIZ,
+};
+use crate::stats::Interval;
 use std::fmt::Write as _;
 
 /// The images of one placement, PNG-encoded.
@@ -20,6 +23,8 @@ pub struct PlacementFigures {
     pub renders: Vec<Vec<u8>>,
     /// The glossy-error heat map from each camera.
     pub errors: Vec<Vec<u8>>,
+    /// The ꟻLIP error map from each camera.
+    pub flips: Vec<Vec<u8>>,
 }
 
 /// Every image of the page, PNG-encoded.
@@ -43,8 +48,8 @@ pub fn page(report: &CompareReport, figures: &Figures) -> String {
     let _ = writeln!(h, "<h1>Probe placement compared: {scene}</h1>");
     let _ = writeln!(
         h,
-        "<p class=\"meta\">config <code>{}</code> · seed {} · grids traced by McGuire's bi-level march and grid selection, the rest by Wang's Hi-Z march and SVO selection, on <b>{}</b> · \
-         {}×{} pixels, {} glossy rays per pixel · {} camera(s) · equal performance by <code>{}</code></p>",
+        "<p class=\"meta\">config <code>{}</code> · seed {} · every placement traced by Wang's Hi-Z march and SVO selection (<code>hiz+svo</code>), the grids also by McGuire's bi-level march and grid selection (<code>bilevel+grid</code>), on <b>{}</b> · \
+         {}×{} pixels, {} glossy rays per pixel · {} view(s), {} chosen from the scene · materials <code>{}</code> · equal performance by <code>{}</code></p>",
         escape(&report.config),
         report.seed,
         escape(&report.adapter),
@@ -52,9 +57,12 @@ pub fn page(report: &CompareReport, figures: &Figures) -> String {
         report.height,
         report.glossy_rays,
         report.cameras.len(),
+        report.cameras.iter().filter(|c| c.chosen).count(),
+        escape(&report.materials),
         report.performance_metric
     );
     summary(&mut h, report);
+    ratios_table(&mut h, report);
     placements_table(&mut h, report);
     figures.view.section(
         &mut h,
@@ -85,27 +93,36 @@ pub fn page(report: &CompareReport, figures: &Figures) -> String {
 
     h.push_str("<h2 id=\"references\">Path-traced reference</h2>\n<div class=\"row\">\n");
     for (i, png) in figures.references.iter().enumerate() {
-        figure(&mut h, png, &format!("camera {i}"), "reference");
+        figure(&mut h, png, &format!("view {i}"), "reference");
     }
     h.push_str("</div>\n");
 
     h.push_str("<h2 id=\"gallery\">Placements, renders and glossy error</h2>\n");
-    h.push_str("<p>Top and side views: probes as dots, surface samples no probe sees in red. Error maps: black where the glossy indirect light matches the reference, through red and yellow to white at four times its mean.</p>\n");
+    let _ = writeln!(h, "<p>Top and side views: probes as dots, surface samples no probe sees in red. MSE maps: black where the glossy indirect light matches the reference, through red and yellow to white at four times its mean. ꟻLIP maps: the perceptual error of the filtered glossy indirect, dark (none) to bright (large), in ꟻLIP's magma colours. Renders and maps of the first {} view(s), for ours, the equal-count grid and the competitors; every view is measured.</p>", figures.references.len());
     for (row, fig) in report.placements.iter().zip(&figures.placements) {
         let _ = writeln!(
             h,
-            "<section class=\"card {}\"><h3>{} <small>{} · {} · {} probes · filtered glossy MSE {}</small></h3>\n<div class=\"row\">",
+            "<section class=\"card {}\"><h3>{} <small>{} · {} · {} probes · filtered glossy MSE {} · ꟻLIP {:.4} · unresolved {:.2}%</small></h3>\n<div class=\"row\">",
             row.family.key(),
             escape(&row.name),
             row.family.label(),
             row.tracer,
             row.probes,
-            sci(row.mse_glossy_filtered)
+            sci(row.mse_glossy_filtered),
+            row.flip,
+            100.0 * row.unresolved_fraction
         );
         figure(&mut h, &fig.views, "top and side views", "views");
-        for (i, (render, error)) in fig.renders.iter().zip(&fig.errors).enumerate() {
-            figure(&mut h, render, &format!("render, camera {i}"), "render");
-            figure(&mut h, error, &format!("glossy error, camera {i}"), "error");
+        for (i, ((render, error), flip)) in fig
+            .renders
+            .iter()
+            .zip(&fig.errors)
+            .zip(&fig.flips)
+            .enumerate()
+        {
+            figure(&mut h, render, &format!("render, view {i}"), "render");
+            figure(&mut h, error, &format!("glossy MSE, view {i}"), "error");
+            figure(&mut h, flip, &format!("ꟻLIP, view {i}"), "error");
         }
         h.push_str("</div></section>\n");
     }
@@ -196,7 +213,7 @@ fn count_figures(f: &Figures) -> usize {
     f.references.len()
         + f.placements
             .iter()
-            .map(|p| 1 + p.renders.len() + p.errors.len())
+            .map(|p| 1 + p.renders.len() + p.errors.len() + p.flips.len())
             .sum::<usize>()
 }
 
@@ -219,17 +236,20 @@ fn summary(h: &mut String, report: &CompareReport) {
             c.probes,
             sci(c.error)
         );
-        match (&c.equal_count, c.error_ratio_at_equal_count) {
-            (Some(m), Some(r)) => {
-                let _ = write!(
-                    h,
-                    "at equal count, {} ({} probes) has <b>{:.2}×</b> the error; ",
-                    escape(&m.grid),
-                    m.probes,
-                    r
-                );
-            }
-            _ => h.push_str("no grid to match the count; "),
+        for r in c.ratios.iter().filter(|r| r.family == Family::Grid) {
+            let _ = write!(
+                h,
+                "at equal count, {} ({} probes) on <code>{}</code> has {} the filtered MSE and {} the ꟻLIP error ({}); ",
+                escape(&r.against),
+                r.probes,
+                r.tracer,
+                interval(&r.mse_glossy_filtered),
+                interval(&r.flip),
+                verdict(r)
+            );
+        }
+        if c.equal_count.is_none() {
+            h.push_str("no grid to match the count; ");
         }
         match (&c.equal_quality, c.probe_ratio_at_equal_quality) {
             (Some(m), Some(r)) => {
@@ -270,19 +290,70 @@ fn summary(h: &mut String, report: &CompareReport) {
     h.push_str("</ul>\n");
 }
 
+/// `value× [lo, hi]`, bold when the interval excludes 1.
+fn interval(i: &Interval) -> String {
+    let text = format!("{:.2}× [{:.2}, {:.2}]", i.value, i.lo, i.hi);
+    if i.excludes_one() {
+        format!("<b>{text}</b>")
+    } else {
+        text
+    }
+}
+
+/// What a ratio's intervals say.
+fn verdict(r: &Ratio) -> &'static str {
+    match (r.win, r.loss) {
+        (true, _) => "ours wins",
+        (_, true) => "ours loses",
+        _ => "no clear difference",
+    }
+}
+
+/// Every ratio of our placements against their rivals, with intervals.
+fn ratios_table(h: &mut String, report: &CompareReport) {
+    h.push_str("<h2 id=\"ratios\">Ours against each rival at about equal count</h2>\n<p>Each ratio is the rival's pooled error over ours (above 1: ours is better), with its 95% interval from a two-stage paired bootstrap over views and 16-pixel blocks; it is a win only when both intervals lie above 1. Ours is traced with <code>hiz+svo</code>; the rival's tracer is given: a grid on <code>hiz+svo</code> isolates placement, on <code>bilevel+grid</code> it is what engines trace today.</p>\n<table id=\"ratios-table\">\n<tr><th>ours</th><th>probes</th><th>rival</th><th>kind</th><th>tracer</th><th>probes</th><th>filtered MSE ratio</th><th>ꟻLIP ratio</th><th>verdict</th></tr>\n");
+    for c in &report.comparisons {
+        let family = report
+            .placements
+            .iter()
+            .find(|p| p.name == c.placement)
+            .map(|p| p.family);
+        if !matches!(family, Some(Family::Ours | Family::Given)) {
+            continue;
+        }
+        for r in &c.ratios {
+            let _ = writeln!(
+                h,
+                "<tr class=\"{}\"><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
+                r.family.key(),
+                escape(&c.placement),
+                c.probes,
+                escape(&r.against),
+                r.family.label(),
+                r.tracer,
+                r.probes,
+                interval(&r.mse_glossy_filtered),
+                interval(&r.flip),
+                verdict(r)
+            );
+        }
+    }
+    h.push_str("</table>\n");
+}
+
 fn placements_table(h: &mut String, report: &CompareReport) {
-    h.push_str("<h2 id=\"placements\">Placements</h2>\n<table id=\"placements-table\">\n<tr><th>placement</th><th>kind</th><th>probes</th><th>coverage</th><th>in solid</th><th>probe data</th><th>SVO</th><th>tracer</th><th>texel fetches / ray</th><th>GPU ms</th><th>glossy MSE</th><th>filtered glossy MSE</th>");
+    h.push_str("<h2 id=\"placements\">Placements</h2>\n<table id=\"placements-table\">\n<tr><th>placement</th><th>kind</th><th>probes</th><th>coverage</th><th>in solid</th><th>probe data</th><th>SVO</th><th>tracer</th><th>texel fetches / ray</th><th>GPU ms</th><th>glossy MSE</th><th>filtered glossy MSE</th><th>relative MSE</th><th>ꟻLIP</th><th>unresolved</th>");
     let cams = report.cameras.len();
     if cams > 1 {
         for i in 0..cams {
-            let _ = write!(h, "<th>filtered MSE cam {i}</th>");
+            let _ = write!(h, "<th>filtered MSE view {i}</th>");
         }
     }
     h.push_str("</tr>\n");
     for r in &report.placements {
         let _ = write!(
             h,
-            "<tr class=\"{}\"><td>{}</td><td>{}</td><td>{}</td><td>{:.2}%</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{:.1}</td><td>{}</td><td>{}</td><td>{}</td>",
+            "<tr class=\"{}\"><td>{}</td><td>{}</td><td>{}</td><td>{:.2}%</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{:.1}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{:.4}</td><td>{:.2}%</td>",
             r.family.key(),
             escape(&r.name),
             r.family.label(),
@@ -295,7 +366,10 @@ fn placements_table(h: &mut String, report: &CompareReport) {
             r.texel_fetches_per_ray,
             r.gpu_ms.map(|v| format!("{v:.1}")).unwrap_or_else(|| "–".into()),
             sci(r.mse_glossy),
-            sci(r.mse_glossy_filtered)
+            sci(r.mse_glossy_filtered),
+            sci(r.mse_glossy_relative),
+            r.flip,
+            100.0 * r.unresolved_fraction
         );
         if cams > 1 {
             for c in &r.cameras {
@@ -310,7 +384,7 @@ fn placements_table(h: &mut String, report: &CompareReport) {
 fn matches_table(h: &mut String, report: &CompareReport) {
     h.push_str("<h2 id=\"matches\">Matched grids</h2>\n<p>Equal count: the grid nearest in probe count. Errors are the glossy MSE after a 7×7 box filter of render and reference (sampling noise filtered out, as Wang et al. compare filtered glossy components). Equal quality: the smallest grid whose error is at or below the placement's. Equal performance: the grid nearest in ");
     h.push_str(report.performance_metric);
-    h.push_str(".</p>\n<table id=\"matches-table\">\n<tr><th>placement</th><th>probes</th><th>equal count</th><th>grid error / ours</th><th>equal quality</th><th>grid probes / ours</th><th>equal performance</th><th>grid error / ours</th></tr>\n");
+    h.push_str(".</p>\n<table id=\"matches-table\">\n<tr><th>placement</th><th>probes</th><th>equal count (hiz+svo)</th><th>grid error / ours</th><th>equal count (bilevel+grid)</th><th>grid error / ours</th><th>equal quality (hiz+svo)</th><th>grid probes / ours</th><th>equal quality (bilevel+grid)</th><th>grid probes / ours</th><th>equal performance (bilevel+grid)</th><th>grid error / ours</th></tr>\n");
     let cell = |m: &Option<Matched>| match m {
         Some(m) => format!("{} ({} probes)", escape(&m.grid), m.probes),
         None => "none in the sweep".into(),
@@ -328,12 +402,16 @@ fn matches_table(h: &mut String, report: &CompareReport) {
             .unwrap_or("");
         let _ = writeln!(
             h,
-            "<tr class=\"{class}\"><td>{}</td><td>{probes}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
+            "<tr class=\"{class}\"><td>{}</td><td>{probes}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
             escape(placement),
             cell(&c.equal_count),
             ratio(c.error_ratio_at_equal_count),
+            cell(&c.equal_count_engine),
+            ratio(c.error_ratio_at_equal_count_engine),
             cell(&c.equal_quality),
             ratio(c.probe_ratio_at_equal_quality),
+            cell(&c.equal_quality_engine),
+            ratio(c.probe_ratio_at_equal_quality_engine),
             cell(&c.equal_performance),
             ratio(c.error_ratio_at_equal_performance),
         );
@@ -510,22 +588,27 @@ fn plot_axes(s: &mut String, frame: &PlotFrame, x_label: &str, y_label: &str) {
 /// The line joining the grid sweep's points in order of probe count, where
 /// the sweep has more than one point.
 fn plot_grid_sweep(s: &mut String, frame: &PlotFrame, points: &[PlotPoint]) {
-    let mut grid: Vec<&PlotPoint> = points
-        .iter()
-        .filter(|p| p.0.family == Family::Grid)
-        .collect();
-    grid.sort_by(|a, b| a.1.total_cmp(&b.1));
-    if grid.len() > 1 {
-        let line: Vec<String> = grid
+    for (tracer, dash) in [
+        (TRACER_HIZ, ""),
+        (TRACER_BILEVEL, " stroke-dasharray=\"5 3\""),
+    ] {
+        let mut grid: Vec<&PlotPoint> = points
             .iter()
-            .map(|p| format!("{:.1},{:.1}", frame.px(p.1), frame.py(p.2)))
+            .filter(|p| p.0.family == Family::Grid && p.0.tracer == tracer)
             .collect();
-        let _ = writeln!(
-            s,
-            "<polyline fill=\"none\" stroke=\"{}\" stroke-width=\"1.5\" points=\"{}\"/>",
-            style(Family::Grid).0,
-            line.join(" ")
-        );
+        grid.sort_by(|a, b| a.1.total_cmp(&b.1));
+        if grid.len() > 1 {
+            let line: Vec<String> = grid
+                .iter()
+                .map(|p| format!("{:.1},{:.1}", frame.px(p.1), frame.py(p.2)))
+                .collect();
+            let _ = writeln!(
+                s,
+                "<polyline fill=\"none\" stroke=\"{}\" stroke-width=\"1.5\"{dash} points=\"{}\"><title>grids on {tracer}</title></polyline>",
+                style(Family::Grid).0,
+                line.join(" ")
+            );
+        }
     }
 }
 
@@ -537,9 +620,10 @@ fn plot_points(s: &mut String, frame: &PlotFrame, points: &[PlotPoint]) {
         let (cx, cy) = (frame.px(*x), frame.py(*v));
         let _ = writeln!(
             s,
-            "{}<title>{}: {} probes, {}</title></g>",
+            "{}<title>{} ({}): {} probes, {}</title></g>",
             marker(shape, color, cx, cy),
             escape(&r.name),
+            r.tracer,
             r.probes,
             sci(*v)
         );
@@ -578,7 +662,10 @@ fn plot_legend(s: &mut String, points: &[PlotPoint]) {
             marker(shape, color, lx, ly),
             lx + 10.0,
             ly + 4.0,
-            escape(f.label())
+            escape(&match f {
+                Family::Grid => format!("{} (dashed: bilevel)", f.label()),
+                _ => f.label().to_string(),
+            })
         );
         ly += 18.0;
     }

@@ -9,6 +9,7 @@ use crate::config::{CameraParams, Config};
 use crate::error::{Error, Result};
 use crate::gpu::{kind, twin, Context, ProbeTracer, Record, SelectionKind};
 use crate::lightfield::LightField;
+use crate::render::flip;
 use crate::render::lights::luminance;
 use crate::render::probes::{
     box_filter, compose, error_heat_map, gbuffer, mse, GBuffer, ProbeImage,
@@ -26,6 +27,17 @@ const GLOSSY_STREAMS: u64 = 0x6_1055;
 /// Radius of the box filter of [`Metrics::mse_glossy_filtered`].
 pub const FILTER_RADIUS: u32 = 3;
 
+/// Side in pixels of the blocks the comparison's intervals resample
+/// ([`crate::stats`]): over twice the filter's width, so that neighbouring
+/// blocks share few filtered pixels.
+pub const BLOCK: u32 = 16;
+
+/// `ε` of [`Metrics::mse_glossy_relative`] as a share of the squared mean
+/// luminance of the view's reference glossy indirect: keeps dark pixels
+/// from dominating (Rousselle et al. 2011's relative MSE adds such a
+/// constant).
+pub const RELATIVE_EPSILON: f64 = 0.01;
+
 /// The seed of camera `index`'s reference and rays; camera 0's is the
 /// config's, so `bake`'s reference is `compare`'s first.
 fn camera_seed(config: &Config, index: usize) -> u64 {
@@ -33,12 +45,12 @@ fn camera_seed(config: &Config, index: usize) -> u64 {
 }
 
 /// Refuses reference images that would not fit the memory budget or
-/// would run past the work limit, for `views` cameras ([`crate::limits`];
-/// errors name the `reference` field, unprefixed). Memory: the RGB f32
-/// images (full, glossy indirect, the G-buffer) at about 64 bytes a pixel.
-/// Work: `width × height × samples_per_pixel` paths of `1 + bounces`
-/// vertices per view.
-pub fn check_reference(config: &Config, views: usize) -> crate::error::Result<()> {
+/// would run past `limits` work limits, for `views` cameras
+/// ([`crate::limits`]; errors name the `reference` field, unprefixed).
+/// Memory: the RGB f32 images (full, glossy indirect, the G-buffer) at
+/// about 64 bytes a pixel. Work: `width × height × samples_per_pixel`
+/// paths of `1 + bounces` vertices per view.
+pub fn check_reference(config: &Config, views: usize, limits: f64) -> crate::error::Result<()> {
     let r = &config.reference;
     let pixels = r.width.0 as f64 * r.height.0 as f64;
     crate::limits::check_memory(
@@ -58,7 +70,7 @@ pub fn check_reference(config: &Config, views: usize) -> crate::error::Result<()
             r.width.0, r.height.0, r.samples_per_pixel.0, r.bounces.0
         ),
         vertices,
-        crate::limits::rate::PATH_VERTICES,
+        crate::limits::rate::PATH_VERTICES * limits,
     )
 }
 
@@ -96,6 +108,12 @@ pub struct View {
     pub gbuffer: GBuffer,
     /// Exposure of the PNG previews (the reference's).
     pub exposure: f32,
+    /// Exposure of the glossy-indirect images ꟻLIP compares (the filtered
+    /// reference's).
+    pub glossy_exposure: f32,
+    /// The filtered reference glossy indirect as ꟻLIP sees it
+    /// ([`crate::render::flip::display`]).
+    pub flip_reference: Vec<u8>,
     /// Error of the heat maps' full scale.
     pub error_scale: f32,
 }
@@ -123,14 +141,23 @@ impl View {
             &padded_bounds(&scene.bounds),
             camera_seed(config, index) ^ GLOSSY_STREAMS,
         );
+        let filtered_glossy = box_filter(
+            &reference.glossy_indirect,
+            reference.width,
+            reference.height,
+            FILTER_RADIUS,
+        );
+        let glossy_exposure = auto_exposure(&filtered_glossy);
         View {
             camera: *camera,
-            filtered_glossy: box_filter(
-                &reference.glossy_indirect,
+            flip_reference: flip::display(
+                &filtered_glossy,
                 reference.width,
                 reference.height,
-                FILTER_RADIUS,
+                glossy_exposure,
             ),
+            glossy_exposure,
+            filtered_glossy,
             exposure: auto_exposure(&reference.full),
             error_scale: (4.0 * mean_luminance(&reference.glossy_indirect)) as f32,
             reference,
@@ -237,6 +264,14 @@ impl<'a> Tracer<'a> {
 pub struct Metrics {
     /// Glossy-indirect MSE against the reference, per pixel and channel.
     pub mse_glossy: f64,
+    /// Relative MSE of the filtered glossy indirect: the mean of
+    /// `(x − r)² / (r² + ε)` per pixel and channel, `ε` being
+    /// [`RELATIVE_EPSILON`] of the reference's squared mean luminance, so
+    /// that dim and bright regions weigh alike.
+    pub mse_glossy_relative: f64,
+    /// Mean ꟻLIP error ([`crate::render::flip`]) of the tone-mapped,
+    /// filtered glossy indirect against the reference's, in [0, 1].
+    pub flip: f64,
     /// The same after a 7×7 box filter of both images, which removes most
     /// sampling noise and keeps what placement changes: missing and wrong
     /// reflections (Wang's Fig. 8 compares filtered glossy components).
@@ -270,6 +305,21 @@ pub struct Validation {
     pub image: ProbeImage,
     /// Its figures against the reference.
     pub metrics: Metrics,
+    /// Its errors per [`BLOCK`]-pixel block, for intervals.
+    pub blocks: Blocks,
+    /// Its ꟻLIP error per pixel, for the error map.
+    pub flip_map: Vec<f32>,
+}
+
+/// One render's errors per block of [`BLOCK`]² pixels, row by row
+/// ([`crate::stats::block_means`]): what the comparison's bootstrap
+/// resamples.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Blocks {
+    /// Squared error of the filtered glossy indirect, per channel.
+    pub mse_glossy_filtered: Vec<f64>,
+    /// ꟻLIP error.
+    pub flip: Vec<f64>,
 }
 
 /// Composes the view from `irradiance` (answers to its irradiance queries)
@@ -283,12 +333,47 @@ pub fn validate(view: &View, irradiance: &Answers, glossy: &Answers) -> Validati
     let count = |k: u32| records.iter().filter(|r| r.kind == k).count() as u64;
     let unresolved = count(kind::UNKNOWN) + count(kind::NO_PROBE);
     let r = &view.reference;
+    let filtered = box_filter(&image.glossy_indirect, r.width, r.height, FILTER_RADIUS);
+    let squared: Vec<f64> = filtered
+        .iter()
+        .zip(&view.filtered_glossy)
+        .map(|(x, y)| {
+            (0..3)
+                .map(|c| (x[c] as f64 - y[c] as f64).powi(2))
+                .sum::<f64>()
+                / 3.0
+        })
+        .collect();
+    let epsilon = RELATIVE_EPSILON * mean_luminance(&view.filtered_glossy).powi(2);
+    let relative = filtered
+        .iter()
+        .zip(&view.filtered_glossy)
+        .map(|(x, y)| {
+            (0..3)
+                .map(|c| (x[c] as f64 - y[c] as f64).powi(2) / ((y[c] as f64).powi(2) + epsilon))
+                .sum::<f64>()
+                / 3.0
+        })
+        .sum::<f64>()
+        / filtered.len().max(1) as f64;
+    let flip_map = flip::flip(
+        &view.flip_reference,
+        &flip::display(&filtered, r.width, r.height, view.glossy_exposure),
+        r.width,
+        r.height,
+    );
+    let flip_values: Vec<f64> = flip_map.iter().map(|&e| e as f64).collect();
+    let width = r.width as usize;
+    let blocks = Blocks {
+        mse_glossy_filtered: crate::stats::block_means(&squared, width, BLOCK as usize),
+        flip: crate::stats::block_means(&flip_values, width, BLOCK as usize),
+    };
+    let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len().max(1) as f64;
     let metrics = Metrics {
         mse_glossy: mse(&image.glossy_indirect, &r.glossy_indirect),
-        mse_glossy_filtered: mse(
-            &box_filter(&image.glossy_indirect, r.width, r.height, FILTER_RADIUS),
-            &view.filtered_glossy,
-        ),
+        mse_glossy_relative: if epsilon > 0.0 { relative } else { 0.0 },
+        flip: mean(&flip_values),
+        mse_glossy_filtered: mean(&squared),
         mse_full: mse(&image.full, &r.full),
         texel_fetches_per_ray: sum(|r| r.fetches) as f64 / rays,
         unresolved_fraction: unresolved as f64 / rays,
@@ -302,7 +387,12 @@ pub fn validate(view: &View, irradiance: &Answers, glossy: &Answers) -> Validati
         hits: count(kind::HIT),
         misses: count(kind::MISS),
     };
-    Validation { image, metrics }
+    Validation {
+        image,
+        metrics,
+        blocks,
+        flip_map,
+    }
 }
 
 /// Mean luminance of `pixels`, non-finite values left out (0 for none).

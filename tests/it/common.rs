@@ -289,8 +289,9 @@ pub const TEST_REFERENCE: [(&str, &str); 3] = [
     ("samples_per_pixel", "8"),
 ];
 
-/// The test-quality `compare`, set inside the config's own `compare`.
-pub const TEST_COMPARE: [(&str, &str); 1] = [("glossy_rays", "2")];
+/// The test-quality `compare`, set inside the config's own `compare`: two
+/// chosen views besides the config's camera.
+pub const TEST_COMPARE: [(&str, &str); 2] = [("glossy_rays", "2"), ("views", "2")];
 
 /// The test-quality coverage measure (a tenth of the samples: a 95%
 /// interval of about ±1.6% instead of ±0.5%), set inside the config's own

@@ -302,6 +302,24 @@ fn compare_json_and_csv_match_their_docs() {
             );
         }
     }
+    // Every ratio's fields, and the interval's.
+    let per_ratio = table_after(&formats, heading, "Per ratio:");
+    let ratios: Vec<&Value> = report["comparisons"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .flat_map(|c| c["ratios"].as_array().unwrap())
+        .collect();
+    assert!(!ratios.is_empty(), "no ratios");
+    for r in ratios {
+        same_fields("compare.json ratio", &per_ratio, r, &[]);
+        for k in keys(&r["flip"]) {
+            assert!(
+                ["value", "lo", "hi"].contains(&k.as_str()),
+                "interval field {k} is not documented"
+            );
+        }
+    }
     // The documented header is the header written, in order.
     let csv = std::fs::read_to_string(dir.join("compare.csv")).unwrap();
     let header = csv.lines().next().unwrap();
