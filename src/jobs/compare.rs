@@ -95,6 +95,10 @@ pub fn compare(options: &RunOptions) -> Result<Outcome> {
         .chain(&job.config.compare.cameras)
         .copied()
         .collect();
+    // Grids given by name are checked before any work; a sweep once our
+    // count is known.
+    let named = options.grids.as_ref().unwrap_or(&job.config.compare.grids);
+    check_grids(&job.config, named).map_err(|e| job.config_error(e))?;
     let chosen = job.config.compare.views.0 as usize;
     if cameras.is_empty() && chosen == 0 {
         return Err(job.config_error(Error::User(
@@ -240,6 +244,25 @@ fn write(
     let value = serde_json::to_value(&report).map_err(|e| Error::Internal(e.to_string()))?;
     let summary = crate::report::compare::summary(&report);
     job.finish_with("compare.json", value, summary)
+}
+
+/// Refuses grids whose bakes together would take more than
+/// [`COMPARE_WORK_FACTOR`] work limits (each bake alone is checked when it
+/// runs; errors name `compare.grids`, unprefixed).
+fn check_grids(config: &Config, grids: &[GridParams]) -> Result<()> {
+    let total: f64 = grids
+        .iter()
+        .map(|g| {
+            let (x, y, z) = g.cells;
+            stages::bake::core_seconds(config, (x.0 * y.0 * z.0) as usize)
+        })
+        .sum();
+    crate::limits::check_work(
+        "compare.grids",
+        &format!("baking the {} grids", grids.len()),
+        total,
+        COMPARE_WORK_FACTOR,
+    )
 }
 
 /// The first grid of [`placement::cubic_grid_sweep`] (up to `max_cells`
@@ -487,23 +510,8 @@ impl Bench<'_> {
             (None, false) => self.config.compare.grids.clone(),
             (None, true) => grid_sweep(&self.prepared.domain, ours_count),
         };
-        // Each grid's bake is checked alone in `measure`; their sum is
-        // bounded here, before the first, at four times that limit: a
-        // comparison is several bakes by design.
-        let total: f64 = grids
-            .iter()
-            .map(|g| {
-                let (x, y, z) = g.cells;
-                stages::bake::core_seconds(&self.config, (x.0 * y.0 * z.0) as usize)
-            })
-            .sum();
-        crate::limits::check_work(
-            "compare.grids",
-            &format!("baking the {} grids", grids.len()),
-            total,
-            COMPARE_WORK_FACTOR,
-        )
-        .map_err(|e| e.in_config(&self.config_path, &self.config_text))?;
+        check_grids(&self.config, &grids)
+            .map_err(|e| e.in_config(&self.config_path, &self.config_text))?;
         let count = |g: &GridParams| (g.cells.0 .0 * g.cells.1 .0 * g.cells.2 .0) as usize;
         let nearest = grids
             .iter()

@@ -18,12 +18,15 @@
 //!    (points shared by neighbouring bricks count once; the lattice of level
 //!    k is a sublattice of level 0's, so points are keyed by their level-0
 //!    coordinates), clipped to the domain.
-//! 4. A probe in a free voxel stays. One in a solid voxel moves by virtual
+//! 4. A probe in a free voxel at least the grids' minimum clearance from
+//!    every surface stays. One in a solid voxel, or nearer a surface than
+//!    that (a lattice point on a floor or a wall, where Unity's validity
+//!    test finds half its rays hitting the surface's back), moves by virtual
 //!    offset: up the SDF, one voxel at a time to the neighbour farthest from
-//!    a surface, until it stands in a free voxel at least one voxel from
-//!    every surface; a probe that gets no further than half its brick's
-//!    spacing from where it started, or stands outside the scene, is
-//!    dropped (Unity's invalid probes, left to dilation).
+//!    a surface, until it stands in a free voxel that far from every
+//!    surface; a probe that gets no further than half its brick's spacing
+//!    from where it started, or stands outside the scene, is dropped
+//!    (Unity's invalid probes, left to dilation).
 //!
 //! `--method adaptive:MIN_SPACING` or `placement: Adaptive((min_spacing:
 //! s, levels: 3))`; not yet among `compare`'s competitors.
@@ -246,9 +249,9 @@ fn virtual_offset(sdf: &Sdf, p: Vec3, clearance: f32, reach: f32) -> Option<Vec3
     let good = |v: usize| sdf.class[v] == VoxelClass::Free && sdf.distance[v] >= clearance;
     let start = sdf.voxel_at(p)?;
     match sdf.class[start] {
-        VoxelClass::Free => return Some(p),
+        VoxelClass::Free if sdf.distance[start] >= clearance => return Some(p),
         VoxelClass::Outside => return None,
-        VoxelClass::Solid => {}
+        VoxelClass::Free | VoxelClass::Solid => {}
     }
     let mut at = sdf.coords(start).as_ivec3();
     for _ in 0..((reach / sdf.voxel_size).floor() as usize) {

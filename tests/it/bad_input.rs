@@ -456,21 +456,23 @@ fn bake_and_light_mistakes_name_their_field() {
     }
 }
 
+/// `render` needs the config's camera; `compare` chooses views of its
+/// own, so it is refused only when told to choose none.
 #[test]
-fn render_and_compare_without_a_camera_name_the_field() {
+fn render_and_compare_without_a_view_name_the_field() {
     let d = tempfile::tempdir().unwrap();
     obj(d.path(), "room.obj", CUBE_ROOM);
-    let p = config(d.path(), "room.obj", "");
     let out = d.path().join("out");
-    for command in ["render", "compare"] {
+    for (command, extra, field) in [
+        ("render", "", "reference.camera"),
+        ("compare", "    compare: (views: 0),\n", "compare.views"),
+    ] {
+        let p = config(d.path(), "room.obj", extra);
         let o = probeplace(&[command, p.to_str().unwrap(), "--out", out.to_str().unwrap()]);
         let e = String::from_utf8_lossy(&o.stderr).into_owned();
         assert_eq!(o.status.code(), Some(2), "{command}: {e}");
         assert_eq!(e.trim().lines().count(), 1, "{command}: {e}");
-        assert!(
-            e.contains("run.ron") && e.contains("reference.camera"),
-            "{command}: {e}"
-        );
+        assert!(e.contains("run.ron") && e.contains(field), "{command}: {e}");
         assert!(!out.exists(), "{command}: nothing may be written");
     }
 }
@@ -487,6 +489,9 @@ fn compare_mistakes_name_their_field() {
             "look_at must differ",
         ),
         ("compare: (sweep: 3)", "sweep"),
+        ("compare: (views: 65)", "views"),
+        ("compare: (materials: AllGlossy(1.5))", "materials"),
+        ("compare: (materials: Shiny)", "materials"),
     ] {
         let p = raw_config(
             d.path(),
