@@ -324,7 +324,8 @@ mod tests {
     /// Two probes of the test room (4 m, a box in it), one low in a corner
     /// where it sees the walls near it edge-on: polishing moves it (or the
     /// other), lowers the footprint cost, keeps every covered sample covered
-    /// and the count, and does the same again from the same input.
+    /// and the count, and does the same again from the same input; given a
+    /// slack below the coverage it starts from, it gives up no more.
     #[test]
     fn polish_sharpens_the_views_and_keeps_the_cover() {
         let (scene, bvh, sdf) = room_sdf(0.25, 2);
@@ -336,7 +337,8 @@ mod tests {
         let reference = CoverageReference::new(&scene, &bvh, &sdf, &params, 2, &Progress::hidden());
         let matrix = CoverMatrix::new(&reference, &bvh);
         let start = vec![Vec3::new(0.4, 0.4, 0.4), Vec3::new(2.6, 2.4, 2.6)];
-        let run = || {
+        // `slack`: how many covered samples the moves may give up.
+        let run = |slack: usize| {
             let mut all = start.clone();
             let mut cols = matrix.columns(&all);
             let mut count = vec![0u32; matrix.len()];
@@ -348,7 +350,7 @@ mod tests {
             let mut alive = vec![true; 2];
             let mut tier_of = vec![0; 2];
             let tiers = [reference.references.clone()];
-            let target = matrix.satisfied(&count);
+            let target = matrix.satisfied(&count) - slack;
             let moves = matrix.polish(
                 &tiers,
                 &mut all,
@@ -365,7 +367,7 @@ mod tests {
                 .collect();
             (moves, kept, count)
         };
-        let (moves, kept, count) = run();
+        let (moves, kept, count) = run(0);
         assert!(moves > 0);
         assert_eq!(kept.len(), 2);
         let (before, seen_before) = footprint_cost(&matrix, &start);
@@ -384,7 +386,14 @@ mod tests {
                 .count();
             assert_eq!(c as usize, n);
         }
-        assert_eq!(run().1, kept);
+        assert_eq!(run(0).1, kept);
+        // With a slack, the moves may give up that many covered samples,
+        // no more, and still lower the cost.
+        let slack = seen_before / 100;
+        let (_, loose, _) = run(slack);
+        let (cost, seen) = footprint_cost(&matrix, &loose);
+        assert!(seen + slack >= seen_before, "{seen} against {seen_before}");
+        assert!(cost < before, "{cost} against {before}");
     }
 
     /// The footprint is d²/cos θ: head-on it is d², at 60° twice that, and
