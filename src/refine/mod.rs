@@ -22,6 +22,7 @@
 pub mod atlas;
 pub mod fitness;
 pub mod gibbs;
+pub mod polish;
 pub mod prune;
 pub mod view;
 

@@ -34,14 +34,14 @@
 //! keeps, after pruning, the probes that give the most of the demanded
 //! views ([`CoverMatrix::select`]).
 
-use crate::coverage::CoverageReference;
+use crate::coverage::{CoverageReference, SurfaceSample};
 use crate::progress::Progress;
 use crate::scene::raycast::SceneBvh;
 use glam::Vec3;
 use rayon::prelude::*;
 
 /// A set of sample indices as 64-bit words.
-type Bits = Vec<u64>;
+pub(super) type Bits = Vec<u64>;
 
 /// One fill pass: its live candidates (position, tier) and its budget of
 /// subsampled scoring rounds (`None`: unlimited, the final pass over all
@@ -77,7 +77,7 @@ fn popcount_and(a: &[u64], b: &[u64]) -> u32 {
     a.iter().zip(b).map(|(x, y)| (x & y).count_ones()).sum()
 }
 
-fn ones(bits: &[u64]) -> impl Iterator<Item = usize> + '_ {
+pub(super) fn ones(bits: &[u64]) -> impl Iterator<Item = usize> + '_ {
     bits.iter().enumerate().flat_map(|(w, &word)| {
         (0..64)
             .filter(move |b| word >> b & 1 == 1)
@@ -184,7 +184,7 @@ impl<'r> CoverMatrix<'r> {
     }
 
     /// Samples with as many views in `count` as they need (and needing one).
-    fn satisfied(&self, count: &[u32]) -> usize {
+    pub(super) fn satisfied(&self, count: &[u32]) -> usize {
         count
             .iter()
             .zip(&self.need)
@@ -305,7 +305,7 @@ impl<'r> CoverMatrix<'r> {
 
     /// Columns of all coverable samples for every viewer, one viewer per
     /// thread.
-    fn columns(&self, viewers: &[Vec3]) -> Vec<Bits> {
+    pub(super) fn columns(&self, viewers: &[Vec3]) -> Vec<Bits> {
         let all: Vec<usize> = (0..self.len()).collect();
         viewers.par_iter().map(|&v| self.column(v, &all)).collect()
     }
@@ -405,8 +405,6 @@ impl<'r> CoverMatrix<'r> {
                 target_count,
             );
             if merged > 0 {
-                filled.added = all[positions.len()..].to_vec();
-                filled.tiers = tier_of[positions.len()..].to_vec();
                 covered = self.satisfied(&count);
                 covered = self.prune_greedy(
                     &cols,
@@ -417,6 +415,21 @@ impl<'r> CoverMatrix<'r> {
                     covered,
                     target_count,
                 );
+            }
+            let moved = self.polish(
+                tiers,
+                &mut all,
+                &mut cols,
+                &mut count,
+                &mut alive,
+                &mut tier_of,
+                pinned,
+                target_count,
+            );
+            if merged > 0 || moved > 0 {
+                filled.added = all[positions.len()..].to_vec();
+                filled.tiers = tier_of[positions.len()..].to_vec();
+                covered = self.satisfied(&count);
             }
         }
         let mut kept: Vec<usize> = (0..cols.len()).filter(|&k| alive[k]).collect();
@@ -678,9 +691,24 @@ impl<'r> CoverMatrix<'r> {
         }
     }
 
+    /// Coverable sample `i` (index into the coverable samples).
+    pub(super) fn sample(&self, i: usize) -> &SurfaceSample {
+        &self.reference.samples[self.coverable[i]]
+    }
+
+    /// Views coverable sample `i` needs.
+    pub(super) fn needs(&self, i: usize) -> u32 {
+        self.need[i]
+    }
+
+    /// Whether `viewer` sees coverable sample `i`.
+    pub(super) fn sees_sample(&self, viewer: Vec3, i: usize) -> bool {
+        self.reference.sees(self.bvh, viewer, self.sample(i))
+    }
+
     /// The coverable samples among `subset` (indices into `self.coverable`)
     /// that `viewer` sees, as bits over `subset`.
-    fn column(&self, viewer: Vec3, subset: &[usize]) -> Bits {
+    pub(super) fn column(&self, viewer: Vec3, subset: &[usize]) -> Bits {
         let mut bits = vec![0u64; subset.len().div_ceil(64)];
         for (b, &i) in subset.iter().enumerate() {
             let s = &self.reference.samples[self.coverable[i]];
