@@ -37,8 +37,9 @@ for c in configs/*.ron; do
     n=$(basename \"$c\" .ron)
     ./target/release/probeplace place \"$c\" --out \"out/results/$n\" --quiet
 done
-./target/release/probeplace compare configs/cornell-glossy.ron --cpu --out out/compare/cornell-glossy --quiet
-./target/release/probeplace compare configs/holodeck.ron --cpu --out out/compare/holodeck --quiet
+for n in cornell-glossy two-rooms pillared-hall holodeck sponza; do
+    ./target/release/probeplace compare \"configs/$n.ron\" --cpu --out \"out/compare/$n\" --quiet
+done
 cargo run --release --example generality -- out/generality
 cargo run --release --example results -- out/results out/compare out/generality
 ";
@@ -425,21 +426,20 @@ fn compare_summary(compares: &[Value]) -> String {
             .and_then(Value::as_array)
             .map_or(0, Vec::len);
         for r in ratios {
-            t.rows.push(vec![
-                format!("`{}`", config_name(c)),
-                at(c, "materials")
-                    .and_then(Value::as_str)
-                    .unwrap_or("scene")
-                    .to_string(),
-                views.to_string(),
-                int(num(x, "probes")),
-                format!("`{}` ({})", text(r, "against"), text(r, "family")),
-                text(r, "tracer"),
-                int(num(r, "probes")),
-                interval(at(r, "mse_glossy_filtered")),
-                interval(at(r, "flip")),
-                verdict(r).to_string(),
-            ]);
+            t.rows.push(
+                vec![
+                    format!("`{}`", config_name(c)),
+                    at(c, "materials")
+                        .and_then(Value::as_str)
+                        .unwrap_or("scene")
+                        .to_string(),
+                    views.to_string(),
+                    int(num(x, "probes")),
+                ]
+                .into_iter()
+                .chain(ratio_cells(r))
+                .collect(),
+            );
         }
     }
     if scenes == 0 {
@@ -1135,6 +1135,19 @@ fn interval(i: Option<&Value>) -> String {
     }
 }
 
+/// The cells of a ratio: the rival, its tracer and count, both ratios with
+/// their intervals, and the verdict.
+fn ratio_cells(r: &Value) -> [String; 6] {
+    [
+        format!("`{}` ({})", text(r, "against"), text(r, "family")),
+        text(r, "tracer"),
+        int(num(r, "probes")),
+        interval(at(r, "mse_glossy_filtered")),
+        interval(at(r, "flip")),
+        verdict(r).to_string(),
+    ]
+}
+
 /// The verdict of a ratio: both intervals above 1, below 1, or neither.
 fn verdict(x: &Value) -> &'static str {
     match (x["win"].as_bool(), x["loss"].as_bool()) {
@@ -1181,16 +1194,12 @@ fn ratios_table(md: &mut String, placements: &[&Value], comparisons: &[&Value]) 
             .into_iter()
             .flatten()
         {
-            t.rows.push(vec![
-                format!("`{}`", text(x, "placement")),
-                int(num(x, "probes")),
-                format!("`{}` ({})", text(r, "against"), text(r, "family")),
-                text(r, "tracer"),
-                int(num(r, "probes")),
-                interval(at(r, "mse_glossy_filtered")),
-                interval(at(r, "flip")),
-                verdict(r).to_string(),
-            ]);
+            t.rows.push(
+                vec![format!("`{}`", text(x, "placement")), int(num(x, "probes"))]
+                    .into_iter()
+                    .chain(ratio_cells(r))
+                    .collect(),
+            );
         }
     }
     md.push_str(&t.markdown());

@@ -1087,7 +1087,7 @@ impl Default for CompareParams {
         CompareParams {
             grids: Vec::new(),
             cameras: Vec::new(),
-            glossy_rays: Count(16),
+            glossy_rays: Count(8),
             views: Whole(8),
             materials: Materials::Scene,
         }

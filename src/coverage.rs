@@ -373,21 +373,28 @@ pub fn probe_health(sdf: &Sdf, domain: &Bounds, probes: &[Vec3]) -> ProbeHealth 
     h
 }
 
+/// A room of 0.25-unit voxels with its coverage reference (4000 samples,
+/// seed 2), for the tests of the stages that read coverage.
+#[cfg(test)]
+pub(crate) fn test_room() -> (Scene, SceneBvh, Sdf, CoverageReference) {
+    use crate::config::{Count, Degrees};
+    let (scene, bvh, sdf) = crate::scene::testing::room_sdf(0.25, 2);
+    let params = CoverageParams {
+        samples: Count(4000),
+        reference_points: Count(512),
+        max_incidence_deg: Degrees(85.0),
+    };
+    let reference = CoverageReference::new(&scene, &bvh, &sdf, &params, 2, &Progress::hidden());
+    (scene, bvh, sdf, reference)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::config::{Count, Degrees};
-    use crate::scene::testing::{room_sdf, room_with_box};
+    use crate::scene::testing::room_with_box;
 
     fn setup() -> (Scene, SceneBvh, Sdf, CoverageReference) {
-        let (scene, bvh, sdf) = room_sdf(0.25, 2);
-        let params = CoverageParams {
-            samples: Count(4000),
-            reference_points: Count(512),
-            max_incidence_deg: Degrees(85.0),
-        };
-        let reference = CoverageReference::new(&scene, &bvh, &sdf, &params, 2, &Progress::hidden());
-        (scene, bvh, sdf, reference)
+        test_room()
     }
 
     #[test]

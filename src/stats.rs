@@ -60,6 +60,19 @@ pub fn block_means(values: &[f64], width: usize, block: usize) -> Vec<f64> {
     out
 }
 
+/// `value` with the 2.5th and 97.5th percentiles of `ratios` (the
+/// resampled ratios, at least one) as its interval.
+fn percentile_interval(value: f64, mut ratios: Vec<f64>) -> Interval {
+    ratios.sort_by(f64::total_cmp);
+    let n = ratios.len();
+    let at = |q: f64| ratios[((q * (n - 1) as f64).round() as usize).min(n - 1)];
+    Interval {
+        value,
+        lo: at(0.025),
+        hi: at(0.975),
+    }
+}
+
 /// The ratio `Σ num / Σ den` of two placements' paired block errors and its
 /// 95% paired-bootstrap interval over `resamples` draws seeded by `seed`.
 ///
@@ -70,7 +83,7 @@ pub fn paired_ratio(num: &[f64], den: &[f64], resamples: usize, seed: u64) -> In
     assert_eq!(num.len(), den.len(), "paired blocks");
     let n = num.len();
     let value = num.iter().sum::<f64>() / den.iter().sum::<f64>();
-    let mut ratios: Vec<f64> = (0..resamples as u64)
+    let ratios: Vec<f64> = (0..resamples as u64)
         .map(|r| {
             let (mut a, mut b) = (0.0, 0.0);
             for i in 0..n as u64 {
@@ -81,13 +94,7 @@ pub fn paired_ratio(num: &[f64], den: &[f64], resamples: usize, seed: u64) -> In
             a / b
         })
         .collect();
-    ratios.sort_by(f64::total_cmp);
-    let at = |q: f64| ratios[((q * (resamples - 1) as f64).round() as usize).min(resamples - 1)];
-    Interval {
-        value,
-        lo: at(0.025),
-        hi: at(0.975),
-    }
+    percentile_interval(value, ratios)
 }
 
 /// The ratio of two placements' pooled errors over several views, and its
@@ -113,7 +120,7 @@ pub fn paired_ratio_over_views(
     let pooled = |m: &[Vec<f64>]| m.iter().map(|v| mean(v)).sum::<f64>();
     let value = pooled(num) / pooled(den);
     let views = num.len() as u64;
-    let mut ratios: Vec<f64> = (0..resamples as u64)
+    let ratios: Vec<f64> = (0..resamples as u64)
         .map(|r| {
             let draw = hash2(seed, r);
             let (mut a, mut b) = (0.0, 0.0);
@@ -135,13 +142,7 @@ pub fn paired_ratio_over_views(
             a / b
         })
         .collect();
-    ratios.sort_by(f64::total_cmp);
-    let at = |q: f64| ratios[((q * (resamples - 1) as f64).round() as usize).min(resamples - 1)];
-    Interval {
-        value,
-        lo: at(0.025),
-        hi: at(0.975),
-    }
+    percentile_interval(value, ratios)
 }
 
 #[cfg(test)]

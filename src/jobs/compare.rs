@@ -67,7 +67,7 @@ const VIEW_SIZE: u32 = 320;
 /// placement (ours, the equal-count grid, the competitors); every view is
 /// measured, and the figures of the others are left out to keep the page
 /// small.
-const FIGURE_VIEWS: usize = 2;
+const FIGURE_VIEWS: usize = 1;
 
 /// How many work limits ([`crate::limits`]) the sum of the grids' bakes,
 /// and the sum of the views' references, may each take; each bake and

@@ -296,10 +296,6 @@ impl CoverMatrix<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::config::{Count, CoverageParams, Degrees};
-    use crate::coverage::CoverageReference;
-    use crate::progress::Progress;
-    use crate::scene::testing::room_sdf;
 
     /// `Σ_s d_s²/cos θ_s` over the coverable samples some of `viewers` see,
     /// each by its best view (module docs), and how many are seen.
@@ -328,13 +324,7 @@ mod tests {
     /// slack below the coverage it starts from, it gives up no more.
     #[test]
     fn polish_sharpens_the_views_and_keeps_the_cover() {
-        let (scene, bvh, sdf) = room_sdf(0.25, 2);
-        let params = CoverageParams {
-            samples: Count(4000),
-            reference_points: Count(512),
-            max_incidence_deg: Degrees(85.0),
-        };
-        let reference = CoverageReference::new(&scene, &bvh, &sdf, &params, 2, &Progress::hidden());
+        let (_, bvh, _, reference) = crate::coverage::test_room();
         let matrix = CoverMatrix::new(&reference, &bvh);
         let start = vec![Vec3::new(0.4, 0.4, 0.4), Vec3::new(2.6, 2.4, 2.6)];
         // `slack`: how many covered samples the moves may give up.

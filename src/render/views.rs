@@ -194,9 +194,6 @@ fn eye_above_floor(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::config::{Count, CoverageParams, Degrees};
-    use crate::progress::Progress;
-    use crate::scene::testing::room_sdf;
 
     const REQUEST: Request = Request {
         count: 4,
@@ -205,14 +202,7 @@ mod tests {
     };
 
     fn room() -> (Scene, SceneBvh, Sdf, CoverageReference) {
-        let (scene, bvh, sdf) = room_sdf(0.25, 2);
-        let params = CoverageParams {
-            samples: Count(4000),
-            reference_points: Count(512),
-            max_incidence_deg: Degrees(85.0),
-        };
-        let reference = CoverageReference::new(&scene, &bvh, &sdf, &params, 2, &Progress::hidden());
-        (scene, bvh, sdf, reference)
+        crate::coverage::test_room()
     }
 
     #[test]

@@ -221,12 +221,7 @@ fn count_figures(f: &Figures) -> usize {
 fn summary(h: &mut String, report: &CompareReport) {
     h.push_str("<h2 id=\"summary\">Summary</h2>\n<ul class=\"summary\">\n");
     for c in &report.comparisons {
-        let family = report
-            .placements
-            .iter()
-            .find(|p| p.name == c.placement)
-            .map(|p| p.family);
-        if !matches!(family, Some(Family::Ours | Family::Given)) {
+        if !ours_or_given(report, c) {
             continue;
         }
         let _ = write!(
@@ -290,6 +285,14 @@ fn summary(h: &mut String, report: &CompareReport) {
     h.push_str("</ul>\n");
 }
 
+/// Whether `c` matches one of ours or a `--probes` set.
+fn ours_or_given(report: &CompareReport, c: &Comparison) -> bool {
+    report
+        .placements
+        .iter()
+        .any(|p| p.name == c.placement && matches!(p.family, Family::Ours | Family::Given))
+}
+
 /// `value× [lo, hi]`, bold when the interval excludes 1.
 fn interval(i: &Interval) -> String {
     let text = format!("{:.2}× [{:.2}, {:.2}]", i.value, i.lo, i.hi);
@@ -313,12 +316,7 @@ fn verdict(r: &Ratio) -> &'static str {
 fn ratios_table(h: &mut String, report: &CompareReport) {
     h.push_str("<h2 id=\"ratios\">Ours against each rival at about equal count</h2>\n<p>Each ratio is the rival's pooled error over ours (above 1: ours is better), with its 95% interval from a two-stage paired bootstrap over views and 16-pixel blocks; it is a win only when both intervals lie above 1. Ours is traced with <code>hiz+svo</code>; the rival's tracer is given: a grid on <code>hiz+svo</code> isolates placement, on <code>bilevel+grid</code> it is what engines trace today.</p>\n<table id=\"ratios-table\">\n<tr><th>ours</th><th>probes</th><th>rival</th><th>kind</th><th>tracer</th><th>probes</th><th>filtered MSE ratio</th><th>ꟻLIP ratio</th><th>verdict</th></tr>\n");
     for c in &report.comparisons {
-        let family = report
-            .placements
-            .iter()
-            .find(|p| p.name == c.placement)
-            .map(|p| p.family);
-        if !matches!(family, Some(Family::Ours | Family::Given)) {
+        if !ours_or_given(report, c) {
             continue;
         }
         for r in &c.ratios {

@@ -775,6 +775,7 @@ fn test_quality_overlays_change_only_what_they_set() {
         assert_eq!(c.bake.resolution.0, 16, "{name}");
         assert_eq!(c.reference.samples_per_pixel.0, 8, "{name}");
         assert_eq!(c.compare.glossy_rays.0, 2, "{name}");
+        assert_eq!(c.compare.views.0, 2, "{name}");
         assert_eq!(c.seed, 7, "{name}");
         (c.bake, c.seed) = (shipped.bake, shipped.seed);
         (
@@ -786,7 +787,8 @@ fn test_quality_overlays_change_only_what_they_set() {
             shipped.reference.height,
             shipped.reference.samples_per_pixel,
         );
-        c.compare.glossy_rays = shipped.compare.glossy_rays;
+        (c.compare.glossy_rays, c.compare.views) =
+            (shipped.compare.glossy_rays, shipped.compare.views);
         assert_eq!(c.coverage.samples.0, 4000, "{name}");
         assert_eq!(c.refine.iterations.0, 5, "{name}");
         (c.coverage.samples, c.coverage.reference_points) =
