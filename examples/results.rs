@@ -460,9 +460,9 @@ fn compare_summary(compares: &[Value]) -> String {
     let _ = writeln!(
         md,
         "\nAt equal count on the same tracer, ours has lower filtered MSE and ꟻLIP than the \
-         uniform grid, both intervals above 1, in **{grid_wins} of {scenes}** comparisons; its \
-         filtered MSE is at most 0.8× that of every competitor (relocated, greedy, adaptive) \
-         in **{strong} of {scenes}**.\n"
+         uniform grid, both intervals above 1, in **{grid_wins} of {scenes}** comparisons; the \
+         point estimate of its filtered MSE is at most 0.8× that of every competitor \
+         (relocated, greedy, adaptive) in **{strong} of {scenes}**, intervals aside.\n"
     );
     md
 }
