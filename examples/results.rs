@@ -375,18 +375,16 @@ const OURS_DEFAULT: &str = "sdf-skeleton";
 /// One table of every comparison: our default method against each rival
 /// at about its count, with intervals and tracers, and what they add up to.
 fn compare_summary(compares: &[Value]) -> String {
-    let mut t = Table::new(&[
+    let columns: Vec<(&'static str, bool)> = [
         ("config", false),
         ("materials", false),
         ("views", true),
         ("ours", true),
-        ("rival", false),
-        ("tracer", false),
-        ("probes", true),
-        ("filtered MSE ratio", false),
-        ("ꟻLIP ratio", false),
-        ("verdict", false),
-    ]);
+    ]
+    .into_iter()
+    .chain(RATIO_COLUMNS)
+    .collect();
+    let mut t = Table::new(&columns);
     let (mut scenes, mut grid_wins, mut strong) = (0, 0, 0);
     for c in compares {
         let Some(x) = at(c, "comparisons")
@@ -1135,6 +1133,16 @@ fn interval(i: Option<&Value>) -> String {
     }
 }
 
+/// The columns of [`ratio_cells`].
+const RATIO_COLUMNS: [(&str, bool); 6] = [
+    ("rival", false),
+    ("tracer", false),
+    ("probes", true),
+    ("filtered MSE ratio", false),
+    ("ꟻLIP ratio", false),
+    ("verdict", false),
+];
+
 /// The cells of a ratio: the rival, its tracer and count, both ratios with
 /// their intervals, and the verdict.
 fn ratio_cells(r: &Value) -> [String; 6] {
@@ -1178,16 +1186,11 @@ fn ratios_table(md: &mut String, placements: &[&Value], comparisons: &[&Value]) 
          `hiz+svo`; a grid on `hiz+svo` isolates placement, on `bilevel+grid` it is what \
          engines trace today.\n\n",
     );
-    let mut t = Table::new(&[
-        ("ours", false),
-        ("probes", true),
-        ("rival", false),
-        ("tracer", false),
-        ("probes", true),
-        ("filtered MSE ratio", false),
-        ("ꟻLIP ratio", false),
-        ("verdict", false),
-    ]);
+    let columns: Vec<(&'static str, bool)> = [("ours", false), ("probes", true)]
+        .into_iter()
+        .chain(RATIO_COLUMNS)
+        .collect();
+    let mut t = Table::new(&columns);
     for x in ours {
         for r in at(x, "ratios")
             .and_then(Value::as_array)
