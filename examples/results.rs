@@ -372,6 +372,39 @@ fn splice(text: &str, block: &str) -> Option<String> {
 /// Our default method.
 const OURS_DEFAULT: &str = "sdf-skeleton";
 
+/// `shading_probe_distance` of the placement `name` of compare `c`.
+fn distance_of(c: &Value, name: &str) -> Option<f64> {
+    at(c, "placements")?
+        .as_array()?
+        .iter()
+        .find(|p| text(p, "name") == name)
+        .and_then(|p| num(p, "shading_probe_distance"))
+}
+
+/// The comparison of ours (`natural`, or one of `at_counts`) whose probe
+/// count is nearest the rival of ratio `r` (ties to `natural`), with its
+/// ratio against that rival on the same tracer; `natural` and `r` when no
+/// run at another count holds that rival.
+fn nearest_count<'a>(
+    natural: &'a Value,
+    at_counts: &[&'a Value],
+    r: &'a Value,
+) -> (&'a Value, &'a Value) {
+    let probes = |v: &Value| num(v, "probes").unwrap_or(f64::NAN);
+    let gap = |v: &Value| (probes(v) - probes(r)).abs();
+    at_counts
+        .iter()
+        .filter(|y| gap(y) < gap(natural))
+        .filter_map(|y| {
+            let same = at(y, "ratios")?.as_array()?.iter().find(|s| {
+                text(s, "against") == text(r, "against") && text(s, "tracer") == text(r, "tracer")
+            })?;
+            Some((*y, same))
+        })
+        .min_by(|a, b| gap(a.0).total_cmp(&gap(b.0)))
+        .unwrap_or((natural, r))
+}
+
 /// One table of every comparison: our default method against each rival
 /// at about its count, with intervals and tracers, and what they add up to.
 fn compare_summary(compares: &[Value]) -> String {
@@ -383,29 +416,50 @@ fn compare_summary(compares: &[Value]) -> String {
     ]
     .into_iter()
     .chain(RATIO_COLUMNS)
+    .chain([("shading → probe, ours / rival", false)])
     .collect();
     let mut t = Table::new(&columns);
     let (mut scenes, mut grid_wins, mut strong) = (0, 0, 0);
     for c in compares {
-        let Some(x) = at(c, "comparisons")
+        let comparisons = at(c, "comparisons")
             .and_then(Value::as_array)
-            .and_then(|a| a.iter().find(|x| text(x, "placement") == OURS_DEFAULT))
+            .map(Vec::as_slice)
+            .unwrap_or_default();
+        let Some(x) = comparisons
+            .iter()
+            .find(|x| text(x, "placement") == OURS_DEFAULT)
         else {
             continue;
         };
+        // Ours placed again at a rival's count (`METHOD@COUNT`): each rival
+        // is set against the run of ours whose count is nearest its own.
+        let at_counts: Vec<&Value> = comparisons
+            .iter()
+            .filter(|y| {
+                text(y, "placement")
+                    .strip_prefix(OURS_DEFAULT)
+                    .is_some_and(|rest| rest.starts_with('@'))
+            })
+            .collect();
         scenes += 1;
-        let ratios: Vec<&Value> = at(x, "ratios")
+        let ratios: Vec<(&Value, &Value)> = at(x, "ratios")
             .and_then(Value::as_array)
-            .map(|a| a.iter().filter(|r| text(r, "family") != "ours").collect())
+            .map(|a| {
+                a.iter()
+                    .filter(|r| text(r, "family") != "ours")
+                    .map(|r| nearest_count(x, &at_counts, r))
+                    .collect()
+            })
             .unwrap_or_default();
         let same_grid = ratios
             .iter()
-            .find(|r| text(r, "family") == "grid" && text(r, "tracer") == "hiz+svo");
-        if same_grid.is_some_and(|r| r["win"] == true) {
+            .find(|(_, r)| text(r, "family") == "grid" && text(r, "tracer") == "hiz+svo");
+        if same_grid.is_some_and(|(_, r)| r["win"] == true) {
             grid_wins += 1;
         }
-        let competitors: Vec<&&Value> = ratios
+        let competitors: Vec<&Value> = ratios
             .iter()
+            .map(|&(_, r)| r)
             .filter(|r| {
                 matches!(
                     text(r, "family").as_str(),
@@ -423,7 +477,7 @@ fn compare_summary(compares: &[Value]) -> String {
         let views = at(c, "cameras")
             .and_then(Value::as_array)
             .map_or(0, Vec::len);
-        for r in ratios {
+        for (x, r) in ratios {
             t.rows.push(
                 vec![
                     format!("`{}`", config_name(c)),
@@ -436,6 +490,11 @@ fn compare_summary(compares: &[Value]) -> String {
                 ]
                 .into_iter()
                 .chain(ratio_cells(r))
+                .chain([format!(
+                    "{} / {}",
+                    fixed(distance_of(c, &text(x, "placement")), 2),
+                    fixed(distance_of(c, &text(r, "against")), 2)
+                )])
                 .collect(),
             );
         }
@@ -446,11 +505,16 @@ fn compare_summary(compares: &[Value]) -> String {
     let mut md = String::new();
     let _ = writeln!(
         md,
-        "Our `{OURS_DEFAULT}` against each rival at about its probe count, per comparison: the \
+        "Our `{OURS_DEFAULT}` against each rival at its probe count, per comparison (where the \
+         grid nearest our count has another, ours is placed again with exactly that many \
+         probes, `min_probes` = `max_probes`, and the `ours` column shows it): the \
          rival's pooled error over ours (above 1: ours is better) with its 95% interval (a \
          two-stage paired bootstrap over views and 16-pixel blocks; bold where it excludes 1), \
          and the rival's tracer (ours is always `hiz+svo`; a grid on `hiz+svo` isolates \
-         placement, on `bilevel+grid` it is what engines trace today). Generated by \
+         placement, on `bilevel+grid` it is what engines trace today). The last column is \
+         the mean distance from the views' shading points to the nearest probe that sees \
+         them, for ours and for the rival (world units; lower means less parallax in \
+         glossy lookups). Generated by \
          `examples/results.rs` from the `compare.json` files ([docs/results.md](docs/results.md) \
          has every figure).\n"
     );
@@ -853,7 +917,10 @@ fn compare_section(md: &mut String, c: &Value, plots: &mut Vec<(String, String)>
          selection, which every placement is traced with; `bilevel+grid` is McGuire's \
          bi-level march with the cell's 8 probes, as engines trace grids today, which the \
          grids are also traced with. *Unresolved rays*: glossy rays every candidate probe \
-         lost (answered by the last probe's radiance). *Rank*: by `{quality}`, 1 is best.\n",
+         lost (answered by the last probe's radiance). *Shading → probe*: the mean distance \
+         from each view's shading points to the nearest probe that sees them (world units): \
+         a glossy lookup returns the hit's radiance as that probe sees it, so its parallax \
+         grows with this distance. *Rank*: by `{quality}`, 1 is best.\n",
         text(c, "config"),
         int(num(c, "width")),
         int(num(c, "height")),
@@ -895,6 +962,7 @@ fn compare_section(md: &mut String, c: &Value, plots: &mut Vec<(String, String)>
         ("SVO", true),
         ("texel fetches / ray", true),
         ("unresolved rays", true),
+        ("shading → probe", true),
         ("glossy MSE", true),
         ("filtered glossy MSE", true),
         ("relative MSE", true),
@@ -918,6 +986,7 @@ fn compare_section(md: &mut String, c: &Value, plots: &mut Vec<(String, String)>
             kib(num(p, "svo_bytes")),
             fixed(num(p, "texel_fetches_per_ray"), 1),
             pct(camera_mean(p, "unresolved_fraction"), 3),
+            fixed(num(p, "shading_probe_distance"), 2),
             sci(num(p, "mse_glossy")),
             sci(num(p, "mse_glossy_filtered")),
             sci(num(p, "mse_glossy_relative")),
@@ -938,10 +1007,11 @@ fn compare_section(md: &mut String, c: &Value, plots: &mut Vec<(String, String)>
         &col(&|p| camera_mean(p, "unresolved_fraction")),
         true,
     );
-    t.mark_best(&all, 9, &col(&|p| num(p, "mse_glossy")), true);
-    t.mark_best(&all, 10, &col(&|p| num(p, "mse_glossy_filtered")), true);
-    t.mark_best(&all, 11, &col(&|p| num(p, "mse_glossy_relative")), true);
-    t.mark_best(&all, 12, &col(&|p| num(p, "flip")), true);
+    t.mark_best(&all, 9, &col(&|p| num(p, "shading_probe_distance")), true);
+    t.mark_best(&all, 10, &col(&|p| num(p, "mse_glossy")), true);
+    t.mark_best(&all, 11, &col(&|p| num(p, "mse_glossy_filtered")), true);
+    t.mark_best(&all, 12, &col(&|p| num(p, "mse_glossy_relative")), true);
+    t.mark_best(&all, 13, &col(&|p| num(p, "flip")), true);
     md.push_str(&t.markdown());
     md.push('\n');
 

@@ -1192,6 +1192,10 @@ pub struct Config {
     /// placer keeps the ones that cover the most.
     #[serde(default)]
     pub max_probes: Option<Count<{ crate::limits::MAX_PROBES as u32 }>>,
+    /// Artist control: the fewest probes the run keeps; below it, the
+    /// placer adds the ones that sharpen the views most (needs refinement).
+    #[serde(default)]
+    pub min_probes: Option<Count<{ crate::limits::MAX_PROBES as u32 }>>,
     /// Artist control: regions whose surfaces must be seen by more probes
     /// (factor above 1) or fewer (below 1); overlapping factors multiply.
     #[serde(default)]

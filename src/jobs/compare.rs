@@ -176,6 +176,7 @@ pub fn compare(options: &RunOptions) -> Result<Outcome> {
     let ours_count = bench.ours(&mut job)?;
     bench.given(&mut job)?;
     let grid_rows = bench.grids(&mut job, options.grids.as_ref(), ours_count)?;
+    bench.ours_at_grid_count(&mut job, &grid_rows, ours_count)?;
     bench.competitors(&mut job, &grid_rows, ours_count)?;
     write(job, bench, &views, &cameras, context.as_ref())
 }
@@ -325,12 +326,63 @@ pub fn parse_grids(text: &str) -> Result<Vec<GridParams>> {
     Ok(grids)
 }
 
+/// Most a grid cell's longest edge may exceed its shortest for
+/// [`grid_near_count`]: engines' probe volumes are shaped by the artist, not
+/// forced to cubes, but a cell twice as long one way as another is as far
+/// as a sensible volume goes.
+pub const MAX_CELL_ASPECT: f32 = 2.0;
+
+/// The uniform grid whose probe count is nearest `count` among those whose
+/// cells' longest edge is at most [`MAX_CELL_ASPECT`] times their shortest;
+/// ties go to the most nearly cubic cells, then to the larger count. `None`
+/// when no such grid has between half and twice `count` probes (a domain
+/// far from cubic).
+///
+/// **Why.** Equal count is the comparison Wang et al. 2019 headline (§5.2,
+/// Table 1), and rounding the cube root of a volume per axis can land far
+/// from it: on the Holodeck (8.3 × 3 × 5) the near-cubic grid for 16 probes
+/// has 24, while 4 × 2 × 2 has cells of 2.1 × 1.5 × 2.5.
+pub fn grid_near_count(domain: &crate::scene::Bounds, count: usize) -> Option<GridParams> {
+    let size = domain.size().max(Vec3::splat(1e-6));
+    let count = count.max(1) as u64;
+    let (lo, hi) = (count.div_ceil(2), count * 2);
+    let aspect = |n: [u64; 3]| {
+        let cell = size / Vec3::new(n[0] as f32, n[1] as f32, n[2] as f32);
+        cell.max_element() / cell.min_element()
+    };
+    let mut best: Option<(u64, f32, [u64; 3])> = None;
+    for x in 1..=hi {
+        for y in 1..=hi / x {
+            for z in 1..=hi / (x * y) {
+                let n = x * y * z;
+                let a = aspect([x, y, z]);
+                if n < lo || a > MAX_CELL_ASPECT {
+                    continue;
+                }
+                let key = (n.abs_diff(count), a, u64::MAX - n);
+                let better = best.is_none_or(|(bn, ba, _)| {
+                    key.0
+                        .cmp(&bn.abs_diff(count))
+                        .then(key.1.total_cmp(&ba))
+                        .then(key.2.cmp(&(u64::MAX - bn)))
+                        .is_lt()
+                });
+                if better {
+                    best = Some((n, a, [x, y, z]));
+                }
+            }
+        }
+    }
+    let [x, y, z] = best?.2;
+    GridParams::new([x as u32, y as u32, z as u32]).ok()
+}
+
 /// Uniform grids from a quarter to four times `count` probes, in steps of
-/// 2× (√2 around `count`, where equal count is matched), each with cells
-/// as near cubic as the domain allows; distinct and by probe count. Eight
-/// times would bake twice the probes of all the others together (on
-/// Dabrovic Sponza a third of the comparison's time), so `--grids` asks
-/// for larger grids by name.
+/// 2× (√2 around `count`), each with cells as near cubic as the domain
+/// allows, and at `count` itself the grid of [`grid_near_count`]; distinct
+/// and by probe count. Eight times would bake twice the probes of all the
+/// others together (on Dabrovic Sponza a third of the comparison's time),
+/// so `--grids` asks for larger grids by name.
 ///
 /// Contract: at least one grid; every grid within the config's limits.
 pub fn grid_sweep(domain: &crate::scene::Bounds, count: usize) -> Vec<GridParams> {
@@ -350,7 +402,9 @@ pub fn grid_sweep(domain: &crate::scene::Bounds, count: usize) -> Vec<GridParams
         let n = (count.max(1) as f64 * f).max(1.0);
         let spacing = (volume / n).cbrt() as f32;
         let cells = (size / spacing).round().max(Vec3::ONE);
-        let Ok(g) = GridParams::new([cells.x as u32, cells.y as u32, cells.z as u32]) else {
+        let rounded = GridParams::new([cells.x as u32, cells.y as u32, cells.z as u32]);
+        let near = (f == 1.0).then(|| grid_near_count(domain, count)).flatten();
+        let Some(g) = near.or(rounded.ok()) else {
             continue;
         };
         let probes = g.cells.0 .0 as u64 * g.cells.1 .0 as u64 * g.cells.2 .0 as u64;
@@ -451,21 +505,7 @@ impl Bench<'_> {
             c.refine.enabled = true;
             let candidate = match reuse(job, method, self.prepared)? {
                 Some(found) => found,
-                None => {
-                    let placed =
-                        stages::place(&c, self.prepared, self.coverage, None, &self.progress)
-                            .map_err(|e| job.config_error_of(e, &c.placement))?;
-                    let mut stats = stats_of(&placed.probes);
-                    if let Some((r, _)) = &placed.refined {
-                        stats.insert("refine_coverage_final".into(), r.coverage_final);
-                    }
-                    Candidate {
-                        probes: placed.probes,
-                        stats,
-                        svo: placed.svo.0,
-                        field: None,
-                    }
-                }
+                None => self.place_refined(job, &c)?,
             };
             if ours_count == 0 || method == self.config.placement.name() {
                 ours_count = candidate.probes.probes.len();
@@ -474,6 +514,41 @@ impl Bench<'_> {
             job.watch.record(method, t.elapsed().as_secs_f64() * 1e3);
         }
         Ok(ours_count)
+    }
+
+    /// Our default method again at the count of the grid nearest ours,
+    /// when that differs from ours (`min_probes` and `max_probes` both set
+    /// to it, [`crate::refine::topup`]), named `METHOD@COUNT`: a ratio
+    /// against that grid is then one at equal count, not at about it
+    /// (Wang et al. 2019 §5.2 compare at equal count).
+    fn ours_at_grid_count(
+        &mut self,
+        job: &mut Job,
+        grids: &[(usize, GridParams)],
+        ours_count: usize,
+    ) -> Result<()> {
+        let Some(&(n, _)) = grids
+            .iter()
+            .min_by_key(|(n, _)| (n.abs_diff(ours_count), usize::MAX - n))
+        else {
+            return Ok(());
+        };
+        if n == ours_count {
+            return Ok(());
+        }
+        let method = ours_default(&self.config.placement);
+        let name = at_count(method, n);
+        let t = std::time::Instant::now();
+        let mut c = self.config.clone();
+        c.placement = Placement::parse_cli(method, &self.config.placement)?;
+        c.refine.enabled = true;
+        let count = crate::config::Count(n as u32);
+        c.min_probes = Some(count);
+        c.max_probes = Some(count);
+        let candidate = self.place_refined(job, &c)?;
+        self.measure(&name, Family::Ours, candidate, false)?;
+        job.watch.record(&name, t.elapsed().as_secs_f64() * 1e3);
+        Ok(())
     }
 
     /// The probe set of `--probes FILE.json`, scored as given (coverage,
@@ -588,6 +663,23 @@ impl Bench<'_> {
         Ok(())
     }
 
+    /// Ours placed and refined by `c`, with refinement's final coverage
+    /// among its stats.
+    fn place_refined(&self, job: &Job, c: &Config) -> Result<Candidate> {
+        let placed = stages::place(c, self.prepared, self.coverage, None, &self.progress)
+            .map_err(|e| job.config_error_of(e, &c.placement))?;
+        let mut stats = stats_of(&placed.probes);
+        if let Some((r, _)) = &placed.refined {
+            stats.insert("refine_coverage_final".into(), r.coverage_final);
+        }
+        Ok(Candidate {
+            probes: placed.probes,
+            stats,
+            svo: placed.svo.0,
+            field: None,
+        })
+    }
+
     /// `method` placed without refinement.
     fn place_plain(&self, method: Placement) -> Result<Placed> {
         let mut c = self.config.clone();
@@ -655,6 +747,14 @@ impl Bench<'_> {
         if !tracer.on_gpu() {
             self.gpu_used = false;
         }
+        // Placement alone: the same for both tracers.
+        let distances: Vec<f64> = self
+            .views
+            .iter()
+            .filter_map(|v| validate::shading_probe_distance(v, bvh, &positions))
+            .collect();
+        let shading_probe_distance =
+            (!distances.is_empty()).then(|| distances.iter().sum::<f64>() / distances.len() as f64);
         for (tracer_name, kind, march) in tracers {
             let rendered = self.render(name, &tracer, kind, march, figures)?;
             let cameras: Vec<CameraRow> = rendered.iter().map(|r| r.metrics.clone()).collect();
@@ -676,6 +776,7 @@ impl Bench<'_> {
                 flip: mean(|c| c.flip),
                 unresolved_fraction: mean(|c| c.unresolved_fraction),
                 texel_fetches_per_ray: mean(|c| c.texel_fetches_per_ray),
+                shading_probe_distance,
                 gpu_ms: cameras.iter().map(|c| c.gpu_ms).sum(),
                 cameras,
                 stats: stats.clone(),
@@ -752,6 +853,19 @@ struct Rendered {
     blocks: Blocks,
     /// Render, MSE heat map and ꟻLIP map, PNG, where the page shows them.
     figures: Option<[Vec<u8>; 3]>,
+}
+
+/// The method of ours the comparison headlines: the config's, when it is
+/// one of ours, else the first.
+fn ours_default(config: &Placement) -> &'static str {
+    OURS.into_iter()
+        .find(|m| *m == config.name())
+        .unwrap_or(OURS[0])
+}
+
+/// The row name of `method` placed with exactly `count` probes.
+pub fn at_count(method: &str, count: usize) -> String {
+    format!("{method}@{count}")
 }
 
 /// A fresh placement as a candidate.
@@ -846,6 +960,43 @@ mod tests {
         // Cells stay near cubic: the long axis gets the most cells.
         let last = sweep.last().unwrap();
         assert!(last.cells.0 .0 > last.cells.1 .0);
+    }
+
+    #[test]
+    fn the_equal_count_grid_has_the_count_where_a_sensible_shape_has_it() {
+        let holodeck = Bounds {
+            min: Vec3::ZERO,
+            max: Vec3::new(8.3, 3.0, 5.0),
+        };
+        let g = grid_near_count(&holodeck, 16).unwrap();
+        assert_eq!(count(&g), 16, "{g:?}");
+        assert!(grid_sweep(&holodeck, 16).contains(&g));
+        // Cells stay within the aspect bound, whatever the count.
+        for n in 1..80 {
+            let g = grid_near_count(&holodeck, n).unwrap();
+            let c = [g.cells.0 .0, g.cells.1 .0, g.cells.2 .0];
+            let cell = holodeck.size() / Vec3::new(c[0] as f32, c[1] as f32, c[2] as f32);
+            assert!(
+                cell.max_element() <= MAX_CELL_ASPECT * cell.min_element(),
+                "{n}: {c:?}"
+            );
+            assert!(
+                count(&g).abs_diff(n as u32) <= (n as u32).div_ceil(4),
+                "{n}: {c:?}"
+            );
+        }
+        // A prime count in a cube: the nearest sensible grid, not 1 × 1 × 7.
+        let cube = Bounds {
+            min: Vec3::ZERO,
+            max: Vec3::ONE,
+        };
+        assert_eq!(count(&grid_near_count(&cube, 7).unwrap()), 8);
+        // A sliver no grid of sensible cells fits near one probe.
+        let sliver = Bounds {
+            min: Vec3::ZERO,
+            max: Vec3::new(100.0, 1.0, 1.0),
+        };
+        assert!(grid_near_count(&sliver, 1).is_none());
     }
 
     #[test]

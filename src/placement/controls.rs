@@ -17,6 +17,11 @@
 //!   probes that cover the most of what is still uncovered (the classic
 //!   (1 − 1/e) approximation of maximum coverage, Nemhauser, Wolsey and
 //!   Fisher 1978), the fixed probes first.
+//! * `min_probes`: a floor. When coverage needs fewer probes, the placer
+//!   adds the ones that lower the texel footprint of the views most
+//!   ([`crate::refine::topup`]): a budget spent, not left unused, and the
+//!   way to place exactly `N` probes (with `max_probes: N`) for a comparison
+//!   at equal count (Wang et al. 2019 §5.2).
 //! * `probe_density`: boxes whose surfaces must be seen by more (factor
 //!   above 1) or fewer (below 1) probes. Coverage is Wang's criterion
 //!   (§2: every surface point seen by some probe); a factor `d` makes each
@@ -44,6 +49,8 @@ pub struct Controls {
     pub exclude: Vec<Bounds>,
     /// The most probes the run keeps.
     pub max_probes: Option<usize>,
+    /// The fewest probes the run keeps.
+    pub min_probes: Option<usize>,
     /// Boxes and their density factors.
     pub density: Vec<(Bounds, f32)>,
     /// Seed of the per-sample draws of fractional densities.
@@ -62,6 +69,11 @@ pub struct ControlsReport {
     /// Probes before the budget was applied (`null` when it was not
     /// needed: the run kept no more than `max_probes` anyway).
     pub probes_before_budget: Option<usize>,
+    /// The floor, when one was set.
+    pub min_probes: Option<usize>,
+    /// Probes before the top-up added to them (`null` when it did not:
+    /// coverage needed `min_probes` or more anyway).
+    pub probes_before_minimum: Option<usize>,
     /// `probe_density` regions.
     pub density_regions: usize,
     /// Coverage samples whose demand is not one view (inside a
@@ -97,6 +109,7 @@ impl Controls {
                 .map(|r| region_bounds(r, scene))
                 .collect(),
             max_probes: config.max_probes.map(|n| n.0 as usize),
+            min_probes: config.min_probes.map(|n| n.0 as usize),
             density: config
                 .probe_density
                 .iter()
@@ -111,6 +124,7 @@ impl Controls {
         self.fixed.is_empty()
             && self.exclude.is_empty()
             && self.max_probes.is_none()
+            && self.min_probes.is_none()
             && self.density.is_empty()
     }
 
@@ -145,7 +159,8 @@ impl Controls {
     /// Checks the controls against the run's SDF and domain, before any
     /// placement. Errors name the field and the entry: a fixed probe
     /// outside the domain, in a solid voxel, inside an `exclude` box or
-    /// repeating an earlier one; more fixed probes than `max_probes`.
+    /// repeating an earlier one; more fixed probes than `max_probes`;
+    /// `min_probes` above `max_probes`.
     pub fn check(&self, config: &Config, sdf: &Sdf, domain: &Bounds) -> Result<()> {
         let world = |i: usize| crate::config::short_all(&config.fixed_probes[i].0);
         for (i, &p) in self.fixed.iter().enumerate() {
@@ -172,6 +187,13 @@ impl Controls {
                 return Err(Error::User(format!(
                     "max_probes: {n} is fewer than the {} fixed_probes",
                     self.fixed.len()
+                )));
+            }
+        }
+        if let (Some(min), Some(max)) = (self.min_probes, self.max_probes) {
+            if min > max {
+                return Err(Error::User(format!(
+                    "min_probes: {min} is more than max_probes: {max}"
                 )));
             }
         }

@@ -8,6 +8,8 @@
 //! | fitness `R(P)` (eqs. 1–2, and a saturating variant) with per-texel accumulators | [`fitness`] | §3.3 |
 //! | Gibbs sampling with stochastic direction steps | [`gibbs`] | §3.3, eq. 3, Fig. 6 |
 //! | fill holes and prune superfluous probes, by the coverage measure | [`prune`] | §1 "fewest probes" |
+//! | polish: move each probe to sharpen the views it serves | [`polish`] | McGuire 2017 §4; §3.3 eqs. 1–2 |
+//! | top-up: spend a `min_probes` budget where views sharpen most | [`topup`] | §5.2 equal count; McGuire 2017 §4 |
 //!
 //! The stage is [`refine`]: a placement's [`ProbeSet`] in, a refined one out,
 //! with a [`RefineReport`] and the before/after atlas picture (Fig. 5).
@@ -24,6 +26,7 @@ pub mod fitness;
 pub mod gibbs;
 pub mod polish;
 pub mod prune;
+pub mod topup;
 pub mod view;
 
 use crate::config::{FitnessKind, RefineParams};
@@ -105,6 +108,9 @@ pub struct RefineReport {
     /// Probes pruning kept before the `max_probes` budget cut them
     /// (`null` when it did not).
     pub probes_before_budget: Option<usize>,
+    /// Probes the run had before the `min_probes` top-up added to them
+    /// (`null` when it did not).
+    pub probes_before_minimum: Option<usize>,
     /// Parameters as used, defaults resolved (lengths in world units).
     pub params: BTreeMap<&'static str, f64>,
 }
@@ -294,6 +300,7 @@ pub fn refine(
     let rules = Rules {
         pinned: probes.fixed,
         budget: controls.max_probes,
+        minimum: controls.min_probes,
     };
     let fp = matrix.fill_and_prune(
         &refined,
@@ -462,6 +469,7 @@ fn refine_report(
         clearance_tiers: r.tiers.iter().map(|&c| c as f64).collect(),
         fill_rounds: fp.rounds.clone(),
         probes_before_budget: fp.before_budget,
+        probes_before_minimum: fp.before_minimum,
         params: r.report(params, outcome.atlas_texels),
     }
 }

@@ -84,10 +84,21 @@ pub fn footprint(viewer: Vec3, position: Vec3, normal: Vec3) -> f64 {
 
 /// Each sample's best and second-best footprint among live probes, and
 /// which probe gives the best.
-struct Best {
-    best: Vec<f64>,
+pub(super) struct Best {
+    pub(super) best: Vec<f64>,
     second: Vec<f64>,
     best_k: Vec<usize>,
+}
+
+impl Best {
+    /// `m` samples no probe sees yet.
+    pub(super) fn unseen(m: usize) -> Best {
+        Best {
+            best: vec![f64::INFINITY; m],
+            second: vec![f64::INFINITY; m],
+            best_k: vec![usize::MAX; m],
+        }
+    }
 }
 
 impl CoverMatrix<'_> {
@@ -98,7 +109,7 @@ impl CoverMatrix<'_> {
     }
 
     /// Recomputes `b` for the samples in `which` from the live probes.
-    fn rank_views(
+    pub(super) fn rank_views(
         &self,
         all: &[Vec3],
         cols: &[Bits],
@@ -199,11 +210,7 @@ impl CoverMatrix<'_> {
         let demanded: Vec<usize> = (0..m).filter(|&i| self.needs(i) > 0).collect();
         let stride = demanded.len().div_ceil(POLISH_SAMPLES).max(1);
         let sub: Vec<usize> = demanded.iter().copied().step_by(stride).collect();
-        let mut b = Best {
-            best: vec![f64::INFINITY; m],
-            second: vec![f64::INFINITY; m],
-            best_k: vec![usize::MAX; m],
-        };
+        let mut b = Best::unseen(m);
         let everything: Vec<usize> = (0..m).collect();
         self.rank_views(all, cols, alive, &everything, &mut b);
         let mut moves = 0;

@@ -104,6 +104,9 @@ pub struct Rules {
     pub pinned: usize,
     /// The most probes kept.
     pub budget: Option<usize>,
+    /// The fewest probes kept: below it, [`CoverMatrix::top_up`] adds the
+    /// ones that sharpen the views most.
+    pub minimum: Option<usize>,
 }
 
 /// One round of filling (see [`CoverMatrix::fill_and_prune`]).
@@ -150,6 +153,8 @@ pub struct FillPrune {
     pub coverable: usize,
     /// Probes kept before the budget cut them, when it did.
     pub before_budget: Option<usize>,
+    /// Probes kept before the top-up added to them, when it did.
+    pub before_minimum: Option<usize>,
 }
 
 impl<'r> CoverMatrix<'r> {
@@ -381,6 +386,9 @@ impl<'r> CoverMatrix<'r> {
         let mut covered = self.satisfied(&count);
         let mut alive = vec![true; cols.len()];
         let pinned = rules.pinned.min(positions.len());
+        let mut all: Vec<Vec3> = positions.to_vec();
+        all.extend(&filled.added);
+        let mut changed = 0;
         if prune {
             covered = self.prune_greedy(
                 &cols,
@@ -391,8 +399,6 @@ impl<'r> CoverMatrix<'r> {
                 covered,
                 target_count,
             );
-            let mut all: Vec<Vec3> = positions.to_vec();
-            all.extend(&filled.added);
             let merged = self.merge_pairs(
                 tiers,
                 &mut all,
@@ -416,7 +422,27 @@ impl<'r> CoverMatrix<'r> {
                     target_count,
                 );
             }
-            let moved = self.polish(
+            changed += merged;
+        }
+        // The budget coverage does not need goes where views sharpen most
+        // (topup.rs), before polish moves them all.
+        let mut before_minimum = None;
+        if let Some(minimum) = rules.minimum {
+            let live = alive.iter().filter(|&&a| a).count();
+            let added = self.top_up(
+                tiers,
+                &mut all,
+                &mut cols,
+                &mut count,
+                &mut alive,
+                &mut tier_of,
+                minimum,
+            );
+            before_minimum = (added > 0).then_some(live);
+            changed += added;
+        }
+        if prune {
+            changed += self.polish(
                 tiers,
                 &mut all,
                 &mut cols,
@@ -426,11 +452,11 @@ impl<'r> CoverMatrix<'r> {
                 pinned,
                 target_count,
             );
-            if merged > 0 || moved > 0 {
-                filled.added = all[positions.len()..].to_vec();
-                filled.tiers = tier_of[positions.len()..].to_vec();
-                covered = self.satisfied(&count);
-            }
+        }
+        if changed > 0 {
+            filled.added = all[positions.len()..].to_vec();
+            filled.tiers = tier_of[positions.len()..].to_vec();
+            covered = self.satisfied(&count);
         }
         let mut kept: Vec<usize> = (0..cols.len()).filter(|&k| alive[k]).collect();
         let mut before_budget = None;
@@ -458,6 +484,7 @@ impl<'r> CoverMatrix<'r> {
             covered_final: covered,
             coverable: demanded,
             before_budget,
+            before_minimum,
         }
     }
 
@@ -1037,6 +1064,7 @@ mod tests {
         let pinned = Rules {
             pinned: 2,
             budget: None,
+            minimum: None,
         };
         let r = matrix.fill_and_prune(&positions, &tiers, 0.999, true, true, pinned, &p);
         assert!(r.kept.starts_with(&[0, 1]), "{r:?}");

@@ -99,6 +99,11 @@ pub struct PlacementRow {
     pub unresolved_fraction: f64,
     /// Mean over cameras of [`CameraRow::texel_fetches_per_ray`].
     pub texel_fetches_per_ray: f64,
+    /// Mean over cameras of the distance from each shading point to the
+    /// nearest probe that sees it ([`crate::stages::validate::shading_probe_distance`],
+    /// world units): the parallax a glossy lookup suffers grows with it.
+    /// `null` where no probe sees any shading point.
+    pub shading_probe_distance: Option<f64>,
     /// Sum over cameras of [`CameraRow::gpu_ms`], where every camera has it.
     pub gpu_ms: Option<f64>,
     /// One row per camera, in the order of `CompareReport::cameras`.
@@ -497,6 +502,7 @@ mod tests {
             unresolved_fraction: 0.0,
             texel_fetches_per_ray: fetches,
             gpu_ms: None,
+            shading_probe_distance: None,
             cameras: vec![],
             stats: BTreeMap::new(),
             blocks: vec![],

@@ -302,6 +302,14 @@ impl Report {
                     r.params["min_fill_clearance"]
                 ));
             }
+            if let Some(min) = config.min_probes.filter(|m| r.probes_final < m.0 as usize) {
+                warnings.push(format!(
+                    "min_probes: {}: {} probes: no further fill position sharpens any view (the coverage target needs {})",
+                    min.0,
+                    r.probes_final,
+                    r.probes_before_minimum.unwrap_or(r.probes_final)
+                ));
+            }
         }
         Report {
             format: "probeplace.report",

@@ -339,6 +339,7 @@ fn controls_table(h: &mut String, r: &Value) {
     let set = c["fixed_probes"].as_u64().unwrap_or(0) > 0
         || c["excluded"].as_u64().unwrap_or(0) > 0
         || !c["max_probes"].is_null()
+        || !c["min_probes"].is_null()
         || c["density_regions"].as_u64().unwrap_or(0) > 0;
     if !set {
         return;
@@ -362,6 +363,15 @@ fn controls_table(h: &mut String, r: &Value) {
                 num(&c["probes_before_budget"])
             ),
             "max_probes, and the probes the run had before the budget cut them",
+        ),
+        row(
+            "floor",
+            format!(
+                "{} (before it: {})",
+                num(&c["min_probes"]),
+                num(&c["probes_before_minimum"])
+            ),
+            "min_probes, and the probes the coverage target needed before the top-up added those that sharpen the views most",
         ),
         row(
             "density regions",

@@ -68,15 +68,19 @@ pub fn place(
         all
     } else {
         if !all.is_empty() {
-            warnings.push("fixed_probes, exclude, max_probes and probe_density shape a placement; a probe set given with --probes is scored as given".to_string());
+            warnings.push("fixed_probes, exclude, max_probes, min_probes and probe_density shape a placement; a probe set given with --probes is scored as given".to_string());
         }
         Controls::default()
     };
     if !controls.density.is_empty() && !(refine_it && (config.refine.fill || config.refine.prune)) {
         warnings.push("probe_density: not applied: it is met by refinement's filling and pruning, and this run does neither".to_string());
     }
+    if controls.min_probes.is_some() && !refine_it {
+        warnings.push("min_probes: not applied: the probes it adds are chosen among refinement's fill positions, and this run does not refine".to_string());
+    }
     let mut report = ControlsReport {
         max_probes: controls.max_probes,
+        min_probes: controls.min_probes,
         density_regions: controls.density.len(),
         samples_with_density: reference
             .samples
@@ -120,6 +124,7 @@ pub fn place(
             return Err(pruned_all(config, reference, placed));
         }
         report.probes_before_budget = out.report.probes_before_budget;
+        report.probes_before_minimum = out.report.probes_before_minimum;
         report.demand_met = Some(out.report.coverage_final);
         (out.probes, Some((out.report, out.atlas_image)))
     } else {

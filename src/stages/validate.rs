@@ -322,6 +322,46 @@ pub struct Blocks {
     pub flip: Vec<f64>,
 }
 
+/// Most shading points of a view [`shading_probe_distance`] looks at (an
+/// even subsample of its pixels with a surface).
+pub const SHADING_POINTS: usize = 4096;
+
+/// The mean distance from the shading points of `view` (its irradiance
+/// queries: every pixel with a surface, lifted off it; an even subsample of
+/// at most [`SHADING_POINTS`]) to the nearest of `probes` that sees them
+/// (in front of the surface, unoccluded), over the points some probe sees;
+/// `None` when no probe sees any.
+///
+/// **Why.** A light-field probe answers a glossy ray with the radiance of
+/// the hit point *as the probe sees it* (McGuire et al. 2017 §4); where the
+/// hit's surface is glossy, that differs from what the shading point sees
+/// by the parallax between the two, which grows with their distance. It is
+/// the figure that explains why one placement's glossy error differs from
+/// another's at equal count (docs/method.md, "Comparing placements").
+pub fn shading_probe_distance(view: &View, bvh: &super::SceneBvh, probes: &[Vec3]) -> Option<f64> {
+    use rayon::prelude::*;
+    let queries = &view.gbuffer.irradiance;
+    let stride = queries.len().div_ceil(SHADING_POINTS).max(1);
+    let nearest: Vec<f32> = queries
+        .par_iter()
+        .step_by(stride)
+        .map(|q| {
+            let (p, n) = (Vec3::from(q.origin), Vec3::from(q.dir));
+            probes
+                .iter()
+                .filter(|&&k| n.dot(k - p) > 0.0 && !bvh.occluded(p, k, 1e-4))
+                .map(|&k| k.distance(p))
+                .fold(f32::INFINITY, f32::min)
+        })
+        .collect();
+    let seen: Vec<f64> = nearest
+        .iter()
+        .filter(|d| d.is_finite())
+        .map(|&d| d as f64)
+        .collect();
+    (!seen.is_empty()).then(|| seen.iter().sum::<f64>() / seen.len() as f64)
+}
+
 /// Composes the view from `irradiance` (answers to its irradiance queries)
 /// and `glossy` (to its glossy rays) and measures it; `gpu_ms` is the sum
 /// of the two kernels' GPU times where both have one.

@@ -200,6 +200,27 @@ fn report_has_every_placement_and_figure() {
             assert!(p["svo_bytes"].as_u64().unwrap() > 0);
         }
     }
+    // Where the grid nearest our count has another count, ours is placed
+    // again with exactly that many, and matched to that grid at equal count.
+    let ours = placement(r, "sdf-skeleton")["probes"].as_u64().unwrap();
+    let nearest = placements
+        .iter()
+        .filter(|p| p["family"] == "grid")
+        .map(|p| p["probes"].as_u64().unwrap())
+        .min_by_key(|&n| (n.abs_diff(ours), u64::MAX - n))
+        .unwrap();
+    let at_count: Vec<&Value> = placements
+        .iter()
+        .filter(|p| p["name"].as_str().unwrap().starts_with("sdf-skeleton@"))
+        .collect();
+    if nearest == ours {
+        assert!(at_count.is_empty(), "{at_count:?}");
+    } else {
+        let name = format!("sdf-skeleton@{nearest}");
+        assert_eq!(placement(r, &name)["probes"], nearest);
+        assert_eq!(placement(r, &name)["family"], "ours");
+        assert_eq!(comparison(r, &name)["equal_count"]["probes"], nearest);
+    }
     // The relocated grid leaves no probe in solid space.
     let relocated = placements
         .iter()

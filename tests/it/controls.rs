@@ -1,5 +1,5 @@
-//! Artist controls: `fixed_probes`, `exclude`, `max_probes` and
-//! `probe_density`, each honoured by placement, refinement, filling and
+//! Artist controls: `fixed_probes`, `exclude`, `max_probes`, `min_probes`
+//! and `probe_density`, each honoured by placement, refinement, filling and
 //! pruning (src/placement/controls.rs).
 
 use crate::common::*;
@@ -99,7 +99,7 @@ fn fixed_probes_stay_put_and_the_placer_adds_only_what_they_miss() {
 fn impossible_fixed_probes_are_refused_by_name() {
     // The tall block of our Cornell box stands over x 0.265–0.423,
     // z 0.296–0.456, 0.33 high.
-    let cases: [(&[(&str, &str)], &str); 5] = [
+    let cases: [(&[(&str, &str)], &str); 6] = [
         (
             &[("fixed_probes", "[(0.1, 0.4, 0.1), (0.34, 0.15, 0.38)]")],
             "fixed_probes[1]: (0.34, 0.15, 0.38) stands in solid",
@@ -126,6 +126,10 @@ fn impossible_fixed_probes_are_refused_by_name() {
             ],
             "max_probes: 1 is fewer than the 2 fixed_probes",
         ),
+        (
+            &[("max_probes", "3"), ("min_probes", "4")],
+            "min_probes: 4 is more than max_probes: 3",
+        ),
     ];
     for (set, expected) in cases {
         let config = overlay("configs/cornell.ron", set);
@@ -141,6 +145,7 @@ fn impossible_fixed_probes_are_refused_by_name() {
     for (field, value, expected) in [
         ("max_probes", "0", "max_probes"),
         ("max_probes", "70000", "max_probes"),
+        ("min_probes", "0", "min_probes"),
         (
             "probe_density",
             "[(Box((min: (0, 0, 0), max: (1, 1, 1))), 9.0)]",
@@ -284,6 +289,69 @@ fn max_probes_cuts_an_unrefined_grid_and_keeps_the_fixed_probe() {
     assert!(r["coverage"].as_f64().unwrap() < all_report["coverage"].as_f64().unwrap());
 }
 
+/// `min_probes` above what coverage needs: exactly that many probes, the
+/// ones coverage needed among them, coverage no lower, and the report says
+/// how many there were before; with `max_probes` of the same value below
+/// what coverage needs, exactly that many too. Without refinement it is a
+/// warning and changes nothing.
+#[test]
+fn min_probes_spends_the_budget_and_with_max_probes_places_exactly_that_many() {
+    let base = &shared_job("place", "configs/cornell.ron", &[]);
+    let base_probes = probes_of(&base.dir);
+    let n = base_probes.len();
+    let more = (n + 4).to_string();
+    let (_o, r, probes) = place_into(
+        &overlay("configs/cornell.ron", &[("min_probes", &more)]),
+        &[],
+    );
+    assert_eq!(probes.len(), n + 4);
+    assert_eq!(r["controls"]["min_probes"], n as u64 + 4);
+    assert_eq!(r["controls"]["probes_before_minimum"], n as u64);
+    assert_eq!(r["refine"]["probes_before_minimum"], n as u64);
+    let coverage = |r: &Value| r["coverage"].as_f64().unwrap();
+    assert!(
+        coverage(&r) >= coverage(&base.report),
+        "{} < {}",
+        coverage(&r),
+        coverage(&base.report)
+    );
+    assert!(
+        r["warnings"].as_array().unwrap().is_empty(),
+        "{}",
+        r["warnings"]
+    );
+    // The added probes stand where the placement may put probes: none in
+    // solid, none below the fill tiers' clearance.
+    assert_eq!(r["probes_in_solid"], 0);
+
+    let fewer = (n - 1).max(1).to_string();
+    let (_o, r, exact) = place_into(
+        &overlay(
+            "configs/cornell.ron",
+            &[("min_probes", &fewer), ("max_probes", &fewer)],
+        ),
+        &[],
+    );
+    assert_eq!(exact.len(), (n - 1).max(1));
+    assert!(r["controls"]["probes_before_minimum"].is_null());
+
+    let grid = ["--method", "grid:2x2x2", "--no-refine"];
+    let (_o, plain, _) = place_into(&overlay("configs/cornell.ron", &[]), &grid);
+    let (_o, r, unrefined) = place_into(
+        &overlay("configs/cornell.ron", &[("min_probes", "20")]),
+        &grid,
+    );
+    assert_eq!(
+        unrefined.len(),
+        plain["probe_count"].as_u64().unwrap() as usize
+    );
+    assert!(r["warnings"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .any(|w| w.as_str().unwrap().starts_with("min_probes: not applied")));
+}
+
 /// A density of 2 over half the box puts more probes there (every surface
 /// sample there wants two views); a density of 0 there leaves it to the
 /// other half and fewer probes. The report counts the samples it touched.
@@ -337,6 +405,7 @@ fn controls_are_deterministic_whatever_the_thread_count() {
                 "[Box((min: (0.3, 0.3, 0.3), max: (0.5, 0.5, 0.5)))]",
             ),
             ("max_probes", "5"),
+            ("min_probes", "5"),
             (
                 "probe_density",
                 "[(Box((min: (0, 0, 0), max: (0.278, 0.6, 0.6))), 1.5)]",
