@@ -527,10 +527,7 @@ impl Bench<'_> {
         grids: &[(usize, GridParams)],
         ours_count: usize,
     ) -> Result<()> {
-        let Some(&(n, _)) = grids
-            .iter()
-            .min_by_key(|(n, _)| (n.abs_diff(ours_count), usize::MAX - n))
-        else {
+        let Some(&(n, _)) = nearest_grid(grids, ours_count) else {
             return Ok(());
         };
         if n == ours_count {
@@ -618,10 +615,7 @@ impl Bench<'_> {
         ours_count: usize,
     ) -> Result<()> {
         let mut competitors = Vec::new();
-        if let Some((_, g)) = grids
-            .iter()
-            .min_by_key(|(n, _)| (n.abs_diff(ours_count), usize::MAX - n))
-        {
+        if let Some((_, g)) = nearest_grid(grids, ours_count) {
             competitors.push((Placement::Relocated(*g), Family::Relocated));
         }
         let spacing =
@@ -853,6 +847,14 @@ struct Rendered {
     blocks: Blocks,
     /// Render, MSE heat map and ꟻLIP map, PNG, where the page shows them.
     figures: Option<[Vec<u8>; 3]>,
+}
+
+/// The grid of `grids` (with their probe counts) nearest `count` probes;
+/// ties to the larger, as the equal-count match takes them.
+fn nearest_grid(grids: &[(usize, GridParams)], count: usize) -> Option<&(usize, GridParams)> {
+    grids
+        .iter()
+        .min_by_key(|(n, _)| (n.abs_diff(count), usize::MAX - n))
 }
 
 /// The method of ours the comparison headlines: the config's, when it is

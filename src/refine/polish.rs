@@ -30,7 +30,7 @@
 //! taken only if it lowers the exact cost. Up to [`POLISH_PASSES`] passes,
 //! fewer when a pass moves nothing. The count never changes.
 
-use super::prune::{ones, Bits, CoverMatrix};
+use super::prune::{ones, Bits, CoverMatrix, Working};
 use glam::Vec3;
 use rayon::prelude::*;
 
@@ -109,15 +109,9 @@ impl CoverMatrix<'_> {
     }
 
     /// Recomputes `b` for the samples in `which` from the live probes.
-    pub(super) fn rank_views(
-        &self,
-        all: &[Vec3],
-        cols: &[Bits],
-        alive: &[bool],
-        which: &[usize],
-        b: &mut Best,
-    ) {
-        let live: Vec<usize> = (0..cols.len()).filter(|&k| alive[k]).collect();
+    pub(super) fn rank_views(&self, w: &Working, which: &[usize], b: &mut Best) {
+        let (all, cols) = (&w.all, &w.cols);
+        let live: Vec<usize> = (0..cols.len()).filter(|&k| w.alive[k]).collect();
         let ranked: Vec<(f64, f64, usize)> = which
             .par_iter()
             .map(|&i| {
@@ -179,22 +173,16 @@ impl CoverMatrix<'_> {
     /// the footprint cost and the samples with the views they need stay at
     /// least `target_count` (or, if fewer now, as many as now): a move may
     /// spend the slack pruning left above the target.
-    /// A moved probe is appended to `all`, `cols`, `tier_of` and `alive`
-    /// (its old index dies), as [`CoverMatrix::merge_pairs`] does; `count`
-    /// is kept. Returns the number of moves.
+    /// A moved probe dies and is appended to `w` again, as
+    /// [`CoverMatrix::merge_pairs`] does. Returns the number of moves.
     ///
     /// Contract: deterministic; coverage stays at or above
     /// `min(target_count, coverage now)`, and no probe moves to a tier
     /// nearer the surfaces than its own.
-    #[allow(clippy::too_many_arguments)]
     pub(super) fn polish(
         &self,
         tiers: &[Vec<Vec3>],
-        all: &mut Vec<Vec3>,
-        cols: &mut Vec<Bits>,
-        count: &mut [u32],
-        alive: &mut Vec<bool>,
-        tier_of: &mut Vec<usize>,
+        w: &mut Working,
         pinned: usize,
         target_count: usize,
     ) -> usize {
@@ -212,12 +200,13 @@ impl CoverMatrix<'_> {
         let sub: Vec<usize> = demanded.iter().copied().step_by(stride).collect();
         let mut b = Best::unseen(m);
         let everything: Vec<usize> = (0..m).collect();
-        self.rank_views(all, cols, alive, &everything, &mut b);
+        self.rank_views(w, &everything, &mut b);
         let mut moves = 0;
         for _ in 0..POLISH_PASSES {
             let mut moved = false;
-            let probes: Vec<usize> = (pinned..cols.len()).filter(|&k| alive[k]).collect();
+            let probes: Vec<usize> = (pinned..w.cols.len()).filter(|&k| w.alive[k]).collect();
             for k in probes {
+                let (all, cols, count, tier_of) = (&w.all, &w.cols, &w.count, &w.tier_of);
                 // Samples that lose their views without k: c must see all
                 // of them but the slack.
                 let slack = self.satisfied(count).saturating_sub(target_count);
@@ -275,20 +264,11 @@ impl CoverMatrix<'_> {
                 if exact <= 0.0 {
                     continue;
                 }
-                alive[k] = false;
-                for i in ones(&cols[k]) {
-                    count[i] -= 1;
-                }
-                for i in ones(&col) {
-                    count[i] += 1;
-                }
                 let union: Bits = cols[k].iter().zip(&col).map(|(a, c)| a | c).collect();
                 let affected: Vec<usize> = ones(&union).collect();
-                cols.push(col);
-                all.push(c);
-                tier_of.push(tier);
-                alive.push(true);
-                self.rank_views(all, cols, alive, &affected, &mut b);
+                w.kill(k);
+                w.push(c, col, tier);
+                self.rank_views(w, &affected, &mut b);
                 moves += 1;
                 moved = true;
             }
@@ -336,33 +316,20 @@ mod tests {
         let start = vec![Vec3::new(0.4, 0.4, 0.4), Vec3::new(2.6, 2.4, 2.6)];
         // `slack`: how many covered samples the moves may give up.
         let run = |slack: usize| {
-            let mut all = start.clone();
-            let mut cols = matrix.columns(&all);
-            let mut count = vec![0u32; matrix.len()];
-            for c in &cols {
-                for i in ones(c) {
-                    count[i] += 1;
-                }
-            }
-            let mut alive = vec![true; 2];
-            let mut tier_of = vec![0; 2];
-            let tiers = [reference.references.clone()];
-            let target = matrix.satisfied(&count) - slack;
-            let moves = matrix.polish(
-                &tiers,
-                &mut all,
-                &mut cols,
-                &mut count,
-                &mut alive,
-                &mut tier_of,
-                0,
-                target,
+            let mut w = Working::new(
+                start.clone(),
+                matrix.columns(&start),
+                vec![0; 2],
+                matrix.len(),
             );
-            let kept: Vec<Vec3> = (0..all.len())
-                .filter(|&k| alive[k])
-                .map(|k| all[k])
+            let tiers = [reference.references.clone()];
+            let target = matrix.satisfied(&w.count) - slack;
+            let moves = matrix.polish(&tiers, &mut w, 0, target);
+            let kept: Vec<Vec3> = (0..w.all.len())
+                .filter(|&k| w.alive[k])
+                .map(|k| w.all[k])
                 .collect();
-            (moves, kept, count)
+            (moves, kept, w.count)
         };
         let (moves, kept, count) = run(0);
         assert!(moves > 0);
@@ -375,14 +342,7 @@ mod tests {
             "{seen_after} against {seen_before}"
         );
         // `count` was kept up to date: it is what the kept probes see.
-        let cols = matrix.columns(&kept);
-        for (i, &c) in count.iter().enumerate() {
-            let n = cols
-                .iter()
-                .filter(|b| b[i / 64] >> (i % 64) & 1 == 1)
-                .count();
-            assert_eq!(c as usize, n);
-        }
+        assert_eq!(count, crate::refine::prune::views(&matrix, &kept));
         assert_eq!(run(0).1, kept);
         // With a slack, the moves may give up that many covered samples,
         // no more, and still lower the cost.

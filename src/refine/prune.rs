@@ -109,6 +109,74 @@ pub struct Rules {
     pub minimum: Option<usize>,
 }
 
+/// The probes the steps after filling work on (pruning, merging, polish,
+/// top-up): every position seen so far, in order (the input probes, those
+/// filling added, then each one a later step added), with its view column
+/// and candidate tier, whether it is alive, and how many live probes see
+/// each coverable sample. A probe that moves dies and is appended again,
+/// so indices never shift.
+pub(super) struct Working {
+    /// Positions.
+    pub(super) all: Vec<Vec3>,
+    /// The coverable samples each one sees.
+    pub(super) cols: Vec<Bits>,
+    /// The candidate tier each one came from (0 for the input probes).
+    pub(super) tier_of: Vec<usize>,
+    /// Whether each one is still in the set.
+    pub(super) alive: Vec<bool>,
+    /// Per coverable sample, the live probes that see it.
+    pub(super) count: Vec<u32>,
+}
+
+impl Working {
+    /// Live probes at `all`, from `tier_of`'s tiers, seeing `cols`.
+    #[cfg(test)]
+    pub(super) fn new(
+        all: Vec<Vec3>,
+        cols: Vec<Bits>,
+        tier_of: Vec<usize>,
+        samples: usize,
+    ) -> Working {
+        let mut count = vec![0u32; samples];
+        for c in &cols {
+            for i in ones(c) {
+                count[i] += 1;
+            }
+        }
+        Working {
+            alive: vec![true; all.len()],
+            all,
+            cols,
+            tier_of,
+            count,
+        }
+    }
+
+    /// Appends a live probe at `p`, of tier `tier`, that sees `col`.
+    pub(super) fn push(&mut self, p: Vec3, col: Bits, tier: usize) {
+        for i in ones(&col) {
+            self.count[i] += 1;
+        }
+        self.all.push(p);
+        self.cols.push(col);
+        self.tier_of.push(tier);
+        self.alive.push(true);
+    }
+
+    /// Takes probe `k` out of the set.
+    pub(super) fn kill(&mut self, k: usize) {
+        self.alive[k] = false;
+        for i in ones(&self.cols[k]) {
+            self.count[i] -= 1;
+        }
+    }
+
+    /// How many probes are alive.
+    pub(super) fn live(&self) -> usize {
+        self.alive.iter().filter(|&&a| a).count()
+    }
+}
+
 /// One round of filling (see [`CoverMatrix::fill_and_prune`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
 pub struct FillRound {
@@ -383,44 +451,24 @@ impl<'r> CoverMatrix<'r> {
         }
         let mut tier_of = vec![0usize; positions.len()];
         tier_of.extend(&filled.tiers);
-        let mut covered = self.satisfied(&count);
-        let mut alive = vec![true; cols.len()];
-        let pinned = rules.pinned.min(positions.len());
         let mut all: Vec<Vec3> = positions.to_vec();
         all.extend(&filled.added);
+        let mut w = Working {
+            alive: vec![true; cols.len()],
+            all,
+            cols,
+            tier_of,
+            count,
+        };
+        let mut covered = self.satisfied(&w.count);
+        let pinned = rules.pinned.min(positions.len());
         let mut changed = 0;
         if prune {
-            covered = self.prune_greedy(
-                &cols,
-                &mut count,
-                &tier_of,
-                &mut alive,
-                pinned,
-                covered,
-                target_count,
-            );
-            let merged = self.merge_pairs(
-                tiers,
-                &mut all,
-                &mut cols,
-                &mut count,
-                &mut alive,
-                &mut tier_of,
-                pinned,
-                covered,
-                target_count,
-            );
+            covered = self.prune_greedy(&mut w, pinned, covered, target_count);
+            let merged = self.merge_pairs(tiers, &mut w, pinned, covered, target_count);
             if merged > 0 {
-                covered = self.satisfied(&count);
-                covered = self.prune_greedy(
-                    &cols,
-                    &mut count,
-                    &tier_of,
-                    &mut alive,
-                    pinned,
-                    covered,
-                    target_count,
-                );
+                covered = self.satisfied(&w.count);
+                covered = self.prune_greedy(&mut w, pinned, covered, target_count);
             }
             changed += merged;
         }
@@ -428,53 +476,36 @@ impl<'r> CoverMatrix<'r> {
         // (topup.rs), before polish moves them all.
         let mut before_minimum = None;
         if let Some(minimum) = rules.minimum {
-            let live = alive.iter().filter(|&&a| a).count();
-            let added = self.top_up(
-                tiers,
-                &mut all,
-                &mut cols,
-                &mut count,
-                &mut alive,
-                &mut tier_of,
-                minimum,
-            );
+            let live = w.live();
+            let added = self.top_up(tiers, &mut w, minimum);
             before_minimum = (added > 0).then_some(live);
             changed += added;
         }
         if prune {
-            changed += self.polish(
-                tiers,
-                &mut all,
-                &mut cols,
-                &mut count,
-                &mut alive,
-                &mut tier_of,
-                pinned,
-                target_count,
-            );
+            changed += self.polish(tiers, &mut w, pinned, target_count);
         }
         if changed > 0 {
-            filled.added = all[positions.len()..].to_vec();
-            filled.tiers = tier_of[positions.len()..].to_vec();
-            covered = self.satisfied(&count);
+            filled.added = w.all[positions.len()..].to_vec();
+            filled.tiers = w.tier_of[positions.len()..].to_vec();
+            covered = self.satisfied(&w.count);
         }
-        let mut kept: Vec<usize> = (0..cols.len()).filter(|&k| alive[k]).collect();
+        let mut kept: Vec<usize> = (0..w.cols.len()).filter(|&k| w.alive[k]).collect();
         let mut before_budget = None;
         if let Some(budget) = rules.budget.filter(|&b| kept.len() > b) {
             // Every probe seen so far is a candidate, pruned ones too: under
             // a budget, one probe that sees much can beat two that pruning
             // kept for what only they see.
             before_budget = Some(kept.len());
-            kept = self.select_columns(&cols, pinned, budget);
+            kept = self.select_columns(&w.cols, pinned, budget);
             let mut sel = vec![0u32; m];
             for &k in &kept {
-                for i in ones(&cols[k]) {
+                for i in ones(&w.cols[k]) {
                     sel[i] += 1;
                 }
             }
             covered = self.satisfied(&sel);
         }
-        let kept_tiers = kept.iter().map(|&k| tier_of[k]).collect();
+        let kept_tiers = kept.iter().map(|&k| w.tier_of[k]).collect();
         FillPrune {
             kept,
             kept_tiers,
@@ -614,15 +645,10 @@ impl<'r> CoverMatrix<'r> {
     /// ties: the earlier candidate). Repeats until no pair merges. Appends
     /// the new probes to `all`, `cols` and `tier_of`; returns how many pairs
     /// were merged.
-    #[allow(clippy::too_many_arguments)]
     fn merge_pairs(
         &self,
         tiers: &[Vec<Vec3>],
-        all: &mut Vec<Vec3>,
-        cols: &mut Vec<Bits>,
-        count: &mut [u32],
-        alive: &mut Vec<bool>,
-        tier_of: &mut Vec<usize>,
+        w: &mut Working,
         pinned: usize,
         mut covered: usize,
         target_count: usize,
@@ -635,14 +661,14 @@ impl<'r> CoverMatrix<'r> {
         let mut merged = 0;
         let mut tried = std::collections::BTreeSet::new();
         'restart: loop {
-            let live: Vec<usize> = (0..all.len())
-                .filter(|&k| alive[k] && k >= pinned)
+            let live: Vec<usize> = (0..w.all.len())
+                .filter(|&k| w.alive[k] && k >= pinned)
                 .collect();
             for &i in &live {
                 let mut near: Vec<(f32, usize)> = live
                     .iter()
                     .filter(|&&j| j != i)
-                    .map(|&j| (all[i].distance_squared(all[j]), j))
+                    .map(|&j| (w.all[i].distance_squared(w.all[j]), j))
                     .collect();
                 near.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
                 for &(_, j) in near.iter().take(MERGE_NEIGHBOURS) {
@@ -652,6 +678,7 @@ impl<'r> CoverMatrix<'r> {
                     // Samples covered now that would not be without i and
                     // j, those of them one replacement can restore, and how
                     // many of them it must restore to keep the target.
+                    let (cols, count) = (&w.cols, &w.count);
                     let mine = |s: usize| {
                         ((cols[i][s / 64] >> (s % 64) & 1) + (cols[j][s / 64] >> (s % 64) & 1))
                             as u32
@@ -670,7 +697,7 @@ impl<'r> CoverMatrix<'r> {
                     let need = only
                         .len()
                         .saturating_sub(covered - target_count.min(covered));
-                    let mid = 0.5 * (all[i] + all[j]);
+                    let mid = 0.5 * (w.all[i] + w.all[j]);
                     let mut cands: Vec<(f32, usize)> = pool
                         .iter()
                         .enumerate()
@@ -695,21 +722,11 @@ impl<'r> CoverMatrix<'r> {
                         .filter(|(_, &g)| g as usize >= need)
                         .min_by_key(|((_, c), &g)| (pool[*c].1, std::cmp::Reverse(g), *c));
                     let Some((&(_, c), _)) = best else { continue };
-                    for k in [i, j] {
-                        alive[k] = false;
-                        for s in ones(&cols[k]) {
-                            count[s] -= 1;
-                        }
-                    }
+                    w.kill(i);
+                    w.kill(j);
                     let col = self.columns(&[pool[c].0]).remove(0);
-                    for s in ones(&col) {
-                        count[s] += 1;
-                    }
-                    cols.push(col);
-                    all.push(pool[c].0);
-                    tier_of.push(pool[c].1);
-                    alive.push(true);
-                    covered = self.satisfied(count);
+                    w.push(pool[c].0, col, pool[c].1);
+                    covered = self.satisfied(&w.count);
                     merged += 1;
                     continue 'restart;
                 }
@@ -780,29 +797,24 @@ fn greedy_on(
     picks
 }
 
-/// Reverse greedy pruning (module docs) of the probes whose columns are
-/// `cols` and whose filling tiers are `tier_of`; `count` holds how many
-/// probes see each sample and `covered` how many samples some probe sees.
+/// Reverse greedy pruning (module docs) of the live probes of `w`;
+/// `covered` is how many samples some probe sees.
 /// Among probes that may go, the one that alone sees the fewest samples
 /// goes first, then the one nearest a surface (highest tier), so that a
 /// probe stands close to a surface only where no other serves; ties: the
-/// one that sees fewest overall, then the later one. Clears `alive` for the
-/// probes dropped (only live ones are considered) and returns what the
-/// rest cover.
+/// one that sees fewest overall, then the later one. Kills the probes
+/// dropped (only live ones are considered) and returns what the rest cover.
 impl CoverMatrix<'_> {
-    #[allow(clippy::too_many_arguments)]
     fn prune_greedy(
         &self,
-        cols: &[Bits],
-        count: &mut [u32],
-        tier_of: &[usize],
-        alive: &mut [bool],
+        w: &mut Working,
         pinned: usize,
         mut covered: usize,
         target_count: usize,
     ) -> usize {
-        let words = count.len().div_ceil(64);
+        let words = w.count.len().div_ceil(64);
         loop {
+            let (cols, count, tier_of, alive) = (&w.cols, &w.count, &w.tier_of, &w.alive);
             // Samples that lose their cover with one view fewer.
             let mut once: Bits = vec![0; words];
             for (i, &c) in count.iter().enumerate() {
@@ -830,14 +842,24 @@ impl CoverMatrix<'_> {
                     )
                 });
             let Some((k, unique, _)) = pick else { break };
-            alive[k] = false;
+            w.kill(k);
             covered -= unique;
-            for i in ones(&cols[k]) {
-                count[i] -= 1;
-            }
         }
         covered
     }
+}
+
+/// Counts, per coverable sample, how many of `viewers` see it (what a
+/// [`Working`]'s `count` must hold for its live probes).
+#[cfg(test)]
+pub(super) fn views(matrix: &CoverMatrix, viewers: &[Vec3]) -> Vec<u32> {
+    let mut count = vec![0u32; matrix.len()];
+    for c in matrix.columns(viewers) {
+        for i in ones(&c) {
+            count[i] += 1;
+        }
+    }
+    count
 }
 
 #[cfg(test)]
@@ -999,29 +1021,14 @@ mod tests {
         .collect();
         let target = 0.9;
         let target_count = (target * m as f64).ceil() as usize;
-        let cols = matrix.columns(&positions);
-        let mut count = vec![0u32; m];
-        for c in &cols {
-            for i in ones(c) {
-                count[i] += 1;
-            }
-        }
-        let covered = count.iter().filter(|&&c| c > 0).count();
+        let mut w = Working::new(positions.clone(), matrix.columns(&positions), vec![0; 8], m);
+        let covered = w.count.iter().filter(|&&c| c > 0).count();
         assert!(
             covered >= target_count,
             "the eight probes should cover the room"
         );
-        let mut alive = vec![true; 8];
-        matrix.prune_greedy(
-            &cols,
-            &mut count,
-            &[0; 8],
-            &mut alive,
-            0,
-            covered,
-            target_count,
-        );
-        let pruned = alive.iter().filter(|&&a| a).count();
+        matrix.prune_greedy(&mut w, 0, covered, target_count);
+        let pruned = w.live();
         let tiers = [reference.references.clone()];
         let r = matrix.fill_and_prune(&positions, &tiers, target, true, true, Rules::default(), &p);
         assert!(r.covered_final >= target_count, "{r:?}");
@@ -1037,17 +1044,6 @@ mod tests {
             reference.evaluate(&bvh, &kept, &p).covered_samples,
             r.covered_final
         );
-    }
-
-    /// Counts, per coverable sample, how many of `viewers` see it.
-    fn views(matrix: &CoverMatrix, viewers: &[Vec3]) -> Vec<u32> {
-        let mut count = vec![0u32; matrix.len()];
-        for c in matrix.columns(viewers) {
-            for i in ones(&c) {
-                count[i] += 1;
-            }
-        }
-        count
     }
 
     /// Pinned probes survive pruning though superfluous; a need of two views

@@ -22,7 +22,7 @@
 //! cost. Polish then runs over the larger set.
 
 use super::polish::{footprint, Best};
-use super::prune::{ones, Bits, CoverMatrix};
+use super::prune::{ones, Bits, CoverMatrix, Working};
 use glam::Vec3;
 use rayon::prelude::*;
 
@@ -37,26 +37,15 @@ pub const TOPUP_SAMPLES: usize = 2048;
 impl CoverMatrix<'_> {
     /// Adds fill candidates of `tiers` (module docs) until `min_count`
     /// probes are alive, each the one that lowers the footprint cost most
-    /// on the scoring subsample; appends them to `all`, `cols`, `tier_of`
-    /// and `alive`, and their views to `count`. Returns how many it added:
+    /// on the scoring subsample, appended to `w`. Returns how many it added:
     /// fewer than asked when no candidate lowers the cost any more.
     ///
     /// Contract: deterministic; never removes a probe or a view, so
     /// coverage does not fall; adds nothing when `min_count` probes are
     /// alive already.
-    #[allow(clippy::too_many_arguments)]
-    pub(super) fn top_up(
-        &self,
-        tiers: &[Vec<Vec3>],
-        all: &mut Vec<Vec3>,
-        cols: &mut Vec<Bits>,
-        count: &mut [u32],
-        alive: &mut Vec<bool>,
-        tier_of: &mut Vec<usize>,
-        min_count: usize,
-    ) -> usize {
+    pub(super) fn top_up(&self, tiers: &[Vec<Vec3>], w: &mut Working, min_count: usize) -> usize {
         let m = self.len();
-        let live = alive.iter().filter(|&&a| a).count();
+        let live = w.live();
         let Some(tier) = tiers.iter().position(|t| !t.is_empty()) else {
             return 0;
         };
@@ -68,7 +57,7 @@ impl CoverMatrix<'_> {
             .iter()
             .step_by(stride)
             .copied()
-            .filter(|p| !(0..all.len()).any(|k| alive[k] && all[k] == *p))
+            .filter(|p| !(0..w.all.len()).any(|k| w.alive[k] && w.all[k] == *p))
             .collect();
         let demanded: Vec<usize> = (0..m).filter(|&i| self.needs(i) > 0).collect();
         let stride = demanded.len().div_ceil(TOPUP_SAMPLES).max(1);
@@ -76,7 +65,7 @@ impl CoverMatrix<'_> {
         let seen: Vec<Bits> = pool.par_iter().map(|&c| self.column(c, &sub)).collect();
         let everything: Vec<usize> = (0..m).collect();
         let mut b = Best::unseen(m);
-        self.rank_views(all, cols, alive, &everything, &mut b);
+        self.rank_views(w, &everything, &mut b);
         let mut taken = vec![false; pool.len()];
         let mut added = 0;
         while live + added < min_count {
@@ -107,15 +96,9 @@ impl CoverMatrix<'_> {
             };
             taken[j] = true;
             let col = self.column(pool[j], &everything);
-            for i in ones(&col) {
-                count[i] += 1;
-            }
             let affected: Vec<usize> = ones(&col).collect();
-            cols.push(col);
-            all.push(pool[j]);
-            tier_of.push(tier);
-            alive.push(true);
-            self.rank_views(all, cols, alive, &affected, &mut b);
+            w.push(pool[j], col, tier);
+            self.rank_views(w, &affected, &mut b);
             added += 1;
         }
         added
@@ -137,24 +120,9 @@ mod tests {
         let start = vec![Vec3::new(2.0, 3.0, 2.0)];
         let tiers = [reference.references.clone()];
         let run = |min_count: usize| {
-            let mut all = start.clone();
-            let mut cols = matrix.columns(&all);
-            let mut count = vec![0u32; matrix.len()];
-            for i in ones(&cols[0]) {
-                count[i] += 1;
-            }
-            let mut alive = vec![true];
-            let mut tier_of = vec![0];
-            let added = matrix.top_up(
-                &tiers,
-                &mut all,
-                &mut cols,
-                &mut count,
-                &mut alive,
-                &mut tier_of,
-                min_count,
-            );
-            (added, all, count)
+            let mut w = Working::new(start.clone(), matrix.columns(&start), vec![0], matrix.len());
+            let added = matrix.top_up(&tiers, &mut w, min_count);
+            (added, w.all, w.count)
         };
         let cost = |viewers: &[Vec3]| {
             let cols = matrix.columns(viewers);
@@ -183,14 +151,7 @@ mod tests {
         for i in ones(&before[0]) {
             assert!(count[i] >= 1);
         }
-        let cols = matrix.columns(&all);
-        for (i, &c) in count.iter().enumerate() {
-            let n = cols
-                .iter()
-                .filter(|b| b[i / 64] >> (i % 64) & 1 == 1)
-                .count();
-            assert_eq!(c as usize, n);
-        }
+        assert_eq!(count, crate::refine::prune::views(&matrix, &all));
         assert_eq!(run(4).1, all);
         assert_eq!(run(1).0, 0);
     }
