@@ -17,14 +17,35 @@
 //! subsample), scored on an even subsample of [`TOPUP_SAMPLES`] samples
 //! whose visibility from every candidate is cast once. Each round adds the
 //! candidate that lowers the cost most (the greedy choice of facility
-//! location: the cost is supermodular in the set, so the first probes
-//! taken save the most), until the count is met or no candidate lowers the
-//! cost. Polish then runs over the larger set.
+//! location: a candidate's saving only falls as probes are added, so the
+//! first probes taken save the most, and a lazy greedy rescores only the
+//! candidates whose old saving could still win), until the count is met or
+//! no candidate lowers the cost. Polish then runs over the larger set.
 
 use super::polish::{footprint, Best};
 use super::prune::{ones, Bits, CoverMatrix, Working};
 use glam::Vec3;
 use rayon::prelude::*;
+use std::cmp::{Ordering, Reverse};
+use std::collections::BinaryHeap;
+
+/// A saving, ordered by [`f64::total_cmp`] for the heap.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Saving(f64);
+
+impl Eq for Saving {}
+
+impl PartialOrd for Saving {
+    fn partial_cmp(&self, other: &Self) -> Option<Ordering> {
+        Some(self.cmp(other))
+    }
+}
+
+impl Ord for Saving {
+    fn cmp(&self, other: &Self) -> Ordering {
+        self.0.total_cmp(&other.0)
+    }
+}
 
 /// Most candidate positions scored (an even subsample of the tier).
 pub const TOPUP_POOL: usize = 2048;
@@ -33,6 +54,27 @@ pub const TOPUP_POOL: usize = 2048;
 /// coverable ones); the footprints of the chosen probe are then updated on
 /// every sample.
 pub const TOPUP_SAMPLES: usize = 2048;
+
+/// Refuses a top-up to `min_probes` probes over `samples` coverage samples
+/// whose estimate exceeds the work limit ([`crate::limits`]), naming
+/// `min_probes`: the candidates' views of the scoring subsample, each added
+/// probe's view of every sample, and polish over that many probes, in
+/// sample views ([`crate::limits::rate::REFINE_SAMPLE_VIEWS`]).
+pub fn check_work(min_probes: usize, samples: usize) -> crate::error::Result<()> {
+    use super::polish::{POLISH_CANDIDATES, POLISH_PASSES, POLISH_SAMPLES};
+    let n = min_probes as f64;
+    let views = (TOPUP_POOL * TOPUP_SAMPLES) as f64
+        + n * samples as f64
+        + n * (POLISH_CANDIDATES * POLISH_SAMPLES * POLISH_PASSES) as f64;
+    crate::limits::check_work(
+        "min_probes",
+        &format!(
+            "topping up to {min_probes} probes and polishing them ({samples} coverage samples)"
+        ),
+        views / crate::limits::rate::REFINE_SAMPLE_VIEWS,
+        1.0,
+    )
+}
 
 impl CoverMatrix<'_> {
     /// Adds fill candidates of `tiers` (module docs) until `min_count`
@@ -66,35 +108,45 @@ impl CoverMatrix<'_> {
         let everything: Vec<usize> = (0..m).collect();
         let mut b = Best::unseen(m);
         self.rank_views(w, &everything, &mut b);
-        let mut taken = vec![false; pool.len()];
+        // What candidate `j` would save now: Σ over the samples it sees of
+        // how much it lowers their best footprint.
+        let saving = |b: &Best, j: usize| -> f64 {
+            ones(&seen[j])
+                .map(|s| {
+                    let i = sub[s];
+                    let f = footprint(pool[j], self.sample(i).position, self.sample(i).normal);
+                    if b.best[i].is_finite() && f < b.best[i] {
+                        b.best[i] - f
+                    } else {
+                        0.0
+                    }
+                })
+                .sum()
+        };
+        // Lazy greedy (Minoux 1978): an added probe only lowers the best
+        // footprints, so every candidate's saving only falls, and a saving
+        // computed earlier bounds it. The top of the heap, rescored, is the
+        // greedy choice once it still beats the next bound; ties go to the
+        // earlier candidate, as a full rescoring would take them.
+        let mut heap: BinaryHeap<(Saving, Reverse<usize>)> = (0..pool.len())
+            .into_par_iter()
+            .map(|j| (Saving(saving(&b, j)), Reverse(j)))
+            .collect::<Vec<_>>()
+            .into_iter()
+            .collect();
         let mut added = 0;
         while live + added < min_count {
-            let b_now = &b;
-            let best = (0..pool.len())
-                .into_par_iter()
-                .filter(|&j| !taken[j])
-                .map(|j| {
-                    let saved: f64 = ones(&seen[j])
-                        .map(|s| {
-                            let i = sub[s];
-                            let now = b_now.best[i];
-                            let f =
-                                footprint(pool[j], self.sample(i).position, self.sample(i).normal);
-                            if now.is_finite() && f < now {
-                                now - f
-                            } else {
-                                0.0
-                            }
-                        })
-                        .sum();
-                    (j, saved)
-                })
-                .filter(|&(_, s)| s > 0.0)
-                .max_by(|a, b| a.1.total_cmp(&b.1).then(b.0.cmp(&a.0)));
-            let Some((j, _)) = best else {
+            let Some((_, Reverse(j))) = heap.pop() else {
                 break;
             };
-            taken[j] = true;
+            let fresh = (Saving(saving(&b, j)), Reverse(j));
+            if heap.peek().is_some_and(|next| fresh < *next) {
+                heap.push(fresh);
+                continue;
+            }
+            if fresh.0 .0 <= 0.0 {
+                break;
+            }
             let col = self.column(pool[j], &everything);
             let affected: Vec<usize> = ones(&col).collect();
             w.push(pool[j], col, tier);

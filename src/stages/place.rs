@@ -75,8 +75,16 @@ pub fn place(
     if !controls.density.is_empty() && !(refine_it && (config.refine.fill || config.refine.prune)) {
         warnings.push("probe_density: not applied: it is met by refinement's filling and pruning, and this run does neither".to_string());
     }
-    if controls.min_probes.is_some() && !refine_it {
-        warnings.push("min_probes: not applied: the probes it adds are chosen among refinement's fill positions, and this run does not refine".to_string());
+    match controls.min_probes {
+        Some(_) if !refine_it => warnings.push("min_probes: not applied: the probes it adds are chosen among refinement's fill positions, and this run does not refine".to_string()),
+        Some(min) => {
+            refine::topup::check_work(min, reference.samples.len())?;
+            check_probes(config, prepared, min).map_err(|e| match e {
+                Error::User(m) => Error::User(format!("min_probes: {min}: {m}")),
+                e => e,
+            })?;
+        }
+        None => {}
     }
     let mut report = ControlsReport {
         max_probes: controls.max_probes,
