@@ -146,7 +146,11 @@ fn impossible_fixed_probes_are_refused_by_name() {
         ("max_probes", "0", "max_probes"),
         ("max_probes", "70000", "max_probes"),
         ("min_probes", "0", "min_probes"),
-        ("min_probes", "60000", "min_probes: topping up to 60000 probes"),
+        (
+            "min_probes",
+            "60000",
+            "min_probes: topping up to 60000 probes",
+        ),
         (
             "probe_density",
             "[(Box((min: (0, 0, 0), max: (1, 1, 1))), 9.0)]",
