@@ -350,30 +350,17 @@ pub fn grid_near_count(domain: &crate::scene::Bounds, count: usize) -> Option<Gr
         let cell = size / Vec3::new(n[0] as f32, n[1] as f32, n[2] as f32);
         cell.max_element() / cell.min_element()
     };
-    let mut best: Option<(u64, f32, [u64; 3])> = None;
-    for x in 1..=hi {
-        for y in 1..=hi / x {
-            for z in 1..=hi / (x * y) {
-                let n = x * y * z;
-                let a = aspect([x, y, z]);
-                if n < lo || a > MAX_CELL_ASPECT {
-                    continue;
-                }
-                let key = (n.abs_diff(count), a, u64::MAX - n);
-                let better = best.is_none_or(|(bn, ba, _)| {
-                    key.0
-                        .cmp(&bn.abs_diff(count))
-                        .then(key.1.total_cmp(&ba))
-                        .then(key.2.cmp(&(u64::MAX - bn)))
-                        .is_lt()
-                });
-                if better {
-                    best = Some((n, a, [x, y, z]));
-                }
-            }
-        }
-    }
-    let [x, y, z] = best?.2;
+    let [x, y, z] = (1..=hi)
+        .flat_map(|x| (1..=hi / x).flat_map(move |y| (1..=hi / (x * y)).map(move |z| [x, y, z])))
+        .map(|n| (n, n.iter().product::<u64>(), aspect(n)))
+        .filter(|&(_, n, a)| n >= lo && a <= MAX_CELL_ASPECT)
+        .min_by(|(_, n, a), (_, m, b)| {
+            n.abs_diff(count)
+                .cmp(&m.abs_diff(count))
+                .then(a.total_cmp(b))
+                .then(m.cmp(n))
+        })?
+        .0;
     GridParams::new([x as u32, y as u32, z as u32]).ok()
 }
 
@@ -500,12 +487,9 @@ impl Bench<'_> {
         let mut ours_count = 0;
         for method in OURS {
             let t = std::time::Instant::now();
-            let mut c = self.config.clone();
-            c.placement = Placement::parse_cli(method, &self.config.placement)?;
-            c.refine.enabled = true;
             let candidate = match reuse(job, method, self.prepared)? {
                 Some(found) => found,
-                None => self.place_refined(job, &c)?,
+                None => self.place_refined(job, method, None)?,
             };
             if ours_count == 0 || method == self.config.placement.name() {
                 ours_count = candidate.probes.probes.len();
@@ -534,15 +518,9 @@ impl Bench<'_> {
             return Ok(());
         }
         let method = ours_default(&self.config.placement);
-        let name = at_count(method, n);
+        let name = format!("{method}@{n}");
         let t = std::time::Instant::now();
-        let mut c = self.config.clone();
-        c.placement = Placement::parse_cli(method, &self.config.placement)?;
-        c.refine.enabled = true;
-        let count = crate::config::Count(n as u32);
-        c.min_probes = Some(count);
-        c.max_probes = Some(count);
-        let candidate = self.place_refined(job, &c)?;
+        let candidate = self.place_refined(job, method, Some(n))?;
         self.measure(&name, Family::Ours, candidate, false)?;
         job.watch.record(&name, t.elapsed().as_secs_f64() * 1e3);
         Ok(())
@@ -657,10 +635,18 @@ impl Bench<'_> {
         Ok(())
     }
 
-    /// Ours placed and refined by `c`, with refinement's final coverage
-    /// among its stats.
-    fn place_refined(&self, job: &Job, c: &Config) -> Result<Candidate> {
-        let placed = stages::place(c, self.prepared, self.coverage, None, &self.progress)
+    /// Our `method` placed and refined whatever the config says (§3.3),
+    /// with `exactly` that many probes when given (`min_probes` and
+    /// `max_probes` both), and refinement's final coverage among its stats.
+    fn place_refined(&self, job: &Job, method: &str, exactly: Option<usize>) -> Result<Candidate> {
+        let mut c = self.config.clone();
+        c.placement = Placement::parse_cli(method, &self.config.placement)?;
+        c.refine.enabled = true;
+        if let Some(n) = exactly {
+            c.min_probes = Some(crate::config::Count(n as u32));
+            c.max_probes = c.min_probes;
+        }
+        let placed = stages::place(&c, self.prepared, self.coverage, None, &self.progress)
             .map_err(|e| job.config_error_of(e, &c.placement))?;
         let mut stats = stats_of(&placed.probes);
         if let Some((r, _)) = &placed.refined {
@@ -863,11 +849,6 @@ fn ours_default(config: &Placement) -> &'static str {
     OURS.into_iter()
         .find(|m| *m == config.name())
         .unwrap_or(OURS[0])
-}
-
-/// The row name of `method` placed with exactly `count` probes.
-pub fn at_count(method: &str, count: usize) -> String {
-    format!("{method}@{count}")
 }
 
 /// A fresh placement as a candidate.
