@@ -342,16 +342,27 @@ pub fn shading_probe_distance(view: &View, bvh: &super::SceneBvh, probes: &[Vec3
     use rayon::prelude::*;
     let queries = &view.gbuffer.irradiance;
     let stride = queries.len().div_ceil(SHADING_POINTS).max(1);
+    // Probes in front of the point, nearest first; the first unoccluded
+    // one is the answer, so most points cast one or two shadow rays, not
+    // one per probe. The buffer is reused per thread.
     let nearest: Vec<f32> = queries
         .par_iter()
         .step_by(stride)
-        .map(|q| {
+        .map_init(Vec::new, |ahead: &mut Vec<(f32, usize)>, q| {
             let (p, n) = (Vec3::from(q.origin), Vec3::from(q.dir));
-            probes
+            ahead.clear();
+            ahead.extend(
+                probes
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, &k)| n.dot(k - p) > 0.0)
+                    .map(|(i, &k)| (k.distance(p), i)),
+            );
+            ahead.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+            ahead
                 .iter()
-                .filter(|&&k| n.dot(k - p) > 0.0 && !bvh.occluded(p, k, 1e-4))
-                .map(|&k| k.distance(p))
-                .fold(f32::INFINITY, f32::min)
+                .find(|&&(_, i)| !bvh.occluded(p, probes[i], 1e-4))
+                .map_or(f32::INFINITY, |&(d, _)| d)
         })
         .collect();
     let seen: Vec<f64> = nearest

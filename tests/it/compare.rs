@@ -188,6 +188,7 @@ fn report_has_every_placement_and_figure() {
             "mse_glossy_relative",
             "flip",
             "unresolved_fraction",
+            "shading_probe_distance",
         ] {
             assert!(p[key].is_number(), "{}: {key} missing", p["name"]);
         }
@@ -200,6 +201,29 @@ fn report_has_every_placement_and_figure() {
             assert!(p["svo_bytes"].as_u64().unwrap() > 0);
         }
     }
+    // The distance from the views' shading points to the nearest probe
+    // that sees them is the placement's, whatever the tracer, and falls as
+    // a grid grows from the sweep's sparsest to its densest.
+    let distance = |p: &Value| p["shading_probe_distance"].as_f64().unwrap();
+    let mut grids: Vec<&Value> = placements
+        .iter()
+        .filter(|p| p["family"] == "grid" && p["tracer"] == "hiz+svo")
+        .collect();
+    grids.sort_by_key(|p| p["probes"].as_u64().unwrap());
+    for g in &grids {
+        let twin = placements
+            .iter()
+            .find(|q| q["name"] == g["name"] && q["tracer"] == "bilevel+grid")
+            .unwrap();
+        assert_eq!(distance(g), distance(twin), "{}", g["name"]);
+        assert!(distance(g) > 0.0, "{}", g["name"]);
+    }
+    assert!(
+        distance(grids.last().unwrap()) < distance(grids[0]),
+        "{} against {}",
+        grids.last().unwrap()["name"],
+        grids[0]["name"]
+    );
     // Where the grid nearest our count has another count, ours is placed
     // again with exactly that many, and matched to that grid at equal count.
     let ours = placement(r, "sdf-skeleton")["probes"].as_u64().unwrap();
