@@ -130,8 +130,9 @@ pub mod rate {
     /// × radiance texels) per core-second (Sponza: 8.4e8 in 2.0 s).
     pub const CONVOLUTION_TERMS: f64 = 1.0e8;
     /// Refinement units, `N^1.5 × iterations × directions² × max(1,
-    /// texels / 4216)` (Gibbs proposals grow in cost with the probes
-    /// around them), per core-second (Cornell: 1 024 probes, 20 sweeps,
+    /// min(texels, N × directions²) / 4216)` (Gibbs proposals grow in cost
+    /// with the probes around them and the texels their views reach), per
+    /// core-second (Cornell: 1 024 probes, 20 sweeps,
     /// 32², 32.7 s).
     pub const REFINE_UNITS: f64 = 5.0e6;
     /// Fill-and-prune sample views, `coverage samples × (probes + 16)`,

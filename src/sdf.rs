@@ -234,6 +234,10 @@ pub fn build(
 const BRICK: u32 = 8;
 /// Half-width of the exact band, in voxels.
 const BAND: f32 = 2.0;
+/// Voxels (a fraction of one) by which a triangle's band box is grown
+/// before it is cut to whole voxel centres, so that rounding never drops a
+/// centre the band reaches.
+const SLACK: f32 = 0.01;
 
 /// Nearest surface point of every voxel centre: exact within the band, then
 /// jump flooding outward.
@@ -280,21 +284,45 @@ fn nearest_surface_points(scene: &Scene, sdf: &Sdf) -> Vec<Option<Vec3>> {
                 b / (bricks.x * bricks.y),
             ) * BRICK;
             let end = (base + BRICK).min(sdf.dims);
+            let size = end - base;
+            let mut best: Vec<(f32, Option<Vec3>)> =
+                vec![(reach * reach, None); (size.x * size.y * size.z) as usize];
+            // Each triangle updates only the voxels whose centres lie in its
+            // box grown by the band (and [`SLACK`] against rounding):
+            // a centre outside it is farther than the band from the
+            // triangle, so it could not have won. Triangles are visited in
+            // index order and a strictly nearer point wins, as when every
+            // voxel scanned every triangle of its brick.
+            let lo_voxel = base.as_ivec3();
+            let hi_voxel = end.as_ivec3() - 1;
+            for &ti in tris {
+                let t = &scene.triangles[ti as usize];
+                let lo = (t[0].min(t[1]).min(t[2]) - reach - sdf.origin) / sdf.voxel_size - 0.5;
+                let hi = (t[0].max(t[1]).max(t[2]) + reach - sdf.origin) / sdf.voxel_size - 0.5;
+                let v0 = (lo - SLACK).ceil().as_ivec3().max(lo_voxel);
+                let v1 = (hi + SLACK).floor().as_ivec3().min(hi_voxel);
+                for z in v0.z..=v1.z {
+                    for y in v0.y..=v1.y {
+                        for x in v0.x..=v1.x {
+                            let v = UVec3::new(x as u32, y as u32, z as u32);
+                            let c = sdf.center(sdf.index(v));
+                            let q = closest_point_on_triangle(c, t);
+                            let d2 = q.distance_squared(c);
+                            let l = v - base;
+                            let slot = &mut best[(l.x + size.x * (l.y + size.y * l.z)) as usize];
+                            if d2 < slot.0 {
+                                *slot = (d2, Some(q));
+                            }
+                        }
+                    }
+                }
+            }
             for z in base.z..end.z {
                 for y in base.y..end.y {
                     for x in base.x..end.x {
-                        let i = sdf.index(UVec3::new(x, y, z));
-                        let c = sdf.center(i);
-                        let mut best = (reach * reach, None);
-                        for &ti in tris {
-                            let q = closest_point_on_triangle(c, &scene.triangles[ti as usize]);
-                            let d2 = q.distance_squared(c);
-                            if d2 < best.0 {
-                                best = (d2, Some(q));
-                            }
-                        }
-                        if let Some(q) = best.1 {
-                            out.push((i, q));
+                        let l = UVec3::new(x, y, z) - base;
+                        if let (_, Some(q)) = best[(l.x + size.x * (l.y + size.y * l.z)) as usize] {
+                            out.push((sdf.index(UVec3::new(x, y, z)), q));
                         }
                     }
                 }

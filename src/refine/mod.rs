@@ -221,10 +221,14 @@ pub fn may_stand(sdf: &Sdf, domain: &Bounds, min_clearance: f32, p: Vec3) -> boo
 /// ([`crate::limits::rate::REFINE_SAMPLE_VIEWS`]).
 fn check_work(params: &RefineParams, probes: usize, texels: usize, samples: usize) -> Result<()> {
     use crate::limits::rate;
-    let units = (probes as f64).powf(1.5)
-        * params.iterations.0 as f64
-        * (params.directions.0 as f64).powi(2)
-        * (texels as f64 / 4216.0).max(1.0);
+    // A proposal's cost grows with the texels its view lands on and the
+    // probes sharing them; no more texels than all the views' rays together
+    // can land on, however finely a scene of millions of small triangles
+    // cuts the atlas.
+    let rays = (params.directions.0 as f64).powi(2);
+    let touched = (texels as f64).min(probes as f64 * rays);
+    let units =
+        (probes as f64).powf(1.5) * params.iterations.0 as f64 * rays * (touched / 4216.0).max(1.0);
     let views = samples as f64 * (probes as f64 + 16.0);
     crate::limits::check_work(
         "refine",

@@ -75,6 +75,27 @@ pub struct SceneBvh {
     normals: Vec<Vec3A>,
 }
 
+/// Triangles above which the BVH is built with obvhs's fast preset rather
+/// than the medium one.
+///
+/// The medium preset's extra PLOC search and reinsertion buy faster rays,
+/// which pays on the scenes of configs/ (tens of thousands of triangles,
+/// millions of rays); at millions of triangles its build alone took 10.8 s
+/// of a 5.4M-triangle block's run and the fast one 8.0 s, for no slower a
+/// run overall (BENCHMARKS.md, "Scale"). Rays return the same nearest hit
+/// either way; only which of two hits at exactly the same distance comes
+/// back can differ, so scenes under this size keep their outputs byte for
+/// byte.
+pub const FAST_BUILD_TRIANGLES: usize = 1_000_000;
+
+fn build_params(triangles: usize) -> BvhBuildParams {
+    if triangles > FAST_BUILD_TRIANGLES {
+        BvhBuildParams::fast_build()
+    } else {
+        BvhBuildParams::medium_build()
+    }
+}
+
 impl SceneBvh {
     /// Builds the BVH. Deterministic: the same scene gives the same tree.
     pub fn new(scene: &Scene) -> SceneBvh {
@@ -94,7 +115,7 @@ impl SceneBvh {
             .collect();
         let bvh = build_cwbvh(
             &prims,
-            BvhBuildParams::medium_build(),
+            build_params(scene.triangles.len()),
             &mut Duration::default(),
         );
         let scene_index: Vec<u32> = bvh.primitive_indices.clone();
