@@ -94,6 +94,7 @@ pub(crate) mod skeleton;
 pub mod stages;
 pub mod stats;
 pub mod svo;
+pub mod tiles;
 pub mod trace;
 
 pub use error::{Error, Result};

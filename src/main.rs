@@ -131,6 +131,40 @@ enum Command {
         #[arg(short, long)]
         quiet: bool,
     },
+    /// Cut the world into tiles with overlapping margins: one tile job each (OBJ and config), split.json, and submit.sh for a Slurm array (docs/tiles.md).
+    Split {
+        /// The world's RON config file.
+        config: PathBuf,
+        /// Tiles along x, y and z, e.g. 2x1x2.
+        #[arg(long, value_name = "NxMxK")]
+        tiles: String,
+        /// The directory to write the tiles to.
+        #[arg(long)]
+        out: PathBuf,
+        /// How far each tile reaches beyond its own cell, in world units (default: a quarter of the longest tile edge, at least 8 voxels).
+        #[arg(long)]
+        margin: Option<f64>,
+        /// CPUs each tile job asks the scheduler for.
+        #[arg(long, default_value_t = 2)]
+        cpus: u32,
+        /// No summary.
+        #[arg(short, long)]
+        quiet: bool,
+    },
+    /// Join the placed tiles of a split: world.json, probes.json, report.json and one svo.bin per tile, in DIR/world (docs/tiles.md).
+    Merge {
+        /// The directory `split` wrote.
+        dir: PathBuf,
+        /// Output directory (default: DIR/world).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Also bake one svo.bin over the whole world (loads the whole world).
+        #[arg(long)]
+        single: bool,
+        /// No stage lines and no summary.
+        #[arg(short, long)]
+        quiet: bool,
+    },
     /// Summarize an svo.bin (or the one in an output directory, with its lightfield.bin) after checking that the directory holds one run.
     Inspect {
         /// An output directory of `place` or `bake`, or an svo.bin file.
@@ -208,6 +242,45 @@ fn main() -> ExitCode {
                     .with_lines(!quiet && !std::io::stderr().is_terminal()),
             };
             report(jobs::export(&options), quiet)
+        }
+        Command::Split {
+            config,
+            tiles,
+            out,
+            margin,
+            cpus,
+            quiet,
+        } => {
+            let tiles = match probeplace::tiles::parse_counts(&tiles) {
+                Ok(t) => t,
+                Err(e) => return fail(probeplace::Error::User(e)),
+            };
+            if cpus == 0 {
+                return fail(probeplace::Error::User("--cpus: must be at least 1".into()));
+            }
+            let options = jobs::SplitOptions {
+                config,
+                tiles,
+                out,
+                margin,
+                cpus,
+            };
+            report(jobs::split(&options), quiet)
+        }
+        Command::Merge {
+            dir,
+            out,
+            single,
+            quiet,
+        } => {
+            let options = jobs::MergeOptions {
+                dir,
+                out,
+                single,
+                progress: Progress::new(false)
+                    .with_lines(!quiet && !std::io::stderr().is_terminal()),
+            };
+            report(jobs::merge(&options), quiet)
         }
         Command::Inspect { path, quiet } => match jobs::inspect(&path) {
             Ok(inspection) => {

@@ -86,14 +86,9 @@ impl Resolution {
     }
 }
 
-/// Chooses the voxel size for `domain` of `scene` (module docs).
-///
-/// Contract: deterministic for `(scene, domain, seed)`; positive and
-/// finite; scales with the scene (the same scene scaled by `s` gives `s`
-/// times the size, to float rounding); the grid it gives has at most about
-/// [`MAX_AUTO_VOXELS`] voxels.
-pub fn auto(scene: &Scene, bvh: &SceneBvh, domain: &Bounds, seed: u64) -> Resolution {
-    let size = domain.size();
+/// The rules that need only the domain's size: the budget's edge, the
+/// thin-domain edge and the floor (module docs).
+fn domain_rules(size: glam::Vec3) -> (f32, f32, f32) {
     let diagonal = size.length().max(f32::MIN_POSITIVE);
     // A degenerate axis (a flat scene) counts as a hundredth of the
     // diagonal, so the volume stays positive.
@@ -102,6 +97,28 @@ pub fn auto(scene: &Scene, bvh: &SceneBvh, domain: &Bounds, seed: u64) -> Resolu
     let from_budget = (volume / TARGET_VOXELS).cbrt() as f32;
     let floor = (volume / MAX_AUTO_VOXELS).cbrt() as f32;
     let from_thinness = axes.min_element() / MIN_VOXELS_ACROSS;
+    (from_budget, from_thinness, floor)
+}
+
+/// The voxel size `split` gives every tile of a world whose config leaves
+/// it `Auto`: the budget and thin-domain rules over the whole world's
+/// domain, so that tiles share one grid pitch and together spend the
+/// budget one machine would. The feature rule needs the whole scene's
+/// geometry, which a split never loads; a world with narrow gaps should
+/// give `voxel_size` (docs/tiles.md).
+pub(crate) fn auto_from_domain(world: &crate::tiles::WorldBox) -> f32 {
+    let (budget, thinness, floor) = domain_rules(world.size().as_vec3());
+    budget.min(thinness).max(floor)
+}
+
+/// Chooses the voxel size for `domain` of `scene` (module docs).
+///
+/// Contract: deterministic for `(scene, domain, seed)`; positive and
+/// finite; scales with the scene (the same scene scaled by `s` gives `s`
+/// times the size, to float rounding); the grid it gives has at most about
+/// [`MAX_AUTO_VOXELS`] voxels.
+pub fn auto(scene: &Scene, bvh: &SceneBvh, domain: &Bounds, seed: u64) -> Resolution {
+    let (from_budget, from_thinness, floor) = domain_rules(domain.size());
     let feature_size = feature_size(scene, bvh, domain, floor, seed);
     let from_feature = feature_size.map(|f| f / FEATURE_VOXELS);
     let voxel_size = from_budget

@@ -22,15 +22,19 @@ pub mod bake;
 pub mod compare;
 pub mod export;
 pub mod inspect;
+pub mod merge;
 pub mod place;
 pub mod render;
+pub mod split;
 
 pub use bake::bake;
 pub use compare::compare;
 pub use export::{export, ExportOptions};
 pub use inspect::{inspect, Inspection};
+pub use merge::{merge, MergeOptions};
 pub use place::place;
 pub use render::{render, Variant};
+pub use split::{split, SplitOptions};
 
 use crate::config::{Config, GridParams, Placement};
 use crate::error::{Error, Result};
@@ -224,7 +228,7 @@ impl Job {
                 ))
             }
         };
-        merge(&mut overrides, &options.overrides)?;
+        merge_overrides(&mut overrides, &options.overrides)?;
         let mut config = match &options.loaded {
             Some(c) => c.clone(),
             None => Config::from_text(&text, &config_path)?,
@@ -375,7 +379,7 @@ fn reload_path(p: &Provenance) -> PathBuf {
 }
 
 /// Lays the command line's `new` overrides over the earlier run's `base`.
-fn merge(base: &mut Overrides, new: &Overrides) -> Result<()> {
+fn merge_overrides(base: &mut Overrides, new: &Overrides) -> Result<()> {
     if new.method.is_some() {
         base.method = new.method.clone();
     }

@@ -21,6 +21,7 @@ pub mod format;
 pub mod influence;
 pub mod octree;
 pub mod rank;
+mod tiles;
 
 use crate::config::SvoParams;
 use crate::error::{Error, Result};

@@ -25,4 +25,5 @@ mod refine;
 mod render;
 mod report_html;
 mod svo;
+mod tiles;
 mod translation;

@@ -1,0 +1,633 @@
+//! The `merge` job: joins the placed tiles of a split ([`super::split`])
+//! into one world, without ever loading the whole world (except for
+//! `--single`, which asks for it).
+//!
+//! 1. **Check.** Every tile must have finished, and its outputs must carry
+//!    the provenance `split.json` recorded for it (config hash, scene hash,
+//!    seed, tool): a missing, failed or foreign tile is refused with a line
+//!    naming it, never merged into a partial world.
+//! 2. **Join.** Each tile placed probes over its box, core and margin, so
+//!    near every cut two or more tiles placed probes for the same surfaces
+//!    (the probes in overlaps of boxes are the `candidates` of the report).
+//!    Tile by tile (one in memory at a time) the coverage measure of the
+//!    tile's own run ([`crate::coverage`]: the same samples, the same
+//!    `sees` rule) lists, for each coverable sample of its core, every
+//!    probe of any tile inside the tile's box that sees it. A greedy set
+//!    cover then keeps the fewest probes that still see every listed
+//!    sample (the most first; ties: the lower index), and drops again any
+//!    pick the later ones made redundant: the redundancy pruning of
+//!    refinement (Wang et al. 2019 §1, "fewest probes") over the whole
+//!    world. Coverage is what the kept probes see, summed over the cores.
+//! 3. **Index.** Tile by tile again, the SVO of the tile's box is baked
+//!    over the kept probes inside it and its leaves renumbered to the
+//!    world's probe indices: `tile-NNN.svo.bin`, one per region, as
+//!    engines stream probe volumes. `world.json` lists each tile's core
+//!    box, box, probe index range (probes are numbered tile by tile, by the
+//!    core that holds them) and file. `--single` also bakes one SVO over
+//!    the whole domain (`svo.bin`), for a world that fits one machine.
+
+use super::split::{SplitIndex, TileEntry};
+use super::Outcome;
+use crate::config::Config;
+use crate::coverage::CoverageReference;
+use crate::error::{Error, Result};
+use crate::probes::{Probe, ProbeSet};
+use crate::progress::Progress;
+use crate::provenance::{Overrides, Provenance};
+use crate::report::commit::{self, OutputSet};
+use crate::sdf::VoxelClass;
+use crate::stages::{self, Prepared};
+use crate::tiles::TileGrid;
+use glam::DVec3;
+use rayon::prelude::*;
+use serde::Serialize;
+use serde_json::{json, Value};
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+/// What the command line gives `merge`.
+#[derive(Debug, Clone)]
+pub struct MergeOptions {
+    /// The split directory.
+    pub dir: PathBuf,
+    /// Output directory (default: `DIR/world`).
+    pub out: Option<PathBuf>,
+    /// Also bake one SVO over the whole world.
+    pub single: bool,
+    /// Progress and stage lines.
+    pub progress: Progress,
+}
+
+/// A probe of some tile, in world coordinates.
+#[derive(Debug, Clone, Copy)]
+struct WorldProbe {
+    position: DVec3,
+    /// The tile whose run placed it.
+    source: u32,
+    /// The tile whose core holds it.
+    owner: u32,
+    /// Whether more than one tile's box holds it.
+    candidate: bool,
+}
+
+/// One probe in the merged `probes.json`.
+#[derive(Debug, Serialize)]
+struct MergedProbe {
+    index: usize,
+    position: [f64; 3],
+    position_file: [f64; 3],
+    clearance: f32,
+    voxel_class: Option<VoxelClass>,
+    tile: String,
+    placed_by: String,
+}
+
+/// What the first pass learned of one tile's core.
+#[derive(Debug, Default, Clone, Serialize)]
+struct TileTally {
+    name: String,
+    probes_placed: usize,
+    coverable_samples: usize,
+    /// Coverable core samples some probe of the union sees.
+    seen: usize,
+    /// Core samples no probe of the union sees.
+    unseen: usize,
+}
+
+/// Runs `probeplace merge`.
+///
+/// Contract: on success the output directory holds exactly `world.json`,
+/// `probes.json`, `report.json`, `<tile>.svo.bin` per tile (and
+/// `svo.bin` with `single`), all of the world's provenance; on any error
+/// it is as it was. A tile without a finished run, or whose run does not
+/// carry the provenance `split.json` gives it, is a user error naming the
+/// tile.
+pub fn merge(options: &MergeOptions) -> Result<Outcome> {
+    let watch_start = std::time::Instant::now();
+    let dir = &options.dir;
+    let index_path = dir.join("split.json");
+    if !index_path.is_file() {
+        return Err(Error::user_file(
+            dir,
+            "no split.json: not a split directory, or the split was cut short; run probeplace split",
+        ));
+    }
+    let text = crate::input::read_text(&index_path, "split.json", 1 << 30)?;
+    let index: SplitIndex =
+        serde_json::from_str(&text).map_err(|e| Error::user_file(&index_path, e))?;
+    if index.format != "probeplace.split" || index.tile.is_empty() {
+        return Err(Error::user_file(
+            &index_path,
+            "is not a probeplace split index",
+        ));
+    }
+    let grid = index.grid();
+    let mut probes: Vec<WorldProbe> = Vec::new();
+    let mut placed = vec![0usize; index.tile.len()];
+    for entry in &index.tile {
+        for position in tile_probes(dir, &index, entry)? {
+            placed[entry.index as usize] += 1;
+            probes.push(WorldProbe {
+                position,
+                source: entry.index,
+                owner: grid.owner(position),
+                candidate: index
+                    .tile
+                    .iter()
+                    .filter(|t| t.domain.contains(position))
+                    .count()
+                    > 1,
+            });
+        }
+    }
+    let progress = &options.progress;
+
+    // Pass 1: per core, the settled samples and the candidates that see
+    // each unsettled one.
+    let mut tallies = Vec::new();
+    let mut lists: Vec<Vec<u32>> = Vec::new();
+    for entry in &index.tile {
+        let tile = Tile::prepare(dir, entry, progress)?;
+        let relevant: Vec<(usize, glam::Vec3)> = probes
+            .iter()
+            .enumerate()
+            .filter(|(_, p)| entry.domain.contains(p.position))
+            .map(|(k, p)| (k, tile.prepared.scene.to_local(p.position)))
+            .collect();
+        let samples = tile.core_samples(&grid, entry.index);
+        let seen: Vec<Vec<u32>> = samples
+            .par_iter()
+            .map(|&i| {
+                let s = &tile.reference.samples[i];
+                let mut order: Vec<&(usize, glam::Vec3)> = relevant.iter().collect();
+                order.sort_by(|a, b| {
+                    a.1.distance_squared(s.position)
+                        .total_cmp(&b.1.distance_squared(s.position))
+                        .then(a.0.cmp(&b.0))
+                });
+                let mut list = Vec::new();
+                for &&(k, p) in &order {
+                    if tile.reference.sees(&tile.prepared.bvh, p, s) {
+                        list.push(k as u32);
+                    }
+                }
+                list.sort_unstable();
+                list
+            })
+            .collect();
+        let mut tally = TileTally {
+            name: entry.name.clone(),
+            probes_placed: placed[entry.index as usize],
+            coverable_samples: samples.len(),
+            ..TileTally::default()
+        };
+        for l in seen {
+            if l.is_empty() {
+                tally.unseen += 1;
+            } else {
+                tally.seen += 1;
+                lists.push(l);
+            }
+        }
+        tallies.push(tally);
+    }
+    let coverable_all: usize = tallies.iter().map(|t| t.coverable_samples).sum();
+    let world_config = Config::from_text(&index.world.config_text, &index.config)?;
+    let target = world_config.refine.coverage_target.0 as f64;
+    let need = ((target * coverable_all as f64).ceil() as usize).min(lists.len());
+    let kept = cover(probes.len(), &lists, need);
+
+    // The world's probes, numbered tile by tile by the core that holds them.
+    let mut order: Vec<usize> = (0..probes.len()).filter(|&k| kept[k]).collect();
+    order.sort_by_key(|&k| (probes[k].owner, k));
+    let final_probes: Vec<WorldProbe> = order.iter().map(|&k| probes[k]).collect();
+
+    // Pass 2: per tile, its SVO over the world's indices, and the SDF's
+    // word on the probes its core holds.
+    let provenance = index.world.clone();
+    let mut set = OutputSet::new();
+    let mut records: Vec<Option<MergedProbe>> = (0..final_probes.len()).map(|_| None).collect();
+    let mut world_tiles = Vec::new();
+    let mut health = (0usize, 0usize);
+    for entry in &index.tile {
+        let tile = Tile::prepare(dir, entry, progress)?;
+        let scene = &tile.prepared.scene;
+        let inside: Vec<usize> = (0..final_probes.len())
+            .filter(|&g| entry.domain.contains(final_probes[g].position))
+            .collect();
+        let set_here = ProbeSet {
+            method: "tiles".into(),
+            probes: inside
+                .iter()
+                .map(|&g| Probe {
+                    position: scene.to_local(final_probes[g].position),
+                    cluster_size: 0,
+                })
+                .collect(),
+            stats: BTreeMap::new(),
+            params: BTreeMap::new(),
+            min_clearance: 0.0,
+            fixed: 0,
+        };
+        let input = tile.prepared.placement_input(tile.config.seed, progress);
+        let mut svo = crate::svo::bake(&tile.config.svo, &set_here, &input)
+            .map_err(|e| tile_error(entry, e))?
+            .svo;
+        let global: Vec<u32> = inside.iter().map(|&g| g as u32).collect();
+        svo.renumber(&global, final_probes.len() as u32);
+        svo.provenance = provenance.to_bytes();
+        let file = format!("{}.svo.bin", entry.name);
+        set.add(file.clone(), svo.to_bytes());
+        let sdf = &tile.prepared.sdf;
+        let owned: Vec<usize> = (0..final_probes.len())
+            .filter(|&g| final_probes[g].owner == entry.index)
+            .collect();
+        for &g in &owned {
+            let p = scene.to_local(final_probes[g].position);
+            let voxel = sdf.voxel_at(p);
+            let class = voxel.map(|v| sdf.class[v]);
+            match class {
+                Some(VoxelClass::Solid) => health.0 += 1,
+                Some(VoxelClass::Outside) => health.1 += 1,
+                _ => {}
+            }
+            let world = final_probes[g].position;
+            let config = &tile.world_config;
+            records[g] = Some(MergedProbe {
+                index: g,
+                position: world.to_array(),
+                position_file: crate::scene::world_to_file(world, config.scale.0, config.up)
+                    .to_array(),
+                clearance: voxel.map_or(f32::NAN, |v| sdf.distance[v]),
+                voxel_class: class,
+                tile: entry.name.clone(),
+                placed_by: index.tile[final_probes[g].source as usize].name.clone(),
+            });
+        }
+        let first = owned.first().copied().unwrap_or(
+            final_probes
+                .iter()
+                .position(|p| p.owner > entry.index)
+                .unwrap_or(final_probes.len()),
+        );
+        world_tiles.push(json!({
+            "name": entry.name,
+            "index": entry.index,
+            "cell": entry.cell,
+            "core": entry.core,
+            "domain": entry.domain,
+            "probes": { "first": first, "count": owned.len() },
+            "svo": file,
+        }));
+    }
+    let records: Vec<MergedProbe> = records.into_iter().flatten().collect();
+    if options.single {
+        let world = single_world(&index, progress)?;
+        let set_all = ProbeSet {
+            method: "tiles".into(),
+            probes: final_probes
+                .iter()
+                .map(|p| Probe {
+                    position: world.scene.to_local(p.position),
+                    cluster_size: 0,
+                })
+                .collect(),
+            stats: BTreeMap::new(),
+            params: BTreeMap::new(),
+            min_clearance: 0.0,
+            fixed: 0,
+        };
+        let input = world.placement_input(index.seed, progress);
+        let mut svo = crate::svo::bake(&world_config.svo, &set_all, &input)?.svo;
+        svo.provenance = provenance.to_bytes();
+        set.add("svo.bin", svo.to_bytes());
+    }
+
+    let coverable: usize = tallies.iter().map(|t| t.coverable_samples).sum();
+    let covered_lists = lists
+        .iter()
+        .filter(|l| l.iter().any(|&k| kept[k as usize]))
+        .count();
+    let covered = covered_lists;
+    let coverage = if coverable == 0 {
+        1.0
+    } else {
+        covered as f64 / coverable as f64
+    };
+    // The normal-approximation interval of the coverage measure.
+    let ci95 = if coverable == 0 {
+        0.0
+    } else {
+        1.96 * (coverage * (1.0 - coverage) / coverable as f64).sqrt()
+    };
+    let candidates = probes.iter().filter(|p| p.candidate).count();
+    let mut warnings = Vec::new();
+    if coverage < target {
+        warnings.push(format!(
+            "coverage {:.2}% is under refine.coverage_target {:.2}%: some core surfaces are seen by no tile's probe (a larger --margin sees more of them from both sides)",
+            100.0 * coverage,
+            100.0 * target
+        ));
+    }
+    let world_json = json!({
+        "format": "probeplace.world",
+        "version": 1,
+        "provenance": provenance,
+        "domain": index.domain,
+        "tiles_grid": index.tiles,
+        "margin": index.margin,
+        "probe_count": final_probes.len(),
+        "probes": "probes.json",
+        "svo": options.single.then_some("svo.bin"),
+        "tiles": world_tiles,
+    });
+    let report = json!({
+        "format": "probeplace.report",
+        "version": 1,
+        "provenance": provenance,
+        "method": "tiles",
+        "seed": index.seed,
+        "probe_count": final_probes.len(),
+        "coverage": coverage,
+        "coverage_ci95": ci95,
+        "probes_in_solid": health.0,
+        "probes_outside_scene": health.1,
+        "merge": {
+            "tiles": index.tile.len(),
+            "probes_placed": probes.len(),
+            "candidates": candidates,
+            "candidates_kept": order.iter().filter(|&&k| probes[k].candidate).count(),
+            "coverable_samples": coverable,
+            "covered_samples": covered,
+            "per_tile": tallies,
+        },
+        "timings_ms": { "total": watch_start.elapsed().as_secs_f64() * 1e3 },
+        "warnings": warnings,
+    });
+    let probes_json = json!({
+        "format": "probeplace.probes",
+        "version": crate::report::FORMAT_VERSION,
+        "provenance": provenance,
+        "method": "tiles",
+        "seed": index.seed,
+        "scene": index.world.config_given.display().to_string(),
+        "space": { "scale": world_config.scale.0, "up": world_config.up },
+        "probes": records,
+    });
+    for (name, value) in [
+        ("world.json", &world_json),
+        ("report.json", &report),
+        ("probes.json", &probes_json),
+    ] {
+        let bytes = serde_json::to_vec_pretty(value)
+            .map_err(|e| Error::Internal(format!("serializing {name}: {e}")))?;
+        set.add(name, bytes);
+    }
+    let out = options.out.clone().unwrap_or_else(|| dir.join("world"));
+    commit::commit(&out, &set, &[index.config.clone()])?;
+    let mut summary = vec![format!(
+        "{} tiles: {} probes ({} placed, {} in overlaps, {} of them kept), coverage {:.2}% ± {:.2}%, {} in solid",
+        index.tile.len(),
+        final_probes.len(),
+        probes.len(),
+        candidates,
+        order.iter().filter(|&&k| probes[k].candidate).count(),
+        100.0 * coverage,
+        100.0 * ci95,
+        health.0
+    )];
+    summary.extend(warnings.iter().map(|w| format!("warning: {w}")));
+    Ok(Outcome {
+        out_dir: out,
+        report,
+        summary,
+    })
+}
+
+/// The probes of a tile's finished run, in world coordinates, after
+/// checking its provenance against `split.json`.
+fn tile_probes(dir: &Path, index: &SplitIndex, entry: &TileEntry) -> Result<Vec<DVec3>> {
+    let out = dir.join(&entry.output);
+    let rerun = format!(
+        "rerun it (probeplace place {}) and merge again",
+        dir.join(&entry.config).display()
+    );
+    let refuse = |why: String| Error::User(format!("{}: {why}; {rerun}", entry.name));
+    let read = |name: &str| -> Result<Value> {
+        let path = out.join(name);
+        if !path.is_file() {
+            return Err(refuse(format!(
+                "no finished placement ({} is missing): the tile failed or never ran",
+                path.display()
+            )));
+        }
+        let text = crate::input::read_text(&path, name, 1 << 30)?;
+        serde_json::from_str(&text).map_err(|e| refuse(format!("{}: {e}", path.display())))
+    };
+    let report = read("report.json")?;
+    let probes = read("probes.json")?;
+    let p = &report["provenance"];
+    let field = |v: &Value, k: &str| v[k].as_str().unwrap_or("").to_string();
+    if field(p, "config_hash") != entry.config_hash {
+        return Err(refuse(format!(
+            "its run used another config (config hash {} where split.json has {})",
+            field(p, "config_hash"),
+            entry.config_hash
+        )));
+    }
+    if field(p, "scene_hash") != entry.scene_hash {
+        return Err(refuse(format!(
+            "its run read another scene (scene hash {} where split.json has {})",
+            field(p, "scene_hash"),
+            entry.scene_hash
+        )));
+    }
+    if p["seed"].as_u64() != Some(index.seed) {
+        return Err(refuse(format!(
+            "its run used seed {} where the split has {}",
+            p["seed"], index.seed
+        )));
+    }
+    if field(p, "tool") != index.tool {
+        return Err(refuse(format!(
+            "its run was made by {} and the split by {}",
+            field(p, "tool"),
+            index.tool
+        )));
+    }
+    if probes["provenance"] != report["provenance"] {
+        return Err(refuse(
+            "its probes.json comes from another run than its report.json".into(),
+        ));
+    }
+    probes["probes"]
+        .as_array()
+        .ok_or_else(|| refuse("its probes.json lists no probes".into()))?
+        .iter()
+        .map(|r| {
+            let a = &r["position"];
+            match (a[0].as_f64(), a[1].as_f64(), a[2].as_f64()) {
+                (Some(x), Some(y), Some(z)) => Ok(DVec3::new(x, y, z)),
+                _ => Err(refuse(
+                    "its probes.json has a probe without a position".into(),
+                )),
+            }
+        })
+        .collect()
+}
+
+/// One tile, prepared again as its run prepared it: the same config, hence
+/// the same scene, SDF and coverage samples.
+struct Tile {
+    config: Config,
+    /// The world's config (for the file space of `probes.json`).
+    world_config: Config,
+    prepared: Prepared,
+    reference: CoverageReference,
+}
+
+impl Tile {
+    fn prepare(dir: &Path, entry: &TileEntry, progress: &Progress) -> Result<Tile> {
+        let path = dir.join(&entry.config);
+        let text = crate::input::read_text(&path, "config", crate::config::MAX_CONFIG_BYTES)?;
+        let config = Config::from_text(&text, &path)?;
+        let p = Provenance::of(&config, &path, &text, &Overrides::default())?;
+        if p.config_hash != entry.config_hash || p.scene_hash != entry.scene_hash {
+            return Err(Error::User(format!(
+                "{}: {} or its scene changed since the split; split again",
+                entry.name,
+                path.display()
+            )));
+        }
+        let prepared =
+            stages::prepare(&config, &path, &text, progress).map_err(|e| tile_error(entry, e))?;
+        let reference = CoverageReference::new(
+            &prepared.scene,
+            &prepared.bvh,
+            &prepared.sdf,
+            &config.coverage,
+            config.seed,
+            progress,
+        );
+        let index_path = dir.join("split.json");
+        let index: SplitIndex = serde_json::from_str(&crate::input::read_text(
+            &index_path,
+            "split.json",
+            1 << 30,
+        )?)
+        .map_err(|e| Error::user_file(&index_path, e))?;
+        let world_config = Config::from_text(&index.world.config_text, &index.config)?;
+        Ok(Tile {
+            config,
+            world_config,
+            prepared,
+            reference,
+        })
+    }
+
+    /// The coverable samples of the tile's reference that its core owns.
+    fn core_samples(&self, grid: &TileGrid, tile: u32) -> Vec<usize> {
+        let scene = &self.prepared.scene;
+        (0..self.reference.samples.len())
+            .filter(|&i| {
+                self.reference.coverable[i]
+                    && grid.owner(scene.to_world(self.reference.samples[i].position)) == tile
+            })
+            .collect()
+    }
+}
+
+/// The world prepared whole, for `--single`.
+fn single_world(index: &SplitIndex, progress: &Progress) -> Result<Prepared> {
+    let path = &index.config;
+    let text = crate::input::read_text(path, "config", crate::config::MAX_CONFIG_BYTES)?;
+    let config = Config::from_text(&text, path)?;
+    let mut config = config;
+    config.voxel_size =
+        crate::config::VoxelSize::Fixed(crate::config::Positive(index.voxel_size as f32));
+    config.domain = crate::config::Domain::Box(crate::config::BoxDomain {
+        min: index.domain.min,
+        max: index.domain.max,
+    });
+    stages::prepare(&config, path, &text, progress)
+}
+
+/// An error of a tile's stages, prefixed with the tile's name.
+fn tile_error(entry: &TileEntry, e: Error) -> Error {
+    match e {
+        Error::User(m) => Error::User(format!("{}: {m}", entry.name)),
+        e => e,
+    }
+}
+
+/// Greedy partial set cover: which probes to keep so that at least `need`
+/// of the lists name a kept one (every list names some probe). While
+/// fewer do, the probe named by the most lists no kept probe is named by is
+/// kept (ties: the lower index); then, in the reverse order of choice, a
+/// kept probe is dropped again while the lists it alone covers can be
+/// spared (the greedy's late picks can make an early one redundant).
+/// Stopping at `need` is refinement's rule: filling stops at the coverage
+/// target, not at the last hard-to-see sample.
+fn cover(probes: usize, lists: &[Vec<u32>], need: usize) -> Vec<bool> {
+    let mut kept = vec![false; probes];
+    let mut open: Vec<bool> = vec![true; lists.len()];
+    let mut by_probe: Vec<Vec<usize>> = vec![Vec::new(); probes];
+    for (l, list) in lists.iter().enumerate() {
+        for &k in list {
+            by_probe[k as usize].push(l);
+        }
+    }
+    let mut gain: Vec<usize> = by_probe.iter().map(Vec::len).collect();
+    let mut chosen = Vec::new();
+    let mut covered = 0;
+    while covered < need {
+        let best = (0..probes)
+            .filter(|&k| !kept[k] && gain[k] > 0)
+            .max_by(|&a, &b| gain[a].cmp(&gain[b]).then(b.cmp(&a)));
+        let Some(k) = best else { break };
+        kept[k] = true;
+        chosen.push(k);
+        for &l in &by_probe[k] {
+            if std::mem::replace(&mut open[l], false) {
+                covered += 1;
+                for &other in &lists[l] {
+                    gain[other as usize] -= 1;
+                }
+            }
+        }
+    }
+    let mut views: Vec<u32> = lists
+        .iter()
+        .map(|l| l.iter().filter(|&&k| kept[k as usize]).count() as u32)
+        .collect();
+    for &k in chosen.iter().rev() {
+        let alone = by_probe[k].iter().filter(|&&l| views[l] == 1).count();
+        if covered - alone >= need {
+            kept[k] = false;
+            covered -= alone;
+            for &l in &by_probe[k] {
+                views[l] -= 1;
+            }
+        }
+    }
+    kept
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_cover_keeps_the_fewest_candidates_that_see_every_listed_sample() {
+        // Probe 2 sees three samples, 3 one of them and one more, 1 a
+        // sample 2 sees, 0 and 4 nothing listed.
+        let lists = vec![vec![1, 2], vec![2], vec![2, 3], vec![3]];
+        assert_eq!(cover(5, &lists, 4), [false, false, true, true, false]);
+        // Three of the four lists are enough with 2 alone.
+        assert_eq!(cover(5, &lists, 3), [false, false, true, false, false]);
+        // 0 sees three samples and is taken first; 2 then covers the last.
+        let lists = vec![vec![0, 1], vec![0, 1], vec![0, 2], vec![2]];
+        assert_eq!(cover(3, &lists, 4), [true, false, true]);
+        assert_eq!(cover(2, &[], 0), [false, false]);
+    }
+}

@@ -1,0 +1,199 @@
+//! `split`, the tile jobs (under a real Slurm when there is one), and
+//! `merge`: the world they make against one machine's, and the faults
+//! `merge` must refuse.
+
+use crate::common::{place, probeplace, read_json, test_quality};
+use std::path::Path;
+use std::process::Command;
+
+/// Runs `split` on `config` into `dir`.
+fn split(config: &str, tiles: &str, dir: &Path) {
+    let o = probeplace(&[
+        "split",
+        config,
+        "--tiles",
+        tiles,
+        "--out",
+        dir.to_str().unwrap(),
+        "--cpus",
+        "1",
+        "--quiet",
+    ]);
+    assert!(
+        o.status.success(),
+        "split failed: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+}
+
+/// Runs tile `index` of the split in `dir` as the array task would.
+fn run_tile(dir: &Path, index: u32, extra_env: &[(&str, &str)]) {
+    let mut cmd = Command::new("sh");
+    cmd.arg(dir.join("tile.sh")).arg(index.to_string());
+    for (k, v) in extra_env {
+        cmd.env(k, v);
+    }
+    let o = cmd.output().unwrap();
+    assert!(
+        o.status.success(),
+        "tile {index} failed: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+}
+
+/// `probeplace merge DIR`: its exit status and stderr.
+fn merge(dir: &Path) -> (Option<i32>, String) {
+    let o = probeplace(&["merge", dir.to_str().unwrap(), "--quiet"]);
+    (
+        o.status.code(),
+        String::from_utf8_lossy(&o.stderr).into_owned(),
+    )
+}
+
+/// Whether a Slurm cluster answers; under CI (`CI` set) it must, since
+/// `.ci/run` starts one.
+fn slurm(test: &str) -> bool {
+    let up = Command::new("sinfo")
+        .arg("-h")
+        .output()
+        .is_ok_and(|o| o.status.success());
+    if !up && std::env::var_os("CI").is_some() {
+        panic!("{test}: no Slurm cluster answers under CI (.ci/run starts one: bash .ci/slurm up)");
+    }
+    if !up {
+        eprintln!("SKIPPED {test}: no Slurm cluster (bash .ci/slurm up starts one)");
+    }
+    up
+}
+
+#[test]
+fn sponza_split_into_tiles_under_slurm_and_merged_is_whole() {
+    if !slurm("sponza_split_into_tiles_under_slurm_and_merged_is_whole") {
+        return;
+    }
+    let config = test_quality("configs/sponza.ron", &[]);
+    let tmp = tempfile::tempdir().unwrap();
+    let one = place(config.path(), &tmp.path().join("one"), &[]);
+    let dir = tmp.path().join("split");
+    split(config.arg(), "2x1x2", &dir);
+    let o = Command::new("bash")
+        .arg(dir.join("submit.sh"))
+        .arg("--wait")
+        .output()
+        .unwrap();
+    assert!(
+        o.status.success(),
+        "submit.sh --wait: {}\n{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let world = read_json(&dir.join("world/report.json"));
+    let index = read_json(&dir.join("world/world.json"));
+    let count = world["probe_count"].as_u64().unwrap();
+    let target = config.load().refine.coverage_target.0 as f64;
+    let coverage = world["coverage"].as_f64().unwrap();
+    let ci = world["coverage_ci95"].as_f64().unwrap();
+    eprintln!(
+        "sponza 2x1x2: one machine {} probes, coverage {:.4}; tiles {} probes, coverage {:.4} ± {:.4}",
+        one["probe_count"], one["coverage"], count, coverage, ci
+    );
+    assert_eq!(world["probes_in_solid"], 0);
+    // The merged coverage is the target's, within the estimate's interval.
+    assert!(
+        coverage + ci >= target,
+        "coverage {coverage} ± {ci} under {target}"
+    );
+    // The tiles' union is pruned back towards one machine's count, not to
+    // it (docs/tiles.md: the shortfall, measured).
+    let single = one["probe_count"].as_u64().unwrap();
+    assert!(
+        count >= single / 2 && count <= 2 * single,
+        "{count} probes where one machine places {single}"
+    );
+    // The tiles' ranges number every probe once, and each tile's octree
+    // lists world indices.
+    let mut next = 0;
+    for t in index["tiles"].as_array().unwrap() {
+        assert_eq!(t["probes"]["first"].as_u64().unwrap(), next);
+        next += t["probes"]["count"].as_u64().unwrap();
+        let bytes = std::fs::read(dir.join("world").join(t["svo"].as_str().unwrap())).unwrap();
+        let svo = probeplace::svo::format::from_bytes(&bytes).unwrap();
+        assert_eq!(svo.probe_count as u64, count);
+        let (_, payload) = svo.words();
+        assert!(payload.iter().all(|&i| (i as u64) < count));
+        assert!(!payload.is_empty());
+    }
+    assert_eq!(next, count);
+}
+
+#[test]
+fn a_failed_or_foreign_tile_stops_the_merge_and_a_rerun_mends_it() {
+    let config = test_quality("configs/two-rooms.ron", &[]);
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("split");
+    split(config.arg(), "2x1x1", &dir);
+    run_tile(&dir, 0, &[]);
+    // Tile 1 never ran: the merge names it and writes nothing.
+    let (code, err) = merge(&dir);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(
+        err.starts_with("error: tile-001: no finished placement"),
+        "{err}"
+    );
+    assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+    assert!(!dir.join("world").exists());
+    // Run with another seed, it is another run: refused by provenance.
+    let tile_config = dir.join("tile-001/config.ron");
+    let o = probeplace(&[
+        "place",
+        tile_config.to_str().unwrap(),
+        "--seed",
+        "77",
+        "--quiet",
+    ]);
+    assert!(o.status.success());
+    let (code, err) = merge(&dir);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(
+        err.contains("tile-001: its run used another config"),
+        "{err}"
+    );
+    // Rerun as split wrote it, the merge goes through.
+    run_tile(&dir, 1, &[]);
+    let (code, err) = merge(&dir);
+    assert_eq!(code, Some(0), "{err}");
+    let world = read_json(&dir.join("world/report.json"));
+    assert_eq!(world["probes_in_solid"], 0);
+    assert!(world["probe_count"].as_u64().unwrap() > 0);
+    let probes = read_json(&dir.join("world/probes.json"));
+    assert_eq!(
+        probes["probes"].as_array().unwrap().len() as u64,
+        world["probe_count"].as_u64().unwrap()
+    );
+    assert_eq!(probes["provenance"], world["provenance"]);
+}
+
+#[test]
+fn split_refuses_what_it_cannot_split() {
+    let tmp = tempfile::tempdir().unwrap();
+    let config = test_quality("configs/cornell.ron", &[("max_probes", "12")]);
+    let o = probeplace(&[
+        "split",
+        config.arg(),
+        "--tiles",
+        "2x1x1",
+        "--out",
+        tmp.path().join("s").to_str().unwrap(),
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("max_probes: a count for the whole world"),
+        "{err}"
+    );
+    for tiles in ["2x2", "0x1x1"] {
+        let o = probeplace(&["split", config.arg(), "--tiles", tiles, "--out", "/tmp/x"]);
+        assert_eq!(o.status.code(), Some(2));
+        assert!(String::from_utf8_lossy(&o.stderr).starts_with("error: --tiles: "));
+    }
+}
