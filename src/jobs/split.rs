@@ -556,6 +556,7 @@ fn top_level_fields(text: &str) -> std::result::Result<Fields<'_>, String> {
             continue;
         }
         match c {
+            b'[' | b'{' if depth == 0 => break,
             b'(' | b'[' | b'{' => {
                 if depth == 0 {
                     open = i;
