@@ -215,20 +215,11 @@ pub fn merge(options: &MergeOptions) -> Result<Outcome> {
         let inside: Vec<usize> = (0..final_probes.len())
             .filter(|&g| entry.domain.contains(final_probes[g].position))
             .collect();
-        let set_here = ProbeSet {
-            method: "tiles".into(),
-            probes: inside
+        let set_here = probe_set(
+            inside
                 .iter()
-                .map(|&g| Probe {
-                    position: scene.to_local(final_probes[g].position),
-                    cluster_size: 0,
-                })
-                .collect(),
-            stats: BTreeMap::new(),
-            params: BTreeMap::new(),
-            min_clearance: 0.0,
-            fixed: 0,
-        };
+                .map(|&g| scene.to_local(final_probes[g].position)),
+        );
         let input = tile.prepared.placement_input(tile.config.seed, progress);
         let mut svo = crate::svo::bake(&tile.config.svo, &set_here, &input)
             .map_err(|e| tile_error(entry, e))?
@@ -283,20 +274,11 @@ pub fn merge(options: &MergeOptions) -> Result<Outcome> {
     let records: Vec<MergedProbe> = records.into_iter().flatten().collect();
     if options.single {
         let world = single_world(&index, progress)?;
-        let set_all = ProbeSet {
-            method: "tiles".into(),
-            probes: final_probes
+        let set_all = probe_set(
+            final_probes
                 .iter()
-                .map(|p| Probe {
-                    position: world.scene.to_local(p.position),
-                    cluster_size: 0,
-                })
-                .collect(),
-            stats: BTreeMap::new(),
-            params: BTreeMap::new(),
-            min_clearance: 0.0,
-            fixed: 0,
-        };
+                .map(|p| world.scene.to_local(p.position)),
+        );
         let input = world.placement_input(index.seed, progress);
         let mut svo = crate::svo::bake(&world_config.svo, &set_all, &input)?.svo;
         svo.provenance = provenance.to_bytes();
@@ -309,16 +291,10 @@ pub fn merge(options: &MergeOptions) -> Result<Outcome> {
         .filter(|l| l.iter().any(|&k| kept[k as usize]))
         .count();
     let covered = covered_lists;
-    let coverage = if coverable == 0 {
-        1.0
-    } else {
-        covered as f64 / coverable as f64
-    };
-    // The normal-approximation interval of the coverage measure.
-    let ci95 = if coverable == 0 {
-        0.0
-    } else {
-        1.96 * (coverage * (1.0 - coverage) / coverable as f64).sqrt()
+    // Nothing coverable in any core: nothing is missed.
+    let (coverage, ci95) = match coverable {
+        0 => (1.0, 0.0),
+        n => crate::coverage::ratio_ci95(covered, n),
     };
     let candidates = probes.iter().filter(|p| p.candidate).count();
     let mut warnings = Vec::new();
@@ -550,6 +526,24 @@ fn single_world(index: &SplitIndex, progress: &Progress) -> Result<Prepared> {
         max: index.domain.max,
     });
     stages::prepare(&config, path, &text, progress)
+}
+
+/// The merged probes at `positions` (in a scene's frame) as a probe set of
+/// method `tiles`, for the SVO bake.
+fn probe_set(positions: impl Iterator<Item = glam::Vec3>) -> ProbeSet {
+    ProbeSet {
+        method: "tiles".into(),
+        probes: positions
+            .map(|position| Probe {
+                position,
+                cluster_size: 0,
+            })
+            .collect(),
+        stats: BTreeMap::new(),
+        params: BTreeMap::new(),
+        min_clearance: 0.0,
+        fixed: 0,
+    }
 }
 
 /// An error of a tile's stages, prefixed with the tile's name.
