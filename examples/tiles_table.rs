@@ -12,7 +12,7 @@ fn read(path: &str) -> Result<serde_json::Value, Box<dyn std::error::Error>> {
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    if args.is_empty() || args.len() % 3 != 0 {
+    if args.is_empty() || !args.len().is_multiple_of(3) {
         return Err("usage: tiles_table NAME ONE/report.json WORLD/report.json [...]".into());
     }
     println!("| scene | tiles | one machine: probes | coverage | tiles merged: probes | coverage | in solid | probes / one machine's |");

@@ -360,7 +360,7 @@ pub fn merge(options: &MergeOptions) -> Result<Outcome> {
         set.add(name, bytes);
     }
     let out = options.out.clone().unwrap_or_else(|| dir.join("world"));
-    commit::commit(&out, &set, &[index.config.clone()])?;
+    commit::commit(&out, &set, std::slice::from_ref(&index.config))?;
     let mut summary = vec![format!(
         "{} tiles: {} probes ({} placed, {} in overlaps, {} of them kept), coverage {:.2}% ± {:.2}%, {} in solid",
         index.tile.len(),
@@ -612,7 +612,7 @@ mod tests {
     use super::*;
 
     #[test]
-    fn the_cover_keeps_the_fewest_candidates_that_see_every_listed_sample() {
+    fn the_cover_keeps_the_fewest_probes_that_reach_the_count() {
         // Probe 2 sees three samples, 3 one of them and one more, 1 a
         // sample 2 sees, 0 and 4 nothing listed.
         let lists = vec![vec![1, 2], vec![2], vec![2, 3], vec![3]];
