@@ -295,21 +295,33 @@ fn nearest_surface_points(scene: &Scene, sdf: &Sdf) -> Vec<Option<Vec3>> {
             // voxel scanned every triangle of its brick.
             let lo_voxel = base.as_ivec3();
             let hi_voxel = end.as_ivec3() - 1;
+            // The brick's voxel centres, as [`Sdf::center`] computes them,
+            // once rather than once per triangle reaching them.
+            let mut centres = Vec::with_capacity(best.len());
+            for z in base.z..end.z {
+                for y in base.y..end.y {
+                    for x in base.x..end.x {
+                        let v = UVec3::new(x, y, z);
+                        centres.push(sdf.origin + (v.as_vec3() + 0.5) * sdf.voxel_size);
+                    }
+                }
+            }
             for &ti in tris {
                 let t = &scene.triangles[ti as usize];
+                let tri = EdgedTriangle::new(t);
                 let lo = (t[0].min(t[1]).min(t[2]) - reach - sdf.origin) / sdf.voxel_size - 0.5;
                 let hi = (t[0].max(t[1]).max(t[2]) + reach - sdf.origin) / sdf.voxel_size - 0.5;
-                let v0 = (lo - SLACK).ceil().as_ivec3().max(lo_voxel);
-                let v1 = (hi + SLACK).floor().as_ivec3().min(hi_voxel);
+                let v0 = (lo - SLACK).ceil().as_ivec3().max(lo_voxel) - lo_voxel;
+                let v1 = (hi + SLACK).floor().as_ivec3().min(hi_voxel) - lo_voxel;
                 for z in v0.z..=v1.z {
                     for y in v0.y..=v1.y {
+                        let row = (size.x * (y as u32 + size.y * z as u32)) as usize;
                         for x in v0.x..=v1.x {
-                            let v = UVec3::new(x as u32, y as u32, z as u32);
-                            let c = sdf.center(sdf.index(v));
-                            let q = closest_point_on_triangle(c, t);
+                            let l = row + x as usize;
+                            let c = centres[l];
+                            let q = tri.closest_point(c);
                             let d2 = q.distance_squared(c);
-                            let l = v - base;
-                            let slot = &mut best[(l.x + size.x * (l.y + size.y * l.z)) as usize];
+                            let slot = &mut best[l];
                             if d2 < slot.0 {
                                 *slot = (d2, Some(q));
                             }
@@ -349,35 +361,43 @@ fn jump_flood(sdf: &Sdf, mut nearest: Vec<Option<Vec3>>) -> Vec<Option<Vec3>> {
     }
     steps.push(1);
     let dims = sdf.dims.as_ivec3();
+    let mut next: Vec<Option<Vec3>> = vec![None; sdf.len()];
+    // A row of voxels (fixed y and z) per task: each voxel's centre and
+    // coordinates follow from its place in the row, without the divisions
+    // of [`Sdf::coords`].
     for step in steps {
         let s = step as i32;
-        nearest = (0..sdf.len())
-            .into_par_iter()
-            .map(|i| {
-                let c = sdf.center(i);
-                let v = sdf.coords(i).as_ivec3();
-                let mut best = nearest[i];
-                let mut best_d2 = best.map_or(f32::INFINITY, |q| q.distance_squared(c));
-                for dz in -1..=1 {
-                    for dy in -1..=1 {
-                        for dx in -1..=1 {
-                            let n = v + IVec3::new(dx, dy, dz) * s;
-                            if n.cmplt(IVec3::ZERO).any() || n.cmpge(dims).any() {
-                                continue;
-                            }
-                            if let Some(q) = nearest[sdf.index(n.as_uvec3())] {
-                                let d2 = q.distance_squared(c);
-                                if d2 < best_d2 {
-                                    best_d2 = d2;
-                                    best = Some(q);
+        let from = &nearest;
+        next.par_chunks_mut(sdf.dims.x as usize)
+            .enumerate()
+            .for_each(|(r, row)| {
+                let (y, z) = ((r as i32) % dims.y, (r as i32) / dims.y);
+                for (x, out) in row.iter_mut().enumerate() {
+                    let v = IVec3::new(x as i32, y, z);
+                    let c = sdf.origin + (v.as_uvec3().as_vec3() + 0.5) * sdf.voxel_size;
+                    let mut best = from[sdf.index(v.as_uvec3())];
+                    let mut best_d2 = best.map_or(f32::INFINITY, |q| q.distance_squared(c));
+                    for dz in -1..=1 {
+                        for dy in -1..=1 {
+                            for dx in -1..=1 {
+                                let n = v + IVec3::new(dx, dy, dz) * s;
+                                if n.cmplt(IVec3::ZERO).any() || n.cmpge(dims).any() {
+                                    continue;
+                                }
+                                if let Some(q) = from[sdf.index(n.as_uvec3())] {
+                                    let d2 = q.distance_squared(c);
+                                    if d2 < best_d2 {
+                                        best_d2 = d2;
+                                        best = Some(q);
+                                    }
                                 }
                             }
                         }
                     }
+                    *out = best;
                 }
-                best
-            })
-            .collect();
+            });
+        std::mem::swap(&mut nearest, &mut next);
     }
     nearest
 }
@@ -539,41 +559,70 @@ fn interleaved(dirs: Vec<Vec3>, k: usize) -> Vec<Vec3> {
 /// The point of triangle `t` nearest to `p` (Ericson, Real-Time Collision
 /// Detection §5.1.5).
 pub fn closest_point_on_triangle(p: Vec3, t: &[Vec3; 3]) -> Vec3 {
-    let (a, b, c) = (t[0], t[1], t[2]);
-    let ab = b - a;
-    let ac = c - a;
-    let ap = p - a;
-    let d1 = ab.dot(ap);
-    let d2 = ac.dot(ap);
-    if d1 <= 0.0 && d2 <= 0.0 {
-        return a;
+    EdgedTriangle::new(t).closest_point(p)
+}
+
+/// A triangle with the two edges [`closest_point_on_triangle`] starts from,
+/// taken once for the many voxel centres of its band (the same values it
+/// would take for each).
+#[derive(Clone, Copy)]
+struct EdgedTriangle {
+    a: Vec3,
+    b: Vec3,
+    c: Vec3,
+    ab: Vec3,
+    ac: Vec3,
+}
+
+impl EdgedTriangle {
+    fn new(t: &[Vec3; 3]) -> EdgedTriangle {
+        let (a, b, c) = (t[0], t[1], t[2]);
+        EdgedTriangle {
+            a,
+            b,
+            c,
+            ab: b - a,
+            ac: c - a,
+        }
     }
-    let bp = p - b;
-    let d3 = ab.dot(bp);
-    let d4 = ac.dot(bp);
-    if d3 >= 0.0 && d4 <= d3 {
-        return b;
+
+    /// [`closest_point_on_triangle`] (Ericson §5.1.5).
+    #[inline]
+    fn closest_point(&self, p: Vec3) -> Vec3 {
+        let EdgedTriangle { a, b, c, ab, ac } = *self;
+        let ap = p - a;
+        let d1 = ab.dot(ap);
+        let d2 = ac.dot(ap);
+        if d1 <= 0.0 && d2 <= 0.0 {
+            return a;
+        }
+        let bp = p - b;
+        let d3 = ab.dot(bp);
+        let d4 = ac.dot(bp);
+        if d3 >= 0.0 && d4 <= d3 {
+            return b;
+        }
+        let vc = d1 * d4 - d3 * d2;
+        if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+            return a + ab * (d1 / (d1 - d3));
+        }
+        let cp = p - c;
+        let d5 = ab.dot(cp);
+        let d6 = ac.dot(cp);
+        if d6 >= 0.0 && d5 <= d6 {
+            return c;
+        }
+        let vb = d5 * d2 - d1 * d6;
+        if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+            return a + ac * (d2 / (d2 - d6));
+        }
+        let va = d3 * d6 - d5 * d4;
+        if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
+            return b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
+        }
+        let denom = 1.0 / (va + vb + vc);
+        a + ab * (vb * denom) + ac * (vc * denom)
     }
-    let vc = d1 * d4 - d3 * d2;
-    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
-        return a + ab * (d1 / (d1 - d3));
-    }
-    let cp = p - c;
-    let d5 = ab.dot(cp);
-    let d6 = ac.dot(cp);
-    if d6 >= 0.0 && d5 <= d6 {
-        return c;
-    }
-    let vb = d5 * d2 - d1 * d6;
-    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
-        return a + ac * (d2 / (d2 - d6));
-    }
-    let va = d3 * d6 - d5 * d4;
-    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
-        return b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
-    }
-    let denom = 1.0 / (va + vb + vc);
-    a + ab * (vb * denom) + ac * (vc * denom)
 }
 
 #[cfg(test)]

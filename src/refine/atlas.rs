@@ -110,7 +110,13 @@ impl Atlas {
     /// The panel has at most about `max_pixels` pixels (blocks shrink when
     /// the atlas has more texels than that; each chart keeps at least one
     /// pixel).
-    pub fn render(&self, max_pixels: u32, color: impl Fn(u32) -> [u8; 3]) -> RgbImage {
+    pub fn render(&self, max_pixels: u32, color: impl Fn(u32) -> [u8; 3] + Sync) -> RgbImage {
+        self.paint(&self.layout(max_pixels), color)
+    }
+
+    /// Where [`Atlas::render`] puts each chart's block for `max_pixels`:
+    /// it depends on the charts alone, so panels of one atlas share it.
+    pub fn layout(&self, max_pixels: u32) -> Layout {
         let n_sq: f64 = self.subdivisions.iter().map(|&n| (n as f64).powi(2)).sum();
         // Pixels per texel edge; the 0.5 leaves room for the empty upper
         // halves of the blocks.
@@ -120,45 +126,118 @@ impl Atlas {
             .iter()
             .map(|&n| ((n as f64 * scale).round() as u32).max(1))
             .collect();
-        let mut order: Vec<usize> = (0..block.len()).collect();
-        order.sort_by_key(|&t| (std::cmp::Reverse(block[t]), t));
         let area: f64 = block.iter().map(|&b| (b as f64).powi(2)).sum();
         let max_block = block.iter().copied().max().unwrap_or(1);
         let width = ((area.sqrt() * 1.05).ceil() as u32).max(max_block).max(1);
-        // Shelf packing: blocks left to right, a new shelf when one is full.
+        // Shelf packing: blocks left to right, largest first (ties: the
+        // earlier chart), a new shelf when one is full.
         let mut placed = vec![(0u32, 0u32); block.len()];
+        let mut shelves: Vec<Shelf> = Vec::new();
         let (mut x, mut y, mut shelf) = (0u32, 0u32, 0u32);
-        for &t in &order {
+        for t in largest_first(&block, max_block) {
             let b = block[t];
             if x + b > width {
                 x = 0;
                 y += shelf;
                 shelf = 0;
             }
+            if x == 0 {
+                shelves.push(Shelf {
+                    y,
+                    height: 0,
+                    charts: Vec::new(),
+                });
+            }
+            if let Some(s) = shelves.last_mut() {
+                s.height = s.height.max(b);
+                s.charts.push(t as u32);
+            }
             placed[t] = (x, y);
             x += b;
             shelf = shelf.max(b);
         }
-        let height = (y + shelf).max(1);
-        let mut img = RgbImage::from_pixel(width, height, image::Rgb(BACKGROUND));
-        for t in 0..block.len() {
-            let (x0, y0) = placed[t];
-            let b = block[t];
-            for py in 0..b {
-                for px in 0..b {
-                    let u = (px as f32 + 0.5) / b as f32;
-                    // Image rows grow downwards; v grows upwards.
-                    let v = (b - 1 - py) as f32 / b as f32 + 0.5 / b as f32;
-                    if u + v > 1.0 && b > 1 {
-                        continue;
+        Layout {
+            width,
+            height: (y + shelf).max(1),
+            block,
+            placed,
+            shelves,
+        }
+    }
+
+    /// A panel of `layout`, each texel painted `color(texel)`: shelves are
+    /// bands of whole rows that no two share, painted in parallel.
+    pub fn paint(&self, layout: &Layout, color: impl Fn(u32) -> [u8; 3] + Sync) -> RgbImage {
+        use rayon::prelude::*;
+        let width = layout.width as usize;
+        let mut img = RgbImage::from_pixel(layout.width, layout.height, image::Rgb(BACKGROUND));
+        let mut bands: Vec<(&Shelf, &mut [u8])> = Vec::with_capacity(layout.shelves.len());
+        let mut rest: &mut [u8] = &mut img;
+        for shelf in &layout.shelves {
+            let (band, tail) =
+                std::mem::take(&mut rest).split_at_mut(shelf.height as usize * width * 3);
+            bands.push((shelf, band));
+            rest = tail;
+        }
+        bands.into_par_iter().for_each(|(shelf, band)| {
+            for &t in &shelf.charts {
+                let t = t as usize;
+                let (x0, y0) = layout.placed[t];
+                let b = layout.block[t];
+                for py in 0..b {
+                    for px in 0..b {
+                        let u = (px as f32 + 0.5) / b as f32;
+                        // Image rows grow downwards; v grows upwards.
+                        let v = (b - 1 - py) as f32 / b as f32 + 0.5 / b as f32;
+                        if u + v > 1.0 && b > 1 {
+                            continue;
+                        }
+                        let texel = self.offset[t] + chart_texel(self.subdivisions[t], u, v);
+                        let at = ((y0 - shelf.y + py) as usize * width + (x0 + px) as usize) * 3;
+                        band[at..at + 3].copy_from_slice(&color(texel));
                     }
-                    let texel = self.offset[t] + chart_texel(self.subdivisions[t], u, v);
-                    img.put_pixel(x0 + px, y0 + py, image::Rgb(color(texel)));
                 }
             }
-        }
+        });
         img
     }
+}
+
+/// The block layout of [`Atlas::render`] (see [`Atlas::layout`]).
+pub struct Layout {
+    width: u32,
+    height: u32,
+    /// Block edge of each chart, in pixels.
+    block: Vec<u32>,
+    /// Upper left corner of each chart's block.
+    placed: Vec<(u32, u32)>,
+    shelves: Vec<Shelf>,
+}
+
+/// One shelf of blocks: its top row, its height and its charts.
+struct Shelf {
+    y: u32,
+    height: u32,
+    charts: Vec<u32>,
+}
+
+/// Chart indices by decreasing `block` (at most `max_block`), ties by
+/// index: the order a sort by `(Reverse(block), index)` gives, by counting.
+fn largest_first(block: &[u32], max_block: u32) -> Vec<usize> {
+    let mut start = vec![0usize; max_block as usize + 2];
+    for &b in block {
+        start[(max_block - b) as usize + 1] += 1;
+    }
+    for i in 1..start.len() {
+        start[i] += start[i - 1];
+    }
+    let mut order = vec![0usize; block.len()];
+    for (t, &b) in block.iter().enumerate() {
+        let slot = &mut start[(max_block - b) as usize];
+        order[*slot] = t;
+        *slot += 1;
+    }
+    order
 }
 
 /// Barycentric coordinates `(u, v)` of `p` projected onto `tri` (weights of

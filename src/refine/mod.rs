@@ -464,7 +464,7 @@ fn refine_report(
         atlas_coverage_initial: outcome.atlas_coverage_initial,
         atlas_coverage_final: outcome.final_state.seen_share(),
         best_view_incidence_deg_initial: incidence_initial,
-        best_view_incidence_deg_final: matrix.summary(outcome.final_positions).1,
+        best_view_incidence_deg_final: matrix.summary_of(outcome.final_positions, &fp.kept_cols).1,
         probes_initial: initial.len(),
         probes_final,
         removed: initial.len() - (probes_final - added_kept),
@@ -483,10 +483,9 @@ fn refine_report(
 /// says which texels the input probes see, `after` holds the final probes.
 fn atlas_panels(atlas: &Atlas, seen_before: &[bool], after: &AtlasState) -> RgbImage {
     let color = |seen: bool| if seen { SEEN } else { UNSEEN };
-    let before = atlas.render(ATLAS_PANEL_PIXELS, |t| color(seen_before[t as usize]));
-    let after = atlas.render(ATLAS_PANEL_PIXELS, |t| {
-        color(after.best_quality(t as usize).is_some())
-    });
+    let layout = atlas.layout(ATLAS_PANEL_PIXELS);
+    let before = atlas.paint(&layout, |t| color(seen_before[t as usize]));
+    let after = atlas.paint(&layout, |t| color(after.best_quality(t as usize).is_some()));
     side_by_side(&before, &after)
 }
 

@@ -32,6 +32,7 @@
 
 use super::prune::{ones, Bits, CoverMatrix, Working};
 use glam::Vec3;
+use indicatif::ProgressBar;
 use rayon::prelude::*;
 
 /// Fill positions nearest a probe considered for its move.
@@ -230,7 +231,7 @@ impl CoverMatrix<'_> {
                 near.sort_by(order);
                 let cands: Vec<usize> = candidate_ranks(n).map(|r| near[r].1).collect();
                 let b_now = &b;
-                let scored: Vec<Option<f64>> = cands
+                let qualified: Vec<bool> = cands
                     .par_iter()
                     .map(|&j| {
                         let c = pool[j].0;
@@ -239,11 +240,31 @@ impl CoverMatrix<'_> {
                             if !self.sees_sample(c, i) {
                                 missed += 1;
                                 if missed > slack {
-                                    return None;
+                                    return false;
                                 }
                             }
                         }
-                        let col = self.column(c, &sub);
+                        true
+                    })
+                    .collect();
+                let at: Vec<Vec3> = cands
+                    .iter()
+                    .zip(&qualified)
+                    .filter(|&(_, &q)| q)
+                    .map(|(&j, _)| pool[j].0)
+                    .collect();
+                let mut sub_cols = self
+                    .columns_of(&at, &sub, &ProgressBar::hidden())
+                    .into_iter();
+                let scored: Vec<Option<f64>> = cands
+                    .iter()
+                    .zip(&qualified)
+                    .map(|(&j, &q)| {
+                        if !q {
+                            return None;
+                        }
+                        let col = sub_cols.next()?;
+                        let c = pool[j].0;
                         let saved =
                             self.saving(b_now, k, c, &sub, |s| col[s / 64] >> (s % 64) & 1 == 1);
                         (saved > 0.0).then_some(saved)
@@ -258,7 +279,9 @@ impl CoverMatrix<'_> {
                     continue;
                 };
                 let (c, tier) = pool[j];
-                let col = self.column(c, &everything);
+                let col = self
+                    .columns_of(&[c], &everything, &ProgressBar::hidden())
+                    .remove(0);
                 let exact =
                     self.saving(&b, k, c, &everything, |i| col[i / 64] >> (i % 64) & 1 == 1);
                 if exact <= 0.0 {

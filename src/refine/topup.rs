@@ -25,6 +25,7 @@
 use super::polish::{footprint, Best};
 use super::prune::{ones, Bits, CoverMatrix, Working};
 use glam::Vec3;
+use indicatif::ProgressBar;
 use rayon::prelude::*;
 use std::cmp::{Ordering, Reverse};
 use std::collections::BinaryHeap;
@@ -104,7 +105,7 @@ impl CoverMatrix<'_> {
         let demanded: Vec<usize> = (0..m).filter(|&i| self.needs(i) > 0).collect();
         let stride = demanded.len().div_ceil(TOPUP_SAMPLES).max(1);
         let sub: Vec<usize> = demanded.iter().copied().step_by(stride).collect();
-        let seen: Vec<Bits> = pool.par_iter().map(|&c| self.column(c, &sub)).collect();
+        let seen: Vec<Bits> = self.columns_of(&pool, &sub, &ProgressBar::hidden());
         let everything: Vec<usize> = (0..m).collect();
         let mut b = Best::unseen(m);
         self.rank_views(w, &everything, &mut b);
@@ -147,7 +148,9 @@ impl CoverMatrix<'_> {
             if fresh.0 .0 <= 0.0 {
                 break;
             }
-            let col = self.column(pool[j], &everything);
+            let col = self
+                .columns_of(&[pool[j]], &everything, &ProgressBar::hidden())
+                .remove(0);
             let affected: Vec<usize> = ones(&col).collect();
             w.push(pool[j], col, tier);
             self.rank_views(w, &affected, &mut b);

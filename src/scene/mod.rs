@@ -23,6 +23,7 @@ pub mod watertight;
 use crate::config::UpAxis;
 use crate::error::{Error, Result};
 use glam::{DVec3, Vec3};
+use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 
 /// The subset of an MTL material that the lighting stages use
@@ -161,24 +162,44 @@ impl Scene {
         triangles: impl IntoIterator<Item = ([DVec3; 3], u32)>,
         materials: Vec<Material>,
     ) -> Result<Scene> {
-        let mut dropped = 0;
-        let mut kept: Vec<([DVec3; 3], u32)> = Vec::new();
-        for (tri, material) in triangles {
-            if usable(&tri) {
-                kept.push((tri, material));
-            } else {
-                dropped += 1;
-            }
-        }
-        let origin = kept
-            .iter()
-            .flat_map(|(tri, _)| tri)
-            .copied()
+        let all: Vec<([DVec3; 3], u32)> = triangles.into_iter().collect();
+        Scene::from_world(source, all.len(), |i| all[i], materials)
+    }
+
+    /// [`Scene::from_world_triangles`] of the `n` triangles `triangle(0)`,
+    /// `triangle(1)`, … The tests and conversions run in parallel (millions
+    /// of triangles in a large scene); the origin is the minimum taken in
+    /// file order, so that which of a −0 and a +0 it keeps does not depend
+    /// on how the work was split.
+    fn from_world(
+        source: PathBuf,
+        n: usize,
+        triangle: impl Fn(usize) -> ([DVec3; 3], u32) + Sync,
+        materials: Vec<Material>,
+    ) -> Result<Scene> {
+        let kept: Vec<bool> = (0..n)
+            .into_par_iter()
+            .map(|i| usable(&triangle(i).0))
+            .collect();
+        let dropped = kept.iter().filter(|&&k| !k).count();
+        let origin = (0..n)
+            .filter(|&i| kept[i])
+            .flat_map(|i| triangle(i).0)
             .reduce(DVec3::min)
             .unwrap_or(DVec3::ZERO);
-        let local = kept
-            .into_iter()
-            .map(|(tri, material)| (tri.map(|v| (v - origin).as_vec3()), material));
+        // Every triangle converted (a count known in advance fills the
+        // vector in place), the dropped ones then taken out.
+        let mut local: Vec<([Vec3; 3], u32)> = (0..n)
+            .into_par_iter()
+            .map(|i| {
+                let (tri, material) = triangle(i);
+                (tri.map(|v| (v - origin).as_vec3()), material)
+            })
+            .collect();
+        if dropped > 0 {
+            let mut keep = kept.iter();
+            local.retain(|_| keep.next() == Some(&true));
+        }
         Scene::assemble(source, origin, dropped, local, materials)
     }
 
@@ -215,36 +236,44 @@ impl Scene {
         };
         scene.materials.push(Material::fallback());
         let fallback = (scene.materials.len() - 1) as u32;
-        for (tri, material) in triangles {
-            let material = if (material as usize) < scene.materials.len() {
-                material
+        // The arrays are filled in parallel, in order; the bounds grow in
+        // order, so that which of a −0 and a +0 they keep does not depend
+        // on how the work was split.
+        let triangles: Vec<([Vec3; 3], u32)> = triangles.into_iter().collect();
+        let normals: Vec<Option<Vec3>> = triangles
+            .par_iter()
+            .map(|(tri, _)| usable_normal(tri))
+            .collect();
+        let materials = scene.materials.len();
+        let material = |m: u32| {
+            if (m as usize) < materials {
+                m
             } else {
                 fallback
-            };
-            scene.push(tri, material);
+            }
+        };
+        if normals.iter().all(Option::is_some) {
+            scene.triangles = triangles.par_iter().map(|&(tri, _)| tri).collect();
+            scene.material_ids = triangles.par_iter().map(|&(_, m)| material(m)).collect();
+            scene.normals = normals.par_iter().map(|n| n.unwrap_or_default()).collect();
+        } else {
+            for ((tri, m), normal) in triangles.into_iter().zip(normals) {
+                let Some(normal) = normal else {
+                    scene.dropped_triangles += 1;
+                    continue;
+                };
+                scene.triangles.push(tri);
+                scene.normals.push(normal);
+                scene.material_ids.push(material(m));
+            }
+        }
+        for tri in &scene.triangles {
+            for &v in tri {
+                scene.bounds.grow(v);
+            }
         }
         scene.finish()?;
         Ok(scene)
-    }
-
-    fn push(&mut self, tri: [Vec3; 3], material: u32) {
-        let cross = (tri[1] - tri[0]).cross(tri[2] - tri[0]);
-        let finite = tri.iter().all(|v| v.is_finite());
-        // Relative area test: a sliver whose area is below float resolution of
-        // its edges has no usable normal.
-        let scale = (tri[1] - tri[0])
-            .length_squared()
-            .max((tri[2] - tri[0]).length_squared());
-        if !finite || !cross.is_finite() || cross.length_squared() <= 1e-12 * scale * scale {
-            self.dropped_triangles += 1;
-            return;
-        }
-        for v in tri {
-            self.bounds.grow(v);
-        }
-        self.triangles.push(tri);
-        self.normals.push(cross.normalize());
-        self.material_ids.push(material);
     }
 
     fn finish(&mut self) -> Result<()> {
@@ -275,6 +304,21 @@ impl Scene {
             .iter()
             .map(|t| 0.5 * (t[1] - t[0]).cross(t[2] - t[0]).length() as f64)
     }
+}
+
+/// The unit normal of a local triangle, or `None` when it is not finite or
+/// is degenerate: a relative area test, since a sliver whose area is below
+/// float resolution of its edges has no usable normal.
+fn usable_normal(tri: &[Vec3; 3]) -> Option<Vec3> {
+    let cross = (tri[1] - tri[0]).cross(tri[2] - tri[0]);
+    let finite = tri.iter().all(|v| v.is_finite());
+    let scale = (tri[1] - tri[0])
+        .length_squared()
+        .max((tri[2] - tri[0]).length_squared());
+    if !finite || !cross.is_finite() || cross.length_squared() <= 1e-12 * scale * scale {
+        return None;
+    }
+    Some(cross.normalize())
 }
 
 /// Whether a world-space triangle is finite and not degenerate: the test
@@ -330,14 +374,15 @@ pub fn load_obj(path: &Path, scale: f64, up: UpAxis) -> Result<Scene> {
         mut warnings,
     } = obj::read(path)?;
     let world: Vec<DVec3> = positions
-        .iter()
+        .par_iter()
         .map(|&p| file_to_world(p, scale, up))
         .collect();
     drop(positions);
-    let triangles = triangles
-        .into_iter()
-        .map(|(t, material)| (t.map(|i| world[i as usize]), material));
-    let mut scene = Scene::from_world_triangles(path.to_path_buf(), triangles, materials)?;
+    let triangle = |i: usize| {
+        let (t, material) = triangles[i];
+        (t.map(|v| world[v as usize]), material)
+    };
+    let mut scene = Scene::from_world(path.to_path_buf(), triangles.len(), triangle, materials)?;
     warnings.append(&mut scene.warnings);
     scene.warnings = warnings;
     Ok(scene)

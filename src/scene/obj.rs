@@ -81,15 +81,286 @@ pub struct ObjFile {
 /// warning (those faces get the fallback material); an MTL that exists but
 /// is not a regular file, or is over [`MAX_MTL_BYTES`], is an error, as is
 /// any OBJ line that cannot be read (`file:LINE: problem`).
+///
+/// The file is parsed in parallel batches ([`parse_batched`]); a file that
+/// batch parsing does not accept as it stands (any mistake, any limit) is
+/// read again by [`parse`], whose messages name the first line at fault.
 pub fn read(path: &Path) -> Result<ObjFile> {
     let limit = limits::memory_budget().saturating_mul(4);
     let (file, _) = input::open(path, "scene file", limit)?;
     let dir = path.parent().unwrap_or(Path::new("")).to_path_buf();
-    parse(
-        BufReader::with_capacity(1 << 16, file),
-        path,
-        &mut |name: &str| read_mtl_file(&dir.join(name)),
+    let mut library = |name: &str| read_mtl_file(&dir.join(name));
+    if let Some(obj) = parse_batched(file, path, &mut library) {
+        return Ok(obj);
+    }
+    let (file, _) = input::open(path, "scene file", limit)?;
+    parse(BufReader::with_capacity(1 << 16, file), path, &mut library)
+}
+
+/// Bytes of OBJ text read per batch of [`parse_batched`], per thread.
+const BATCH_BYTES_PER_THREAD: usize = 8 << 20;
+
+/// Pieces each batch of [`parse_batched`] is cut into, per thread, so that
+/// threads finishing early take more.
+const PIECES_PER_THREAD: usize = 4;
+
+/// A face's triangle as [`parse_batched`] holds it before the vertices of
+/// the pieces before its own are counted: each index is resolved when
+/// non-negative (below [`FAR`]), and otherwise `RELATIVE + r` for a
+/// negative face index that names the `r`-th vertex after the piece's
+/// start (`r` negative: before it), `|r| < FAR`.
+type PendingTriangle = ([i64; 3], u32);
+
+/// Bound on the indices [`parse_batched`] resolves itself: no file within
+/// the memory budget has this many vertices, so [`parse`] refuses any
+/// index beyond it.
+const FAR: i64 = 1 << 40;
+
+/// Offset of relative indices in a [`PendingTriangle`].
+const RELATIVE: i64 = -(1 << 42);
+
+/// What one piece of a batch holds, in file order.
+#[derive(Default)]
+struct Piece {
+    positions: Vec<DVec3>,
+    /// Triangles, with the `usemtl` statement of this piece in force
+    /// (index into `usemtl`), or [`INHERITED`] before the first.
+    triangles: Vec<PendingTriangle>,
+    /// The most, over the positive face indices, of the index resolved
+    /// less the piece's vertices before its face: the pieces before must
+    /// hold more vertices than this for every index to name a vertex read
+    /// so far.
+    reach_back: i64,
+    /// Names of the `usemtl` statements, in order.
+    usemtl: Vec<String>,
+    /// Library names of the `mtllib` statements, in order.
+    mtllib: Vec<Vec<String>>,
+}
+
+/// A triangle's material when no `usemtl` of its piece precedes it.
+const INHERITED: u32 = u32::MAX;
+
+/// [`parse`] of the text of `reader`, a batch of lines at a time, each
+/// batch cut into pieces parsed in parallel, then joined in file order:
+/// vertex counts, the `usemtl` in force and the `mtllib` statements (whose
+/// libraries `library` loads) carry from piece to piece as [`parse`]
+/// carries them from line to line.
+///
+/// Contract: `Some` only of text [`parse`] reads without error, and then
+/// exactly what it gives; `None` for anything else (a read error, a NUL
+/// byte, a line over [`input::MAX_LINE_BYTES`], any statement [`parse`]
+/// refuses, the memory budget reached, a library that fails to load), for
+/// [`parse`] to say what and where.
+fn parse_batched(
+    reader: impl std::io::Read,
+    name: &Path,
+    library: &mut dyn FnMut(&str) -> Result<Library>,
+) -> Option<ObjFile> {
+    let threads = rayon::current_num_threads().max(1);
+    parse_batches(
+        reader,
+        name,
+        library,
+        BATCH_BYTES_PER_THREAD * threads,
+        threads * PIECES_PER_THREAD,
     )
+}
+
+/// [`parse_batched`] with batches of `batch` bytes (more when a line is
+/// longer) cut into `pieces` pieces.
+fn parse_batches(
+    mut reader: impl std::io::Read,
+    name: &Path,
+    library: &mut dyn FnMut(&str) -> Result<Library>,
+    batch: usize,
+    pieces: usize,
+) -> Option<ObjFile> {
+    use rayon::prelude::*;
+    use std::io::Read;
+    let mut obj = ObjFile::default();
+    let mut names: HashMap<String, u32> = HashMap::new();
+    let mut loaded: Vec<String> = Vec::new();
+    let mut used: Vec<String> = Vec::new();
+    let mut current = u32::MAX;
+    let mut text: Vec<u8> = Vec::new();
+    loop {
+        let before = text.len();
+        (&mut reader)
+            .take(batch as u64)
+            .read_to_end(&mut text)
+            .ok()?;
+        let end = text.len() == before;
+        let cut = if end {
+            text.len()
+        } else {
+            match text.iter().rposition(|&b| b == b'\n') {
+                Some(i) => i + 1,
+                None if text.len() > input::MAX_LINE_BYTES => return None,
+                None => continue,
+            }
+        };
+        let rest = text.split_off(cut);
+        if rest.len() > input::MAX_LINE_BYTES || text.contains(&0) {
+            return None;
+        }
+        let parsed: Vec<Option<Piece>> = line_pieces(&text, pieces)
+            .into_par_iter()
+            .map(parse_piece)
+            .collect();
+        let parsed: Vec<Piece> = parsed.into_iter().collect::<Option<_>>()?;
+        // Each piece's first vertex, and the `usemtl` in force at its start
+        // with what its own `usemtl` statements name, in file order.
+        let mut joins: Vec<(i64, u32, Vec<u32>)> = Vec::with_capacity(parsed.len());
+        let mut base = obj.positions.len() as i64;
+        for piece in &parsed {
+            if piece.reach_back >= base {
+                return None;
+            }
+            let events: Vec<u32> = piece
+                .usemtl
+                .iter()
+                .map(|m| match used.iter().position(|u| u == m) {
+                    Some(i) => i as u32,
+                    None => {
+                        used.push(m.clone());
+                        (used.len() - 1) as u32
+                    }
+                })
+                .collect();
+            let inherited = current;
+            current = events.last().copied().unwrap_or(current);
+            joins.push((base, inherited, events));
+            base += piece.positions.len() as i64;
+        }
+        let resolved: Vec<Vec<([u32; 3], u32)>> = parsed
+            .par_iter()
+            .zip(&joins)
+            .map(|(piece, (base, inherited, events))| {
+                piece
+                    .triangles
+                    .iter()
+                    .map(|&(t, m)| {
+                        let mut tri = [0u32; 3];
+                        for (slot, i) in tri.iter_mut().zip(t) {
+                            let resolved = if i >= 0 { i } else { base + (i - RELATIVE) };
+                            if resolved < 0 || resolved > u32::MAX as i64 {
+                                return None;
+                            }
+                            *slot = resolved as u32;
+                        }
+                        let material = if m == INHERITED {
+                            *inherited
+                        } else {
+                            events[m as usize]
+                        };
+                        Some((tri, material))
+                    })
+                    .collect()
+            })
+            .collect::<Option<_>>()?;
+        for (piece, triangles) in parsed.into_iter().zip(resolved) {
+            obj.positions.extend(piece.positions);
+            obj.triangles.extend(triangles);
+            for libs in &piece.mtllib {
+                let libs = libs.iter().map(String::as_str);
+                load_libraries(&mut obj, &mut names, &mut loaded, libs, library).ok()?;
+            }
+        }
+        let bytes =
+            obj.positions.len() as f64 * 24.0 + obj.triangles.len() as f64 * BYTES_PER_TRIANGLE;
+        if bytes > limits::memory_budget() as f64 {
+            return None;
+        }
+        if end {
+            break;
+        }
+        text = rest;
+    }
+    resolve_materials(&mut obj, &names, &used, name);
+    Some(obj)
+}
+
+/// `text` (whole lines) cut into about `n` pieces of whole lines.
+fn line_pieces(text: &[u8], n: usize) -> Vec<&[u8]> {
+    let size = text.len().div_ceil(n.max(1)).max(1);
+    let mut pieces = Vec::new();
+    let mut start = 0;
+    while start < text.len() {
+        let mut end = (start + size).min(text.len());
+        while end < text.len() && text[end - 1] != b'\n' {
+            end += 1;
+        }
+        pieces.push(&text[start..end]);
+        start = end;
+    }
+    pieces
+}
+
+/// The statements of one piece of whole lines, as [`parse`] reads them;
+/// `None` where it would refuse one (or a line is over the limit).
+fn parse_piece(text: &[u8]) -> Option<Piece> {
+    let mut piece = Piece {
+        reach_back: i64::MIN,
+        ..Piece::default()
+    };
+    let mut face: Vec<i64> = Vec::new();
+    for mut line in text.split(|&b| b == b'\n') {
+        if line.len() > input::MAX_LINE_BYTES {
+            return None;
+        }
+        if line.last() == Some(&b'\r') {
+            line = &line[..line.len() - 1];
+        }
+        let text = String::from_utf8_lossy(line);
+        let text = text.split('#').next().unwrap_or("");
+        let mut words = text.split_ascii_whitespace();
+        let Some(keyword) = words.next() else {
+            continue;
+        };
+        match keyword {
+            "v" => {
+                let mut c = [0.0f64; 3];
+                for slot in c.iter_mut() {
+                    *slot = words.next()?.parse().ok()?;
+                }
+                piece.positions.push(DVec3::from_array(c));
+            }
+            "f" => {
+                face.clear();
+                let count = piece.positions.len() as i64;
+                for w in words {
+                    if face.len() == MAX_FACE_VERTICES {
+                        return None;
+                    }
+                    let i: i64 = w.split('/').next().unwrap_or("").parse().ok()?;
+                    let resolved = match i {
+                        0 => return None,
+                        i if !(-FAR..=FAR).contains(&i) => return None,
+                        i if i > 0 => {
+                            piece.reach_back = piece.reach_back.max(i - 1 - count);
+                            i - 1
+                        }
+                        i => RELATIVE + count + i,
+                    };
+                    face.push(resolved);
+                }
+                if face.len() < 3 {
+                    return None;
+                }
+                let material = piece.usemtl.len() as u32;
+                let material = material.checked_sub(1).unwrap_or(INHERITED);
+                for k in 1..face.len() - 1 {
+                    piece
+                        .triangles
+                        .push(([face[0], face[k], face[k + 1]], material));
+                }
+            }
+            "usemtl" => piece.usemtl.push(rest_of(text, keyword).to_string()),
+            "mtllib" => piece.mtllib.push(words.map(str::to_string).collect()),
+            _ => {}
+        }
+    }
+    Some(piece)
 }
 
 /// What loading one material library gave.
@@ -236,29 +507,51 @@ pub fn parse(
                     }
                 };
             }
-            "mtllib" => {
-                for lib in words {
-                    if loaded.iter().any(|l| l == lib) {
-                        continue;
-                    }
-                    loaded.push(lib.to_string());
-                    match library(lib)? {
-                        Library::Missing(w) => obj.warnings.push(w),
-                        Library::Text(path, text) => {
-                            let (materials, mut warnings) = parse_mtl(&text, &path);
-                            for m in materials {
-                                names.insert(m.name.clone(), obj.materials.len() as u32);
-                                obj.materials.push(m);
-                            }
-                            obj.warnings.append(&mut warnings);
-                        }
-                    }
-                }
-            }
+            "mtllib" => load_libraries(&mut obj, &mut names, &mut loaded, words, library)?,
             _ => {}
         }
     }
-    // `usemtl` indices point into `used`; map them to library materials.
+    resolve_materials(&mut obj, &names, &used, name);
+    Ok(obj)
+}
+
+/// Loads the libraries `libs` of one `mtllib` statement that `loaded` does
+/// not hold yet, in order, into `obj` (materials and warnings) and `names`.
+fn load_libraries<'a>(
+    obj: &mut ObjFile,
+    names: &mut HashMap<String, u32>,
+    loaded: &mut Vec<String>,
+    libs: impl Iterator<Item = &'a str>,
+    library: &mut dyn FnMut(&str) -> Result<Library>,
+) -> Result<()> {
+    for lib in libs {
+        if loaded.iter().any(|l| l == lib) {
+            continue;
+        }
+        loaded.push(lib.to_string());
+        match library(lib)? {
+            Library::Missing(w) => obj.warnings.push(w),
+            Library::Text(path, text) => {
+                let (materials, mut warnings) = parse_mtl(&text, &path);
+                for m in materials {
+                    names.insert(m.name.clone(), obj.materials.len() as u32);
+                    obj.materials.push(m);
+                }
+                obj.warnings.append(&mut warnings);
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Maps the triangles' `usemtl` indices (into `used`) to library materials
+/// by `names`, and warns of the names no library defines (`name`: the OBJ).
+fn resolve_materials(
+    obj: &mut ObjFile,
+    names: &HashMap<String, u32>,
+    used: &[String],
+    name: &Path,
+) {
     let mut unknown: Vec<&str> = Vec::new();
     let map: Vec<u32> = used
         .iter()
@@ -281,7 +574,6 @@ pub fn parse(
             listed(&unknown)
         ));
     }
-    Ok(obj)
 }
 
 /// `text` after `keyword` and its whitespace, trimmed (names may hold spaces).
@@ -524,6 +816,75 @@ mod tests {
             e.starts_with("t.obj:4: a face of more than 65536 vertices"),
             "{e}"
         );
+    }
+
+    /// What [`parse_batches`] gives for `text` in batches of `batch` bytes
+    /// cut into `pieces`, beside what [`parse`] gives: equal (and
+    /// `Some`), or `None` where [`parse`] refuses the text.
+    fn batched_matches(text: &str, mtl: &str, batch: usize, pieces: usize) -> bool {
+        let mtl = mtl.to_string();
+        let mut library = |name: &str| {
+            Ok(if name == "t.mtl" {
+                Library::Text(PathBuf::from("t.mtl"), mtl.clone())
+            } else {
+                Library::Missing(format!("{name}: not found"))
+            })
+        };
+        let batched = parse_batches(
+            text.as_bytes(),
+            Path::new("t.obj"),
+            &mut library,
+            batch,
+            pieces,
+        );
+        match (parse_text(text, &mtl), batched) {
+            (Ok(a), Some(b)) => {
+                assert_eq!(a.positions, b.positions, "{text:?}");
+                assert_eq!(a.triangles, b.triangles, "{text:?}");
+                assert_eq!(a.materials, b.materials, "{text:?}");
+                assert_eq!(a.warnings, b.warnings, "{text:?}");
+                true
+            }
+            (Err(_), None) => false,
+            (a, b) => panic!("{text:?}: parse {a:?}, batched {}", b.is_some()),
+        }
+    }
+
+    /// Batches and pieces cut anywhere between lines give what the line
+    /// reader gives: indices relative to vertices of earlier pieces,
+    /// `usemtl` in force across a cut, libraries, CRLF, comments, a last
+    /// line without its newline; and every text the line reader refuses
+    /// is refused.
+    #[test]
+    fn batched_parsing_reads_what_the_line_reader_reads() {
+        let mtl = "newmtl red\nKd 1 0 0\nnewmtl blue\nKd 0 0 5\n";
+        let good = [
+            "mtllib t.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl blue\nf 1 2 3\nv 0 0 1\r\nf -1 -2 -3 1\n# c\nusemtl red\nf 2 3 4 # tail\nmtllib x.mtl t.mtl\nusemtl nope\nf -4 -3 -2\nusemtl blue\nf 1/1/1 2//2 3/3",
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 3 2 1\n\n\nv 1 1 1\nf -1 -2 -3\n",
+            "v 1e300 -0 0\nv 1 0 0 1\nv 0 1 0\nvt 0 0\nf 1 2 3\n",
+            "",
+            "# nothing\n",
+        ];
+        let bad = [
+            "v 0 0 0\nv 1 x 0\n",
+            "v 0 0 0\nf 1 2 3\n",
+            "v 0 0 0\nv 1 0 0\nf 1 2 -3\n",
+            "v 0 0 0\nv 1 0 0\nv 1 1 0\nf 1 0 2\n",
+            "v 0 0 0\nf 1 1\n",
+            "v 0 0 0\nv 1 0 0\nv 1 1 0\nf 1 2 99999999999999999999\n",
+            "v 0 0 0\nv 1 0 0\nv 1 1 0\nf 1 2 -1099511627777\n",
+            "# ok\n\0\0\0",
+        ];
+        for batch in [1, 5, 17, 64, 1 << 20] {
+            for pieces in [1, 2, 3, 7] {
+                for text in good {
+                    assert!(batched_matches(text, mtl, batch, pieces), "{text:?}");
+                }
+                for text in bad {
+                    assert!(!batched_matches(text, mtl, batch, pieces), "{text:?}");
+                }
+            }
+        }
     }
 
     #[test]

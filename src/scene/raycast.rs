@@ -25,6 +25,7 @@ use obvhs::{
     triangle::Triangle,
     Boundable, BvhBuildParams,
 };
+use rayon::prelude::*;
 use std::time::Duration;
 
 /// A triangle whose bounding box is padded so that no box is flat.
@@ -101,9 +102,12 @@ impl SceneBvh {
     pub fn new(scene: &Scene) -> SceneBvh {
         let diag = scene.bounds.size().length().max(1e-3);
         let pad = 5e-5 * diag;
+        // The copies before and after the build (which obvhs runs on one
+        // thread) are made in parallel: millions of triangles in a large
+        // scene, in the same order either way.
         let prims: Vec<PaddedTriangle> = scene
             .triangles
-            .iter()
+            .par_iter()
             .map(|t| PaddedTriangle {
                 tri: Triangle {
                     v0: t[0].into(),
@@ -120,14 +124,14 @@ impl SceneBvh {
         );
         let scene_index: Vec<u32> = bvh.primitive_indices.clone();
         let triangles = scene_index
-            .iter()
+            .par_iter()
             .map(|&i| {
                 let t = prims[i as usize].tri;
                 WatertightTriangle::new([t.v0, t.v1, t.v2])
             })
             .collect();
         let normals = scene_index
-            .iter()
+            .par_iter()
             .map(|&i| scene.normals[i as usize].into())
             .collect();
         SceneBvh {
