@@ -1,4 +1,4 @@
-//! Stage benchmarks: `cargo bench --bench stages`.
+//! Stage benchmarks: `cargo bench -p probeplace-benches --bench stages`.
 //!
 //! Each stage of `place` timed on our Cornell box fixture (tiny, 32
 //! triangles) and on Dabrovic Sponza (66k triangles, read from
@@ -20,7 +20,7 @@ use probeplace::svo;
 use std::path::Path;
 
 fn stages(c: &mut Criterion, name: &str, config: &str) {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let root = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/.."));
     let cfg = Config::load(&root.join(config)).expect("config loads");
     let scene = load_obj(&cfg.scene, cfg.scale.0, cfg.up).expect("scene loads");
     let progress = Progress::hidden();

@@ -159,20 +159,12 @@ pub fn merge(options: &MergeOptions) -> Result<Outcome> {
             .par_iter()
             .map(|&i| {
                 let s = &tile.reference.samples[i];
-                let mut order: Vec<&(usize, glam::Vec3)> = relevant.iter().collect();
-                order.sort_by(|a, b| {
-                    a.1.distance_squared(s.position)
-                        .total_cmp(&b.1.distance_squared(s.position))
-                        .then(a.0.cmp(&b.0))
-                });
-                let mut list = Vec::new();
-                for &&(k, p) in &order {
-                    if tile.reference.sees(&tile.prepared.bvh, p, s) {
-                        list.push(k as u32);
-                    }
-                }
-                list.sort_unstable();
-                list
+                // Every probe that sees the sample, in index order.
+                relevant
+                    .iter()
+                    .filter(|&&(_, p)| tile.reference.sees(&tile.prepared.bvh, p, s))
+                    .map(|&(k, _)| k as u32)
+                    .collect::<Vec<u32>>()
             })
             .collect();
         let mut tally = TileTally {

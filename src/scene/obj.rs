@@ -178,9 +178,7 @@ fn parse_batches(
     use rayon::prelude::*;
     use std::io::Read;
     let mut obj = ObjFile::default();
-    let mut names: HashMap<String, u32> = HashMap::new();
-    let mut loaded: Vec<String> = Vec::new();
-    let mut used: Vec<String> = Vec::new();
+    let mut materials = MaterialState::default();
     let mut current = u32::MAX;
     let mut text: Vec<u8> = Vec::new();
     loop {
@@ -216,17 +214,7 @@ fn parse_batches(
             if piece.reach_back >= base {
                 return None;
             }
-            let events: Vec<u32> = piece
-                .usemtl
-                .iter()
-                .map(|m| match used.iter().position(|u| u == m) {
-                    Some(i) => i as u32,
-                    None => {
-                        used.push(m.clone());
-                        (used.len() - 1) as u32
-                    }
-                })
-                .collect();
+            let events: Vec<u32> = piece.usemtl.iter().map(|m| materials.used(m)).collect();
             let inherited = current;
             current = events.last().copied().unwrap_or(current);
             joins.push((base, inherited, events));
@@ -263,7 +251,7 @@ fn parse_batches(
             obj.triangles.extend(triangles);
             for libs in &piece.mtllib {
                 let libs = libs.iter().map(String::as_str);
-                load_libraries(&mut obj, &mut names, &mut loaded, libs, library).ok()?;
+                materials.load(&mut obj, libs, library).ok()?;
             }
         }
         let bytes =
@@ -276,7 +264,7 @@ fn parse_batches(
         }
         text = rest;
     }
-    resolve_materials(&mut obj, &names, &used, name);
+    materials.resolve(&mut obj, name);
     Some(obj)
 }
 
@@ -397,10 +385,7 @@ pub fn parse(
     library: &mut dyn FnMut(&str) -> Result<Library>,
 ) -> Result<ObjFile> {
     let mut obj = ObjFile::default();
-    let mut names: HashMap<String, u32> = HashMap::new();
-    let mut loaded: Vec<String> = Vec::new();
-    // Material names in `usemtl` order; resolved once every library is read.
-    let mut used: Vec<String> = Vec::new();
+    let mut materials = MaterialState::default();
     let mut current = u32::MAX;
     let mut line = Vec::new();
     let mut face: Vec<u32> = Vec::new();
@@ -497,82 +482,96 @@ pub fn parse(
                         .push(([face[0], face[k], face[k + 1]], current));
                 }
             }
-            "usemtl" => {
-                let m = rest_of(text, keyword);
-                current = match used.iter().position(|u| *u == m) {
-                    Some(i) => i as u32,
-                    None => {
-                        used.push(m.to_string());
-                        (used.len() - 1) as u32
-                    }
-                };
-            }
-            "mtllib" => load_libraries(&mut obj, &mut names, &mut loaded, words, library)?,
+            "usemtl" => current = materials.used(rest_of(text, keyword)),
+            "mtllib" => materials.load(&mut obj, words, library)?,
             _ => {}
         }
     }
-    resolve_materials(&mut obj, &names, &used, name);
+    materials.resolve(&mut obj, name);
     Ok(obj)
 }
 
-/// Loads the libraries `libs` of one `mtllib` statement that `loaded` does
-/// not hold yet, in order, into `obj` (materials and warnings) and `names`.
-fn load_libraries<'a>(
-    obj: &mut ObjFile,
-    names: &mut HashMap<String, u32>,
-    loaded: &mut Vec<String>,
-    libs: impl Iterator<Item = &'a str>,
-    library: &mut dyn FnMut(&str) -> Result<Library>,
-) -> Result<()> {
-    for lib in libs {
-        if loaded.iter().any(|l| l == lib) {
-            continue;
-        }
-        loaded.push(lib.to_string());
-        match library(lib)? {
-            Library::Missing(w) => obj.warnings.push(w),
-            Library::Text(path, text) => {
-                let (materials, mut warnings) = parse_mtl(&text, &path);
-                for m in materials {
-                    names.insert(m.name.clone(), obj.materials.len() as u32);
-                    obj.materials.push(m);
-                }
-                obj.warnings.append(&mut warnings);
+/// What both OBJ readers keep of materials while they read: the libraries
+/// loaded, the names they define, and the names `usemtl` gave in order.
+/// Triangles carry an index into `used` until [`MaterialState::resolve`]
+/// maps them to library materials, once every library is read (a
+/// `usemtl` may come before the `mtllib` that defines it).
+#[derive(Default)]
+struct MaterialState {
+    /// Library material name → index into `ObjFile::materials`.
+    names: HashMap<String, u32>,
+    /// Libraries already read, by the name the OBJ gives.
+    loaded: Vec<String>,
+    /// Names in first-`usemtl` order.
+    used: Vec<String>,
+}
+
+impl MaterialState {
+    /// The index of `name` among the `usemtl` names, added when new.
+    fn used(&mut self, name: &str) -> u32 {
+        match self.used.iter().position(|u| u == name) {
+            Some(i) => i as u32,
+            None => {
+                self.used.push(name.to_string());
+                (self.used.len() - 1) as u32
             }
         }
     }
-    Ok(())
-}
 
-/// Maps the triangles' `usemtl` indices (into `used`) to library materials
-/// by `names`, and warns of the names no library defines (`name`: the OBJ).
-fn resolve_materials(
-    obj: &mut ObjFile,
-    names: &HashMap<String, u32>,
-    used: &[String],
-    name: &Path,
-) {
-    let mut unknown: Vec<&str> = Vec::new();
-    let map: Vec<u32> = used
-        .iter()
-        .map(|u| {
-            names.get(u).copied().unwrap_or_else(|| {
-                unknown.push(u);
-                u32::MAX
-            })
-        })
-        .collect();
-    for (_, m) in obj.triangles.iter_mut() {
-        if *m != u32::MAX {
-            *m = map[*m as usize];
+    /// Loads the libraries `libs` of one `mtllib` statement not loaded yet,
+    /// in order, into `obj` (materials and warnings).
+    fn load<'a>(
+        &mut self,
+        obj: &mut ObjFile,
+        libs: impl Iterator<Item = &'a str>,
+        library: &mut dyn FnMut(&str) -> Result<Library>,
+    ) -> Result<()> {
+        for lib in libs {
+            if self.loaded.iter().any(|l| l == lib) {
+                continue;
+            }
+            self.loaded.push(lib.to_string());
+            match library(lib)? {
+                Library::Missing(w) => obj.warnings.push(w),
+                Library::Text(path, text) => {
+                    let (materials, mut warnings) = parse_mtl(&text, &path);
+                    for m in materials {
+                        self.names.insert(m.name.clone(), obj.materials.len() as u32);
+                        obj.materials.push(m);
+                    }
+                    obj.warnings.append(&mut warnings);
+                }
+            }
         }
+        Ok(())
     }
-    if !unknown.is_empty() && !obj.materials.is_empty() {
-        obj.warnings.push(format!(
-            "{}: usemtl names material(s) no library defines ({}); those faces get the default",
-            name.display(),
-            listed(&unknown)
-        ));
+
+    /// Maps the triangles' `usemtl` indices to library materials, and warns
+    /// of the names no library defines (`name`: the OBJ).
+    fn resolve(self, obj: &mut ObjFile, name: &Path) {
+        let mut unknown: Vec<&str> = Vec::new();
+        let map: Vec<u32> = self
+            .used
+            .iter()
+            .map(|u| {
+                self.names.get(u).copied().unwrap_or_else(|| {
+                    unknown.push(u);
+                    u32::MAX
+                })
+            })
+            .collect();
+        for (_, m) in obj.triangles.iter_mut() {
+            if *m != u32::MAX {
+                *m = map[*m as usize];
+            }
+        }
+        if !unknown.is_empty() && !obj.materials.is_empty() {
+            obj.warnings.push(format!(
+                "{}: usemtl names material(s) no library defines ({}); those faces get the default",
+                name.display(),
+                listed(&unknown)
+            ));
+        }
     }
 }
 
