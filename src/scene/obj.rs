@@ -536,7 +536,8 @@ impl MaterialState {
                 Library::Text(path, text) => {
                     let (materials, mut warnings) = parse_mtl(&text, &path);
                     for m in materials {
-                        self.names.insert(m.name.clone(), obj.materials.len() as u32);
+                        self.names
+                            .insert(m.name.clone(), obj.materials.len() as u32);
                         obj.materials.push(m);
                     }
                     obj.warnings.append(&mut warnings);
