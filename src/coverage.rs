@@ -37,7 +37,7 @@
 use crate::config::CoverageParams;
 use crate::progress::Progress;
 use crate::sampling::{hash2, point_in_triangle, unit_f32};
-use crate::scene::raycast::SceneBvh;
+use crate::scene::raycast::{Blocker, SceneBvh};
 use crate::scene::{Bounds, Scene};
 use crate::sdf::{Sdf, VoxelClass};
 use glam::Vec3;
@@ -244,13 +244,28 @@ impl CoverageReference {
     /// every coverage figure.
     #[inline]
     pub fn sees(&self, bvh: &SceneBvh, viewer: Vec3, sample: &SurfaceSample) -> bool {
+        self.sees_from(bvh, viewer, sample, &mut Blocker::default())
+    }
+
+    /// [`CoverageReference::sees`] for one of many viewers of the same
+    /// `sample`, with the sample's `blocker` ([`SceneBvh::occluded_from`]):
+    /// the same answer, found faster when one triangle hides the sample
+    /// from many viewers.
+    #[inline]
+    pub fn sees_from(
+        &self,
+        bvh: &SceneBvh,
+        viewer: Vec3,
+        sample: &SurfaceSample,
+        blocker: &mut Blocker,
+    ) -> bool {
         let to_viewer = viewer - sample.position;
         let len = to_viewer.length();
         if len <= self.eps {
             return false;
         }
         sample.normal.dot(to_viewer) >= self.min_cos * len
-            && !bvh.occluded(sample.position, viewer, self.eps)
+            && !bvh.occluded_from(sample.position, viewer, self.eps, blocker)
     }
 
     /// For each sample, whether any of `viewers` sees it: nearest viewers
@@ -286,16 +301,18 @@ impl CoverageReference {
                             Err(_) => Vec::new(),
                         };
                         let mut seen = false;
+                        let mut blocker = Blocker::default();
                         for &v in &near {
                             tried[v] = true;
-                            if self.sees(bvh, viewers[v], s) {
+                            if self.sees_from(bvh, viewers[v], s, &mut blocker) {
                                 seen = true;
                                 break;
                             }
                         }
                         if !seen {
-                            seen = (0..viewers.len())
-                                .any(|v| !tried[v] && self.sees(bvh, viewers[v], s));
+                            seen = (0..viewers.len()).any(|v| {
+                                !tried[v] && self.sees_from(bvh, viewers[v], s, &mut blocker)
+                            });
                         }
                         for &v in &near {
                             tried[v] = false;

@@ -35,6 +35,7 @@ use crate::probes::{Probe, ProbeSet};
 use crate::progress::Progress;
 use crate::provenance::{Overrides, Provenance};
 use crate::report::commit::{self, OutputSet};
+use crate::scene::raycast::Blocker;
 use crate::sdf::VoxelClass;
 use crate::stages::{self, Prepared};
 use crate::tiles::TileGrid;
@@ -159,10 +160,14 @@ pub fn merge(options: &MergeOptions) -> Result<Outcome> {
             .par_iter()
             .map(|&i| {
                 let s = &tile.reference.samples[i];
+                let mut blocker = Blocker::default();
                 // Every probe that sees the sample, in index order.
                 relevant
                     .iter()
-                    .filter(|&&(_, p)| tile.reference.sees(&tile.prepared.bvh, p, s))
+                    .filter(|&&(_, p)| {
+                        tile.reference
+                            .sees_from(&tile.prepared.bvh, p, s, &mut blocker)
+                    })
                     .map(|&(k, _)| k as u32)
                     .collect::<Vec<u32>>()
             })

@@ -36,7 +36,7 @@
 
 use crate::coverage::{CoverageReference, SurfaceSample};
 use crate::progress::Progress;
-use crate::scene::raycast::SceneBvh;
+use crate::scene::raycast::{Blocker, SceneBvh};
 use glam::Vec3;
 use indicatif::ProgressBar;
 use rayon::prelude::*;
@@ -479,8 +479,9 @@ impl<'r> CoverMatrix<'r> {
                     let samples = &subset[w * 64..(w * 64 + 64).min(subset.len())];
                     for (bit, &i) in samples.iter().enumerate() {
                         let s = self.sample(i);
+                        let mut blocker = Blocker::default();
                         for (slot, &v) in bits.iter_mut().zip(run) {
-                            if self.reference.sees(self.bvh, viewers[v], s) {
+                            if self.reference.sees_from(self.bvh, viewers[v], s, &mut blocker) {
                                 *slot |= 1 << bit;
                             }
                         }

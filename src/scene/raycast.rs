@@ -200,11 +200,29 @@ impl SceneBvh {
     /// shrunk by `eps` so that a point lying on a surface does not occlude itself.
     #[inline]
     pub fn occluded(&self, a: Vec3, b: Vec3, eps: f32) -> bool {
-        self.segment_blocked(a.into(), b.into(), eps)
+        self.segment_blocked(a.into(), b.into(), eps, &mut Blocker::default())
     }
 
-    /// [`SceneBvh::occluded`] on whole SIMD vectors (see [`SceneBvh::closest`]).
-    fn segment_blocked(&self, a: Vec3A, b: Vec3A, eps: f32) -> bool {
+    /// [`SceneBvh::occluded`] for one of many neighbouring segments (from
+    /// one point to many, or from a cluster of points to one), trying first
+    /// the triangle that `blocker` remembers from the last of them that
+    /// was blocked (and remembering this one's).
+    ///
+    /// The answer is [`SceneBvh::occluded`]'s for any segment: a triangle
+    /// that crosses the segment blocks it whichever way it is found, and
+    /// the traversal visits every triangle whose padded box the segment
+    /// enters. Only the traversal is saved, and often: a surface point that
+    /// no viewer sees is usually hidden by one triangle right in front of
+    /// it (the face of a solid it is pressed against, a floor over it),
+    /// which then blocks the segments to thousands of viewers in turn.
+    #[inline]
+    pub fn occluded_from(&self, a: Vec3, b: Vec3, eps: f32, blocker: &mut Blocker) -> bool {
+        self.segment_blocked(a.into(), b.into(), eps, blocker)
+    }
+
+    /// [`SceneBvh::occluded_from`] on whole SIMD vectors (see
+    /// [`SceneBvh::closest`]).
+    fn segment_blocked(&self, a: Vec3A, b: Vec3A, eps: f32, blocker: &mut Blocker) -> bool {
         let d = b - a;
         let len = d.length();
         if len <= 2.0 * eps {
@@ -213,11 +231,34 @@ impl SceneBvh {
         let dir = positive_zeros(d / len);
         let ray = Ray::new(a, dir, eps, len - eps);
         let wray = WatertightRay::new(a, dir);
-        !self.bvh.ray_traverse_miss(ray, |r, id| {
-            wray.intersect(&self.triangles[id], r.tmin, r.tmax)
-        })
+        // Blocked exactly as the traversal decides it: a triangle's
+        // distance within [tmin, tmax] and short of tmax.
+        if let Some(slot) = blocker.0 {
+            if wray.intersect(&self.triangles[slot as usize], ray.tmin, ray.tmax) < ray.tmax {
+                return true;
+            }
+        }
+        let mut last = None;
+        let missed = self.bvh.ray_traverse_miss(ray, |r, id| {
+            let t = wray.intersect(&self.triangles[id], r.tmin, r.tmax);
+            if t < r.tmax {
+                last = Some(id as u32);
+            }
+            t
+        });
+        if !missed {
+            blocker.0 = last;
+        }
+        !missed
     }
 }
+
+/// The triangle that last blocked one of a family of segments, for
+/// [`SceneBvh::occluded_from`]; the default remembers none. It names a
+/// triangle of the BVH it was used with, and is only worth keeping for
+/// segments near each other.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Blocker(Option<u32>);
 
 #[cfg(test)]
 mod tests {
@@ -693,6 +734,64 @@ mod tests {
         }
         assert!(tried > 20_000, "{tried}");
         assert_eq!(slipped, 0, "{slipped} of {tried} segments left the box");
+    }
+
+    #[test]
+    fn a_remembered_blocker_never_changes_the_answer() {
+        // A soup of random triangles; segments from one origin to many
+        // ends, then between random pairs, through one memory shared by all
+        // (so it often names a triangle that has nothing to do with the
+        // segment at hand): every answer is `occluded`'s, and the memory
+        // is used, answering most segments of an origin hidden by one
+        // triangle right in front of it.
+        let mut tris: Vec<[Vec3; 3]> = (0..400u64)
+            .map(|i| {
+                let h = hash2(31, i);
+                let c = Vec3::new(
+                    rand_unit(hash2(h, 1)),
+                    rand_unit(hash2(h, 2)),
+                    rand_unit(hash2(h, 3)),
+                ) * 2.0
+                    - 1.0;
+                [0, 1, 2].map(|k| c + rand_dir(hash2(h, 10 + k)) * 0.25)
+            })
+            .collect();
+        // One large triangle just above the origin `hidden`.
+        let hidden = Vec3::new(0.05, -0.2, 0.03);
+        let lid = |x: f32, z: f32| Vec3::new(x, -0.15, z);
+        tris.push([lid(-9.0, -9.0), lid(9.0, -9.0), lid(0.0, 9.0)]);
+        let s = scene_of(&tris);
+        let bvh = SceneBvh::new(&s);
+        let mut blocker = Blocker::default();
+        let (mut tried, mut blocked, mut remembered) = (0, 0, 0);
+        for i in 0..4000u64 {
+            let h = hash2(32, i);
+            let a = if i < 2000 {
+                hidden
+            } else {
+                Vec3::new(
+                    rand_unit(hash2(h, 1)),
+                    rand_unit(hash2(h, 2)),
+                    rand_unit(hash2(h, 3)),
+                ) * 2.0
+                    - 1.0
+            };
+            let b = a + rand_dir(hash2(h, 4)) * (0.1 + 3.0 * rand_unit(hash2(h, 5)));
+            let before = blocker;
+            let answer = bvh.occluded_from(a, b, 1e-4, &mut blocker);
+            assert_eq!(answer, bvh.occluded(a, b, 1e-4), "segment {i}: {a} to {b}");
+            tried += 1;
+            if answer {
+                blocked += 1;
+                if blocker == before {
+                    remembered += 1;
+                }
+            } else {
+                assert_eq!(blocker, before, "a free segment leaves the memory alone");
+            }
+        }
+        assert!(blocked > tried / 4 && blocked < tried, "{blocked} of {tried}");
+        assert!(remembered > tried / 8, "{remembered} of {blocked} blocked");
     }
 
     #[test]
