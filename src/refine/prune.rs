@@ -481,7 +481,10 @@ impl<'r> CoverMatrix<'r> {
                         let s = self.sample(i);
                         let mut blocker = Blocker::default();
                         for (slot, &v) in bits.iter_mut().zip(run) {
-                            if self.reference.sees_from(self.bvh, viewers[v], s, &mut blocker) {
+                            if self
+                                .reference
+                                .sees_from(self.bvh, viewers[v], s, &mut blocker)
+                            {
                                 *slot |= 1 << bit;
                             }
                         }

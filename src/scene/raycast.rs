@@ -790,7 +790,10 @@ mod tests {
                 assert_eq!(blocker, before, "a free segment leaves the memory alone");
             }
         }
-        assert!(blocked > tried / 4 && blocked < tried, "{blocked} of {tried}");
+        assert!(
+            blocked > tried / 4 && blocked < tried,
+            "{blocked} of {tried}"
+        );
         assert!(remembered > tried / 8, "{remembered} of {blocked} blocked");
     }
 
