@@ -21,7 +21,11 @@
 //! A back face coplanar with a front face (within 0.001 voxel) wins the tie:
 //! solids resting against walls and floors (a box's bottom on the floor, a
 //! platform's side against a wall) would otherwise look open from inside
-//! wherever the wall's front face happened to be returned first.
+//! wherever the wall's front face happened to be returned first. The
+//! exception is a two-sided sheet, the same triangle twice, once each way
+//! (a zero-thickness partition): nothing is behind it, so its face towards
+//! the ray wins ([`SceneBvh::closest_hit_prefer_back`]); rooms walled by
+//! such sheets otherwise read as solid.
 //!
 //! Only one voxel in eight, those with even coordinates, is always
 //! classified by rays. Any other voxel lies inside a cell of that lattice; if
@@ -703,6 +707,85 @@ mod tests {
         assert!(
             free.is_empty(),
             "voxels inside the corner box not solid: {free:?}"
+        );
+    }
+
+    #[test]
+    fn rooms_divided_by_two_sided_sheets_stay_free() {
+        // A closed room cut into four by two zero-thickness partitions, each
+        // the same two triangles twice, once each way (a two-sided sheet),
+        // and a box resting on the floor against a partition: the rooms
+        // are free space right up to the sheets, the box stays solid.
+        let mut tris = Vec::new();
+        add_box(&mut tris, Vec3::ZERO, Vec3::splat(4.0), true);
+        let sheet = |tris: &mut Vec<[Vec3; 3]>, q: [Vec3; 4]| {
+            for t in [[q[0], q[1], q[2]], [q[0], q[2], q[3]]] {
+                tris.push(t);
+                tris.push([t[0], t[2], t[1]]);
+            }
+        };
+        let x = 2.0;
+        sheet(
+            &mut tris,
+            [
+                Vec3::new(x, 0.0, 0.0),
+                Vec3::new(x, 4.0, 0.0),
+                Vec3::new(x, 4.0, 4.0),
+                Vec3::new(x, 0.0, 4.0),
+            ],
+        );
+        let z = 2.4;
+        sheet(
+            &mut tris,
+            [
+                Vec3::new(0.0, 0.0, z),
+                Vec3::new(4.0, 0.0, z),
+                Vec3::new(4.0, 4.0, z),
+                Vec3::new(0.0, 4.0, z),
+            ],
+        );
+        add_box(
+            &mut tris,
+            Vec3::new(2.8, 0.0, 2.4),
+            Vec3::new(3.8, 1.0, 3.4),
+            false,
+        );
+        let scene =
+            Scene::from_triangles("sheets".into(), tris.into_iter().map(|t| (t, 0)), vec![])
+                .unwrap();
+        let bvh = SceneBvh::new(&scene);
+        let sdf = build(
+            &scene,
+            &bvh,
+            &scene.bounds,
+            0.2,
+            &SdfParams::default(),
+            5,
+            &Progress::hidden(),
+        )
+        .unwrap();
+        let in_box = |c: Vec3| {
+            c.cmpgt(Vec3::new(2.8, 0.0, 2.4)).all() && c.cmplt(Vec3::new(3.8, 1.0, 3.4)).all()
+        };
+        let (mut box_voxels, mut wrong) = (0, Vec::new());
+        for i in 0..sdf.len() {
+            let c = sdf.center(i);
+            let expected = if in_box(c) {
+                box_voxels += 1;
+                VoxelClass::Solid
+            } else {
+                VoxelClass::Free
+            };
+            if sdf.class[i] != expected {
+                wrong.push((c, sdf.class[i]));
+            }
+        }
+        assert_eq!(box_voxels, 5 * 5 * 5);
+        assert!(
+            wrong.is_empty(),
+            "{} voxels misread: {:?}",
+            wrong.len(),
+            &wrong[..wrong.len().min(8)]
         );
     }
 
