@@ -673,6 +673,25 @@ mod tests {
         assert_eq!(free_n, 16 * 16 * 16 - 64);
     }
 
+    /// The SDF (default parameters) of the triangles `tris` over their
+    /// bounds, at `voxel` and `seed`.
+    fn sdf_of(tris: Vec<[Vec3; 3]>, voxel: f32, seed: u64) -> Sdf {
+        let scene =
+            Scene::from_triangles("test".into(), tris.into_iter().map(|t| (t, 0)), vec![]).unwrap();
+        let bvh = SceneBvh::new(&scene);
+        let params = SdfParams::default();
+        build(
+            &scene,
+            &bvh,
+            &scene.bounds,
+            voxel,
+            &params,
+            seed,
+            &Progress::hidden(),
+        )
+        .unwrap()
+    }
+
     #[test]
     fn solids_against_walls_stay_solid() {
         // A box in the room's corner shares three coplanar faces with the
@@ -681,20 +700,7 @@ mod tests {
         let mut tris = Vec::new();
         add_box(&mut tris, Vec3::ZERO, Vec3::splat(4.0), true);
         add_box(&mut tris, Vec3::ZERO, Vec3::splat(1.0), false);
-        let scene =
-            Scene::from_triangles("corner".into(), tris.into_iter().map(|t| (t, 0)), vec![])
-                .unwrap();
-        let bvh = SceneBvh::new(&scene);
-        let sdf = build(
-            &scene,
-            &bvh,
-            &scene.bounds,
-            0.25,
-            &SdfParams::default(),
-            9,
-            &Progress::hidden(),
-        )
-        .unwrap();
+        let sdf = sdf_of(tris, 0.25, 9);
         let inside: Vec<usize> = (0..sdf.len())
             .filter(|&i| sdf.center(i).max_element() < 1.0)
             .collect();
@@ -750,20 +756,7 @@ mod tests {
             Vec3::new(3.8, 1.0, 3.4),
             false,
         );
-        let scene =
-            Scene::from_triangles("sheets".into(), tris.into_iter().map(|t| (t, 0)), vec![])
-                .unwrap();
-        let bvh = SceneBvh::new(&scene);
-        let sdf = build(
-            &scene,
-            &bvh,
-            &scene.bounds,
-            0.2,
-            &SdfParams::default(),
-            5,
-            &Progress::hidden(),
-        )
-        .unwrap();
+        let sdf = sdf_of(tris, 0.2, 5);
         let in_box = |c: Vec3| {
             c.cmpgt(Vec3::new(2.8, 0.0, 2.4)).all() && c.cmplt(Vec3::new(3.8, 1.0, 3.4)).all()
         };

@@ -194,10 +194,12 @@ impl SceneBvh {
         let wray = WatertightRay::new(origin, d);
         let mut hit = RayHit::none();
         let shift = |id: usize| -> f32 {
-            match (self.normals[id].dot(d) > 0.0, self.sheet[id]) {
-                (false, _) => 0.0,
-                (true, false) => -tie,
-                (true, true) => tie,
+            if tie == 0.0 || self.normals[id].dot(d) <= 0.0 {
+                0.0
+            } else if self.sheet[id] {
+                tie
+            } else {
+                -tie
             }
         };
         let found = self.bvh.ray_traverse(ray, &mut hit, |r, id| {
@@ -282,7 +284,7 @@ impl SceneBvh {
 /// faces of a two-sided sheet (see [`SceneBvh::closest_hit_prefer_back`]).
 /// Triangles are matched by a hash of their vertex set, sorted in parallel,
 /// and confirmed vertex by vertex.
-pub fn sheet_faces(triangles: &[[Vec3; 3]]) -> Vec<bool> {
+pub(crate) fn sheet_faces(triangles: &[[Vec3; 3]]) -> Vec<bool> {
     let bits = |v: Vec3| v.to_array().map(f32::to_bits);
     // The vertex set in a canonical order, and the winding's parity against it.
     let canonical = |t: &[Vec3; 3]| -> ([[u32; 3]; 3], bool) {
@@ -379,6 +381,28 @@ mod tests {
         let phi = std::f32::consts::TAU * rand_unit(hash2(h, 2));
         let r = (1.0 - z * z).max(0.0).sqrt();
         Vec3::new(r * phi.cos(), r * phi.sin(), z)
+    }
+
+    /// A uniformly random point of the cube [-1, 1]³.
+    fn rand_point(h: u64) -> Vec3 {
+        Vec3::new(
+            rand_unit(hash2(h, 1)),
+            rand_unit(hash2(h, 2)),
+            rand_unit(hash2(h, 3)),
+        ) * 2.0
+            - 1.0
+    }
+
+    /// `n` random triangles (seeded by `seed`) with centres in [-1, 1]³
+    /// and vertices `size` from them.
+    fn soup(seed: u64, n: u64, size: f32) -> Vec<[Vec3; 3]> {
+        (0..n)
+            .map(|i| {
+                let h = hash2(seed, i);
+                let c = rand_point(h);
+                [0, 1, 2].map(|k| c + rand_dir(hash2(h, 10 + k)) * size)
+            })
+            .collect()
     }
 
     #[test]
@@ -869,18 +893,7 @@ mod tests {
         // segment at hand): every answer is `occluded`'s, and the memory
         // is used, answering most segments of an origin hidden by one
         // triangle right in front of it.
-        let mut tris: Vec<[Vec3; 3]> = (0..400u64)
-            .map(|i| {
-                let h = hash2(31, i);
-                let c = Vec3::new(
-                    rand_unit(hash2(h, 1)),
-                    rand_unit(hash2(h, 2)),
-                    rand_unit(hash2(h, 3)),
-                ) * 2.0
-                    - 1.0;
-                [0, 1, 2].map(|k| c + rand_dir(hash2(h, 10 + k)) * 0.25)
-            })
-            .collect();
+        let mut tris = soup(31, 400, 0.25);
         // One large triangle just above the origin `hidden`.
         let hidden = Vec3::new(0.05, -0.2, 0.03);
         let lid = |x: f32, z: f32| Vec3::new(x, -0.15, z);
@@ -891,16 +904,7 @@ mod tests {
         let (mut tried, mut blocked, mut remembered) = (0, 0, 0);
         for i in 0..4000u64 {
             let h = hash2(32, i);
-            let a = if i < 2000 {
-                hidden
-            } else {
-                Vec3::new(
-                    rand_unit(hash2(h, 1)),
-                    rand_unit(hash2(h, 2)),
-                    rand_unit(hash2(h, 3)),
-                ) * 2.0
-                    - 1.0
-            };
+            let a = if i < 2000 { hidden } else { rand_point(h) };
             let b = a + rand_dir(hash2(h, 4)) * (0.1 + 3.0 * rand_unit(hash2(h, 5)));
             let before = blocker;
             let answer = bvh.occluded_from(a, b, 1e-4, &mut blocker);
@@ -927,18 +931,7 @@ mod tests {
         // A soup of random triangles against a brute-force closest hit
         // with obvhs's Möller–Trumbore test, the one this module used
         // before: same triangle, same side, t within 1e-5 relative.
-        let tris: Vec<[Vec3; 3]> = (0..300u64)
-            .map(|i| {
-                let h = hash2(21, i);
-                let c = Vec3::new(
-                    rand_unit(hash2(h, 1)),
-                    rand_unit(hash2(h, 2)),
-                    rand_unit(hash2(h, 3)),
-                ) * 2.0
-                    - 1.0;
-                [0, 1, 2].map(|k| c + rand_dir(hash2(h, 10 + k)) * 0.3)
-            })
-            .collect();
+        let tris = soup(21, 300, 0.3);
         let s = scene_of(&tris);
         let bvh = SceneBvh::new(&s);
         let old: Vec<obvhs::triangle::Triangle> = tris
