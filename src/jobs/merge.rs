@@ -6,19 +6,23 @@
 //!    the provenance `split.json` recorded for it (config hash, scene hash,
 //!    seed, tool): a missing, failed or foreign tile is refused with a line
 //!    naming it, never merged into a partial world.
-//! 2. **Join.** Each tile placed probes over its box, core and margin, so
-//!    near every cut two or more tiles placed probes for the same surfaces
-//!    (the probes in overlaps of boxes are the `candidates` of the report).
-//!    Tile by tile (one in memory at a time) the coverage measure of the
-//!    tile's own run ([`crate::coverage`]: the same samples, the same
-//!    `sees` rule) lists, for each coverable sample of its core, every
-//!    probe of any tile inside the tile's box that sees it. A greedy set
-//!    cover then keeps the fewest probes that still see every listed
-//!    sample (the most first; ties: the lower index), and drops again any
-//!    pick the later ones made redundant: the redundancy pruning of
-//!    refinement (Wang et al. 2019 §1, "fewest probes") over the whole
-//!    world. Coverage is what the kept probes see, summed over the cores.
-//! 3. **Index.** Tile by tile again, the SVO of the tile's box is baked
+//! 2. **Offer.** Each tile placed probes over its box, core and margin,
+//!    crediting them only with its core's surfaces, so near every cut two
+//!    tiles kept probes where one would serve both, and the union holds no
+//!    set as small as one machine's (on Dabrovic Sponza, an exact cover of
+//!    the tiles' 93 probes needs 60 where one machine places 51). Tile by
+//!    tile (one in memory at a time), the core therefore also offers the
+//!    positions refinement fills from ([`Tile::offers`]).
+//! 3. **Join.** Tile by tile again, the coverage measure of the tile's own
+//!    run ([`crate::coverage`]: the same samples, the same `sees` rule)
+//!    lists, for each coverable sample of its core, every probe and
+//!    offered position inside the tile's box that sees it (those in
+//!    overlaps of boxes are the report's `candidates`). [`cover`] keeps
+//!    the fewest that still reach the coverage target: the fill and
+//!    redundancy pruning of refinement (Wang et al. 2019 §1, "fewest
+//!    probes") over the whole world, with pairs swapped for one.
+//!    Coverage is what the kept probes see, summed over the cores.
+//! 4. **Index.** Tile by tile again, the SVO of the tile's box is baked
 //!    over the kept probes inside it and its leaves renumbered to the
 //!    world's probe indices: `tile-NNN.svo.bin`, one per region, as
 //!    engines stream probe volumes. `world.json` lists each tile's core
@@ -31,6 +35,7 @@ use super::Outcome;
 use crate::config::Config;
 use crate::coverage::CoverageReference;
 use crate::error::{Error, Result};
+use crate::placement::controls::Controls;
 use crate::probes::{Probe, ProbeSet};
 use crate::progress::Progress;
 use crate::provenance::{Overrides, Provenance};
@@ -69,6 +74,12 @@ struct WorldProbe {
     owner: u32,
     /// Whether more than one tile's box holds it.
     candidate: bool,
+    /// Whether the merge offered this position (a coverage reference point
+    /// of its owner's core) rather than a tile placing a probe there.
+    offered: bool,
+    /// The fill tier an offered position belongs to (the first of its
+    /// tile's clearances it keeps); 0 for a tile's probe.
+    tier: u8,
 }
 
 /// One probe in the merged `probes.json`.
@@ -88,6 +99,8 @@ struct MergedProbe {
 struct TileTally {
     name: String,
     probes_placed: usize,
+    /// Positions its core offered ([`Tile::offers`]).
+    positions_offered: usize,
     coverable_samples: usize,
     /// Coverable core samples some probe of the union sees.
     seen: usize,
@@ -125,8 +138,11 @@ pub fn merge(options: &MergeOptions) -> Result<Outcome> {
     let grid = index.grid();
     let mut probes: Vec<WorldProbe> = Vec::new();
     let mut placed = vec![0usize; index.tile.len()];
+    let mut tiers_of = Vec::new();
     for entry in &index.tile {
-        for position in tile_probes(dir, &index, entry)? {
+        let (positions, tiers) = tile_probes(dir, &index, entry)?;
+        tiers_of.push(tiers);
+        for position in positions {
             placed[entry.index as usize] += 1;
             probes.push(WorldProbe {
                 position,
@@ -138,12 +154,34 @@ pub fn merge(options: &MergeOptions) -> Result<Outcome> {
                     .filter(|t| t.domain.contains(position))
                     .count()
                     > 1,
+                offered: false,
+                tier: 0,
             });
         }
     }
     let progress = &options.progress;
 
-    // Pass 1: per core, the settled samples and the candidates that see
+    // Pass 1 (offer): the positions each core offers besides the tiles' probes.
+    let mut offered = vec![0usize; index.tile.len()];
+    for (entry, tiers) in index.tile.iter().zip(&tiers_of) {
+        let Some(tiers) = tiers else {
+            continue;
+        };
+        let tile = Tile::prepare(dir, entry, progress)?;
+        for (position, tier) in tile.offers(&grid, entry.index, tiers) {
+            offered[entry.index as usize] += 1;
+            probes.push(WorldProbe {
+                position,
+                source: entry.index,
+                owner: entry.index,
+                candidate: false,
+                offered: true,
+                tier,
+            });
+        }
+    }
+
+    // Pass 2 (join): per core, the settled samples and the candidates that see
     // each unsettled one.
     let mut tallies = Vec::new();
     let mut lists: Vec<Vec<u32>> = Vec::new();
@@ -175,6 +213,7 @@ pub fn merge(options: &MergeOptions) -> Result<Outcome> {
         let mut tally = TileTally {
             name: entry.name.clone(),
             probes_placed: placed[entry.index as usize],
+            positions_offered: offered[entry.index as usize],
             coverable_samples: samples.len(),
             ..TileTally::default()
         };
@@ -192,14 +231,17 @@ pub fn merge(options: &MergeOptions) -> Result<Outcome> {
     let world_config = Config::from_text(&index.world.config_text, &index.config)?;
     let target = world_config.refine.coverage_target.0 as f64;
     let need = ((target * coverable_all as f64).ceil() as usize).min(lists.len());
-    let kept = cover(probes.len(), &lists, need);
+    // Refinement's tier rule: a position of a lower tier (nearer a
+    // surface) serves only samples no position of a higher tier sees.
+    let tier: Vec<u8> = probes.iter().map(|p| p.tier).collect();
+    let kept = cover(probes.len(), &lists, &tier, need);
 
     // The world's probes, numbered tile by tile by the core that holds them.
     let mut order: Vec<usize> = (0..probes.len()).filter(|&k| kept[k]).collect();
     order.sort_by_key(|&k| (probes[k].owner, k));
     let final_probes: Vec<WorldProbe> = order.iter().map(|&k| probes[k]).collect();
 
-    // Pass 2: per tile, its SVO over the world's indices, and the SDF's
+    // Pass 3 (index): per tile, its SVO over the world's indices, and the SDF's
     // word on the probes its core holds.
     let provenance = index.world.clone();
     let mut set = OutputSet::new();
@@ -249,7 +291,11 @@ pub fn merge(options: &MergeOptions) -> Result<Outcome> {
                 clearance: voxel.map_or(f32::NAN, |v| sdf.distance[v]),
                 voxel_class: class,
                 tile: entry.name.clone(),
-                placed_by: index.tile[final_probes[g].source as usize].name.clone(),
+                placed_by: if final_probes[g].offered {
+                    "merge".to_string()
+                } else {
+                    index.tile[final_probes[g].source as usize].name.clone()
+                },
             });
         }
         let first = owned.first().copied().unwrap_or(
@@ -294,6 +340,8 @@ pub fn merge(options: &MergeOptions) -> Result<Outcome> {
         n => crate::coverage::ratio_ci95(covered, n),
     };
     let candidates = probes.iter().filter(|p| p.candidate).count();
+    let offered_all: usize = offered.iter().sum();
+    let offered_kept = final_probes.iter().filter(|p| p.offered).count();
     let mut warnings = Vec::new();
     if coverage < target {
         warnings.push(format!(
@@ -327,7 +375,9 @@ pub fn merge(options: &MergeOptions) -> Result<Outcome> {
         "probes_outside_scene": health.1,
         "merge": {
             "tiles": index.tile.len(),
-            "probes_placed": probes.len(),
+            "probes_placed": probes.len() - offered_all,
+            "offered": offered_all,
+            "offered_kept": offered_kept,
             "candidates": candidates,
             "candidates_kept": order.iter().filter(|&&k| probes[k].candidate).count(),
             "coverable_samples": coverable,
@@ -359,12 +409,14 @@ pub fn merge(options: &MergeOptions) -> Result<Outcome> {
     let out = options.out.clone().unwrap_or_else(|| dir.join("world"));
     commit::commit(&out, &set, std::slice::from_ref(&index.config))?;
     let mut summary = vec![format!(
-        "{} tiles: {} probes ({} placed, {} in overlaps, {} of them kept), coverage {:.2}% ± {:.2}%, {} in solid",
+        "{} tiles: {} probes ({} placed, {} in overlaps, {} of them kept; {} of {} positions offered), coverage {:.2}% ± {:.2}%, {} in solid",
         index.tile.len(),
         final_probes.len(),
-        probes.len(),
+        probes.len() - offered_all,
         candidates,
         order.iter().filter(|&&k| probes[k].candidate).count(),
+        offered_kept,
+        offered_all,
         100.0 * coverage,
         100.0 * ci95,
         health.0
@@ -378,8 +430,13 @@ pub fn merge(options: &MergeOptions) -> Result<Outcome> {
 }
 
 /// The probes of a tile's finished run, in world coordinates, after
-/// checking its provenance against `split.json`.
-fn tile_probes(dir: &Path, index: &SplitIndex, entry: &TileEntry) -> Result<Vec<DVec3>> {
+/// checking its provenance against `split.json`, and the clearances of its
+/// refinement's fill tiers (`None` when it did not refine).
+fn tile_probes(
+    dir: &Path,
+    index: &SplitIndex,
+    entry: &TileEntry,
+) -> Result<(Vec<DVec3>, Option<Vec<f32>>)> {
     let out = dir.join(&entry.output);
     let rerun = format!(
         "rerun it (probeplace place {}) and merge again",
@@ -433,7 +490,7 @@ fn tile_probes(dir: &Path, index: &SplitIndex, entry: &TileEntry) -> Result<Vec<
             "its probes.json comes from another run than its report.json".into(),
         ));
     }
-    probes["probes"]
+    let positions = probes["probes"]
         .as_array()
         .ok_or_else(|| refuse("its probes.json lists no probes".into()))?
         .iter()
@@ -446,7 +503,20 @@ fn tile_probes(dir: &Path, index: &SplitIndex, entry: &TileEntry) -> Result<Vec<
                 )),
             }
         })
-        .collect()
+        .collect::<Result<Vec<DVec3>>>()?;
+    let tiers = report["refine"]["clearance_tiers"]
+        .as_array()
+        .and_then(|a| {
+            a.iter()
+                .map(|c| {
+                    c.as_f64()
+                        .filter(|c| c.is_finite() && *c >= 0.0)
+                        .map(|c| c as f32)
+                })
+                .collect::<Option<Vec<f32>>>()
+                .filter(|t| !t.is_empty())
+        });
+    Ok((positions, tiers))
 }
 
 /// One tile, prepared again as its run prepared it: the same config, hence
@@ -496,6 +566,35 @@ impl Tile {
             prepared,
             reference,
         })
+    }
+
+    /// The positions the tile's core offers the merge, each with its fill
+    /// tier: the reference points of its coverage measure (the viewers it
+    /// found every coverable sample from, [`CoverageReference::references`])
+    /// that its core owns, outside its `exclude` boxes, in the first of
+    /// the clearance `tiers` of its run's refinement at which a probe may
+    /// stand there ([`crate::refine::may_stand`]); in world coordinates, in
+    /// the reference's order.
+    ///
+    /// These are refinement's fill candidates: a one-machine placement ends
+    /// with mostly such positions (on Dabrovic Sponza 49 of its 51 probes
+    /// were added by filling), while a tile's probes were chosen for its
+    /// core alone.
+    fn offers(&self, grid: &TileGrid, tile: u32, tiers: &[f32]) -> Vec<(DVec3, u8)> {
+        let prepared = &self.prepared;
+        let controls = Controls::new(&self.config, &prepared.scene);
+        self.reference
+            .references
+            .iter()
+            .filter(|&&p| !controls.excluded(p))
+            .filter_map(|&p| {
+                let tier = tiers.iter().position(|&c| {
+                    crate::refine::may_stand(&prepared.sdf, &prepared.domain, c, p)
+                })?;
+                let w = prepared.scene.to_world(p);
+                (grid.owner(w) == tile).then_some((w, tier.min(u8::MAX as usize) as u8))
+            })
+            .collect()
     }
 
     /// The coverable samples of the tile's reference that its core owns.
@@ -551,25 +650,69 @@ fn tile_error(entry: &TileEntry, e: Error) -> Error {
     }
 }
 
-/// Greedy partial set cover: which probes to keep so that at least `need`
-/// of the lists name a kept one (every list names some probe). While
-/// fewer do, the probe named by the most lists no kept probe is named by is
-/// kept (ties: the lower index); then, in the reverse order of choice, a
-/// kept probe is dropped again while the lists it alone covers can be
-/// spared (the greedy's late picks can make an early one redundant).
-/// Stopping at `need` is refinement's rule: filling stops at the coverage
-/// target, not at the last hard-to-see sample.
-fn cover(probes: usize, lists: &[Vec<u32>], need: usize) -> Vec<bool> {
+/// Partial set cover: which probes to keep so that at least `need` of the
+/// lists name a kept one (every list names some probe).
+///
+/// 1. **Greedy**: while fewer are covered, keep the probe named by the
+///    most lists no kept probe is named by (ties: the lower index).
+/// 2. **Prune** (refinement's reverse greedy, [`crate::refine::prune`]):
+///    while some kept probe can go, drop the one that alone covers the
+///    fewest lists (ties: the one named by fewest; then the higher index).
+///    A probe can go when the covered lists stay at `need` or more.
+/// 3. **Swap two for one**: while some pair of kept probes can be
+///    replaced by one other probe with `need` still met, replace the first
+///    such pair (in index order) by the probe that covers the most of what
+///    only the pair covered (ties: the lower index), and prune again.
+///
+/// Greedy alone is a logarithmic approximation; on the union of
+/// Dabrovic Sponza's four tiles it kept 63 probes where an exact integer
+/// program over the same lists needs 60, and with the offered positions
+/// the swaps close most of the rest (docs/tiles.md). Stopping at `need` is
+/// refinement's rule: filling stops at the coverage target, not at the last
+/// hard-to-see sample. Deterministic: the swaps are searched in parallel,
+/// but the first pair in order is the one taken.
+fn cover(probes: usize, lists: &[Vec<u32>], tier: &[u8], need: usize) -> Vec<bool> {
+    let index = |lists: &[Vec<u32>]| {
+        let mut by_probe: Vec<Vec<u32>> = vec![Vec::new(); probes];
+        for (l, list) in lists.iter().enumerate() {
+            for &k in list {
+                by_probe[k as usize].push(l as u32);
+            }
+        }
+        by_probe
+    };
+    let tiered: Vec<Vec<u32>> = lists
+        .iter()
+        .map(|list| {
+            let first = list.iter().map(|&k| tier[k as usize]).min().unwrap_or(0);
+            list.iter()
+                .copied()
+                .filter(|&k| tier[k as usize] == first)
+                .collect()
+        })
+        .collect();
+    let mut kept = greedy_cover(probes, &tiered, &index(&tiered), need);
+    let by_probe = index(lists);
+    prune_cover(&mut kept, lists, &by_probe, need);
+    while let Some((a, b, c)) = swap_two_for_one(&kept, lists, &by_probe, need) {
+        kept[a] = false;
+        kept[b] = false;
+        kept[c] = true;
+        prune_cover(&mut kept, lists, &by_probe, need);
+    }
+    kept
+}
+
+/// Step 1 of [`cover`].
+fn greedy_cover(
+    probes: usize,
+    lists: &[Vec<u32>],
+    by_probe: &[Vec<u32>],
+    need: usize,
+) -> Vec<bool> {
     let mut kept = vec![false; probes];
     let mut open: Vec<bool> = vec![true; lists.len()];
-    let mut by_probe: Vec<Vec<usize>> = vec![Vec::new(); probes];
-    for (l, list) in lists.iter().enumerate() {
-        for &k in list {
-            by_probe[k as usize].push(l);
-        }
-    }
     let mut gain: Vec<usize> = by_probe.iter().map(Vec::len).collect();
-    let mut chosen = Vec::new();
     let mut covered = 0;
     while covered < need {
         let best = (0..probes)
@@ -577,31 +720,126 @@ fn cover(probes: usize, lists: &[Vec<u32>], need: usize) -> Vec<bool> {
             .max_by(|&a, &b| gain[a].cmp(&gain[b]).then(b.cmp(&a)));
         let Some(k) = best else { break };
         kept[k] = true;
-        chosen.push(k);
         for &l in &by_probe[k] {
-            if std::mem::replace(&mut open[l], false) {
+            if std::mem::replace(&mut open[l as usize], false) {
                 covered += 1;
-                for &other in &lists[l] {
+                for &other in &lists[l as usize] {
                     gain[other as usize] -= 1;
                 }
             }
         }
     }
-    let mut views: Vec<u32> = lists
+    kept
+}
+
+/// How many kept probes each list names, and how many lists are covered.
+fn kept_views(kept: &[bool], lists: &[Vec<u32>]) -> (Vec<u32>, usize) {
+    let views: Vec<u32> = lists
         .iter()
         .map(|l| l.iter().filter(|&&k| kept[k as usize]).count() as u32)
         .collect();
-    for &k in chosen.iter().rev() {
-        let alone = by_probe[k].iter().filter(|&&l| views[l] == 1).count();
-        if covered - alone >= need {
-            kept[k] = false;
-            covered -= alone;
-            for &l in &by_probe[k] {
-                views[l] -= 1;
+    let covered = views.iter().filter(|&&v| v > 0).count();
+    (views, covered)
+}
+
+/// Step 2 of [`cover`].
+fn prune_cover(kept: &mut [bool], lists: &[Vec<u32>], by_probe: &[Vec<u32>], need: usize) {
+    let (mut views, mut covered) = kept_views(kept, lists);
+    loop {
+        let alone = |k: usize| {
+            by_probe[k]
+                .iter()
+                .filter(|&&l| views[l as usize] == 1)
+                .count()
+        };
+        let drop = (0..kept.len())
+            .filter(|&k| kept[k])
+            .map(|k| (alone(k), by_probe[k].len(), std::cmp::Reverse(k)))
+            .filter(|&(a, _, _)| covered - a >= need)
+            .min();
+        let Some((a, _, std::cmp::Reverse(k))) = drop else {
+            return;
+        };
+        kept[k] = false;
+        covered -= a;
+        for &l in &by_probe[k] {
+            views[l as usize] -= 1;
+        }
+    }
+}
+
+/// Step 3 of [`cover`]: the first pair `(a, b)` of kept probes and the
+/// probe `c` to keep instead, if any.
+fn swap_two_for_one(
+    kept: &[bool],
+    lists: &[Vec<u32>],
+    by_probe: &[Vec<u32>],
+    need: usize,
+) -> Option<(usize, usize, usize)> {
+    let (views, covered) = kept_views(kept, lists);
+    let slack = covered.saturating_sub(need);
+    let ids: Vec<usize> = (0..kept.len()).filter(|&k| kept[k]).collect();
+    // The lists only `a`, or only `a` and `b`, cover: what a swap must
+    // cover again (less the slack).
+    let alone: Vec<Vec<u32>> = ids
+        .iter()
+        .map(|&a| {
+            by_probe[a]
+                .iter()
+                .copied()
+                .filter(|&l| views[l as usize] == 1)
+                .collect()
+        })
+        .collect();
+    let mut shared: BTreeMap<(usize, usize), Vec<u32>> = BTreeMap::new();
+    for (l, list) in lists.iter().enumerate() {
+        if views[l] == 2 {
+            let mut two = list.iter().map(|&k| k as usize).filter(|&k| kept[k]);
+            if let (Some(a), Some(b)) = (two.next(), two.next()) {
+                shared.entry((a, b)).or_default().push(l as u32);
             }
         }
     }
-    kept
+    let pairs: Vec<(usize, usize)> = (0..ids.len())
+        .flat_map(|i| (i + 1..ids.len()).map(move |j| (i, j)))
+        .collect();
+    let sees = |c: usize, l: u32| by_probe[c].binary_search(&l).is_ok();
+    pairs.par_iter().find_map_first(|&(i, j)| {
+        let (a, b) = (ids[i], ids[j]);
+        let mut must: Vec<u32> = alone[i].iter().chain(&alone[j]).copied().collect();
+        if let Some(both) = shared.get(&(a, b)) {
+            must.extend(both);
+        }
+        if must.len() <= slack {
+            // Prune would already have dropped one of them.
+            return None;
+        }
+        // A replacement misses at most `slack` of `must`, so it sees one
+        // of the first `slack + 1`.
+        let mut options: Vec<usize> = must[..=slack]
+            .iter()
+            .flat_map(|&l| lists[l as usize].iter().map(|&k| k as usize))
+            .filter(|&k| !kept[k])
+            .collect();
+        options.sort_unstable();
+        options.dedup();
+        options
+            .into_iter()
+            .filter_map(|c| {
+                let mut missed = 0;
+                for &l in &must {
+                    if !sees(c, l) {
+                        missed += 1;
+                        if missed > slack {
+                            return None;
+                        }
+                    }
+                }
+                Some((missed, c))
+            })
+            .min()
+            .map(|(_, c)| (a, b, c))
+    })
 }
 
 #[cfg(test)]
@@ -613,12 +851,62 @@ mod tests {
         // Probe 2 sees three samples, 3 one of them and one more, 1 a
         // sample 2 sees, 0 and 4 nothing listed.
         let lists = vec![vec![1, 2], vec![2], vec![2, 3], vec![3]];
-        assert_eq!(cover(5, &lists, 4), [false, false, true, true, false]);
+        assert_eq!(
+            cover(5, &lists, &[0; 5], 4),
+            [false, false, true, true, false]
+        );
         // Three of the four lists are enough with 2 alone.
-        assert_eq!(cover(5, &lists, 3), [false, false, true, false, false]);
+        assert_eq!(
+            cover(5, &lists, &[0; 5], 3),
+            [false, false, true, false, false]
+        );
         // 0 sees three samples and is taken first; 2 then covers the last.
         let lists = vec![vec![0, 1], vec![0, 1], vec![0, 2], vec![2]];
-        assert_eq!(cover(3, &lists, 4), [true, false, true]);
-        assert_eq!(cover(2, &[], 0), [false, false]);
+        assert_eq!(cover(3, &lists, &[0; 3], 4), [true, false, true]);
+        assert_eq!(cover(2, &[], &[0; 5], 0), [false, false]);
+    }
+
+    #[test]
+    fn two_kept_probes_give_way_to_one_that_sees_what_they_alone_saw() {
+        // Greedy takes 1 (four lists), then 0 and 3; each then sees a list
+        // no other kept probe sees, so pruning keeps all three. 2 sees
+        // everything only 0 and 1 see, and 2 with 3 see every list.
+        let lists = vec![
+            vec![0, 1, 2],
+            vec![1, 3, 4],
+            vec![3],
+            vec![0, 1, 2],
+            vec![0, 2, 4],
+            vec![3, 4],
+            vec![1, 2, 4],
+        ];
+        let by_probe = |lists: &[Vec<u32>]| {
+            let mut b = vec![Vec::new(); 5];
+            for (l, list) in lists.iter().enumerate() {
+                for &k in list {
+                    b[k as usize].push(l as u32);
+                }
+            }
+            b
+        };
+        let by = by_probe(&lists);
+        let mut kept = greedy_cover(5, &lists, &by, 7);
+        prune_cover(&mut kept, &lists, &by, 7);
+        assert_eq!(kept, [true, true, false, true, false]);
+        assert_eq!(swap_two_for_one(&kept, &lists, &by, 7), Some((0, 1, 2)));
+        assert_eq!(
+            cover(5, &lists, &[0; 5], 7),
+            [false, false, true, true, false]
+        );
+        // A lower tier serves greedy only where no higher one sees: with
+        // 2 and 3 in tier 1, greedy starts from 1 and 4, and the swaps
+        // still end at two probes.
+        assert_eq!(
+            cover(5, &lists, &[0, 0, 1, 1, 0], 7)
+                .iter()
+                .filter(|&&k| k)
+                .count(),
+            2
+        );
     }
 }
