@@ -115,6 +115,18 @@ impl Sampler {
     }
 }
 
+/// A point of the cube [-1, 1]³ from the hash `h`, for tests that need
+/// reproducible random points.
+#[cfg(test)]
+pub(crate) fn cube_point(h: u64) -> glam::Vec3 {
+    glam::Vec3::new(
+        unit_f32(hash2(h, 1)),
+        unit_f32(hash2(h, 2)),
+        unit_f32(hash2(h, 3)),
+    ) * 2.0
+        - 1.0
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -343,7 +343,7 @@ pub struct Blocker(Option<u32>);
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sampling::{hash2, unit_f32};
+    use crate::sampling::{cube_point, hash2, unit_f32};
     use crate::scene::Material;
 
     fn floor_and_ceiling() -> Scene {
@@ -383,23 +383,13 @@ mod tests {
         Vec3::new(r * phi.cos(), r * phi.sin(), z)
     }
 
-    /// A uniformly random point of the cube [-1, 1]³.
-    fn rand_point(h: u64) -> Vec3 {
-        Vec3::new(
-            rand_unit(hash2(h, 1)),
-            rand_unit(hash2(h, 2)),
-            rand_unit(hash2(h, 3)),
-        ) * 2.0
-            - 1.0
-    }
-
     /// `n` random triangles (seeded by `seed`) with centres in [-1, 1]³
     /// and vertices `size` from them.
     fn soup(seed: u64, n: u64, size: f32) -> Vec<[Vec3; 3]> {
         (0..n)
             .map(|i| {
                 let h = hash2(seed, i);
-                let c = rand_point(h);
+                let c = cube_point(h);
                 [0, 1, 2].map(|k| c + rand_dir(hash2(h, 10 + k)) * size)
             })
             .collect()
@@ -904,7 +894,7 @@ mod tests {
         let (mut tried, mut blocked, mut remembered) = (0, 0, 0);
         for i in 0..4000u64 {
             let h = hash2(32, i);
-            let a = if i < 2000 { hidden } else { rand_point(h) };
+            let a = if i < 2000 { hidden } else { cube_point(h) };
             let b = a + rand_dir(hash2(h, 4)) * (0.1 + 3.0 * rand_unit(hash2(h, 5)));
             let before = blocker;
             let answer = bvh.occluded_from(a, b, 1e-4, &mut blocker);

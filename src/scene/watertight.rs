@@ -186,16 +186,11 @@ impl WatertightRay {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sampling::{hash2, unit_f32};
+    use crate::sampling::{cube_point, hash2, unit_f32};
     use obvhs::{ray::Ray, triangle::Triangle};
 
     fn rand3(h: u64) -> Vec3A {
-        Vec3A::new(
-            unit_f32(hash2(h, 1)),
-            unit_f32(hash2(h, 2)),
-            unit_f32(hash2(h, 3)),
-        ) * 2.0
-            - 1.0
+        cube_point(h).into()
     }
 
     fn tri(v: [Vec3A; 3]) -> WatertightTriangle {
