@@ -83,6 +83,7 @@ pub mod placement;
 pub mod probes;
 pub mod progress;
 pub mod provenance;
+pub mod raster;
 pub mod refine;
 pub mod render;
 pub(crate) mod report;

@@ -19,9 +19,9 @@
 //! is what lets a probe's ray hits land in the atlas (Fig. 4, right).
 
 use crate::error::{Error, Result};
+use crate::raster::RgbImage;
 use crate::scene::Scene;
 use glam::Vec3;
-use image::RgbImage;
 
 /// Most texels an atlas may have (about 400 MB of accumulators at the limit).
 pub const MAX_TEXELS: u64 = 20_000_000;
@@ -170,9 +170,9 @@ impl Atlas {
     pub fn paint(&self, layout: &Layout, color: impl Fn(u32) -> [u8; 3] + Sync) -> RgbImage {
         use rayon::prelude::*;
         let width = layout.width as usize;
-        let mut img = RgbImage::from_pixel(layout.width, layout.height, image::Rgb(BACKGROUND));
+        let mut img = RgbImage::from_pixel(layout.width, layout.height, BACKGROUND);
         let mut bands: Vec<(&Shelf, &mut [u8])> = Vec::with_capacity(layout.shelves.len());
-        let mut rest: &mut [u8] = &mut img;
+        let mut rest: &mut [u8] = img.as_raw_mut();
         for shelf in &layout.shelves {
             let (band, tail) =
                 std::mem::take(&mut rest).split_at_mut(shelf.height as usize * width * 3);
@@ -347,8 +347,8 @@ mod tests {
         let img = atlas.render(200_000, |t| [(t % 251) as u8, (t / 251 % 251) as u8, 255]);
         let mut seen = vec![false; atlas.len()];
         for p in img.pixels() {
-            if p.0[2] == 255 {
-                seen[p.0[0] as usize + 251 * p.0[1] as usize] = true;
+            if p[2] == 255 {
+                seen[p[0] as usize + 251 * p[1] as usize] = true;
             }
         }
         assert!(

@@ -34,6 +34,7 @@ use crate::coverage::{CoverageReference, REFERENCE_MIN_CLEARANCE_VOXELS};
 use crate::error::Result;
 use crate::placement::controls::Controls;
 use crate::placement::{PlacementInput, Probe, ProbeSet};
+use crate::raster::RgbImage;
 use crate::sampling::hash2;
 use crate::scene::Bounds;
 use crate::sdf::{Sdf, VoxelClass};
@@ -41,7 +42,6 @@ use atlas::Atlas;
 use fitness::AtlasState;
 use gibbs::SweepStats;
 use glam::Vec3;
-use image::RgbImage;
 use prune::{CoverMatrix, FillPrune, Rules};
 use serde::Serialize;
 use std::collections::BTreeMap;
@@ -552,9 +552,9 @@ fn side_by_side(a: &RgbImage, b: &RgbImage) -> RgbImage {
     let mut img = RgbImage::from_pixel(
         a.width() + gap + b.width(),
         a.height().max(b.height()),
-        image::Rgb([0, 0, 0]),
+        [0, 0, 0],
     );
-    image::imageops::replace(&mut img, a, 0, 0);
-    image::imageops::replace(&mut img, b, (a.width() + gap) as i64, 0);
+    img.replace(a, 0, 0);
+    img.replace(b, a.width() + gap, 0);
     img
 }

@@ -15,6 +15,7 @@
 //! counts a comparison affords, the unfiltered images differ mostly by
 //! Monte Carlo noise that every placement shares.
 
+use crate::raster::RgbImage;
 use nv_flip::{FlipImageRgb8, DEFAULT_PIXELS_PER_DEGREE};
 
 /// Pixels per degree of visual angle: ꟻLIP's default, a 0.7 m wide 4K
@@ -44,10 +45,10 @@ pub fn flip(reference: &[u8], test: &[u8], width: u32, height: u32) -> Vec<f32> 
 /// `errors` (from [`flip`]) through ꟻLIP's magma colour map, as an image.
 ///
 /// Contract: `errors.len() == width · height`.
-pub fn error_map(errors: &[f32], width: u32, height: u32) -> image::RgbImage {
+pub fn error_map(errors: &[f32], width: u32, height: u32) -> RgbImage {
     let image = nv_flip::FlipImageFloat::with_data(width, height, errors);
     let bytes = image.apply_color_lut(&nv_flip::magma_lut()).to_vec();
-    image::RgbImage::from_raw(width, height, bytes).expect("3 bytes per pixel")
+    RgbImage::from_raw(width, height, bytes).expect("3 bytes per pixel")
 }
 
 #[cfg(test)]

@@ -27,6 +27,7 @@ use super::lights::luminance;
 use super::Camera;
 use crate::config::CameraParams;
 use crate::gpu::{kind, Query, Record};
+use crate::raster::RgbImage;
 use crate::sampling::Sampler;
 use crate::scene::Bounds;
 use glam::Vec3;
@@ -243,8 +244,8 @@ pub fn error_heat_map(
     width: u32,
     height: u32,
     scale: f32,
-) -> image::RgbImage {
-    let mut img = image::RgbImage::new(width, height);
+) -> RgbImage {
+    let mut img = RgbImage::new(width, height);
     for (i, px) in img.pixels_mut().enumerate() {
         let d = luminance(Vec3::from(a[i]) - Vec3::from(b[i])).abs();
         let x = if scale > 0.0 {
@@ -253,7 +254,7 @@ pub fn error_heat_map(
             0.0
         };
         let ramp = |lo: f32| ((x - lo) * 3.0).clamp(0.0, 1.0);
-        px.0 = [ramp(0.0), ramp(1.0 / 3.0), ramp(2.0 / 3.0)].map(|v| (v * 255.0).round() as u8);
+        *px = [ramp(0.0), ramp(1.0 / 3.0), ramp(2.0 / 3.0)].map(|v| (v * 255.0).round() as u8);
     }
     img
 }
@@ -275,12 +276,12 @@ mod tests {
         let a = [[0.0; 3], [0.5; 3], [4.0; 3]];
         let b = [[0.0; 3]; 3];
         let img = error_heat_map(&a, &b, 3, 1, 1.0);
-        assert_eq!(img.get_pixel(0, 0).0, [0, 0, 0]);
-        let mid = img.get_pixel(1, 0).0;
+        assert_eq!(img.get_pixel(0, 0), [0, 0, 0]);
+        let mid = img.get_pixel(1, 0);
         assert!(
             mid[0] == 255 && mid[1] > 0 && mid[1] < 255 && mid[2] == 0,
             "{mid:?}"
         );
-        assert_eq!(img.get_pixel(2, 0).0, [255, 255, 255]);
+        assert_eq!(img.get_pixel(2, 0), [255, 255, 255]);
     }
 }

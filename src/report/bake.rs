@@ -3,8 +3,8 @@
 
 use crate::lightfield::maps::decode_normal;
 use crate::lightfield::LightField;
+use crate::raster::RgbImage;
 use crate::trace::check::Agreement;
-use image::{Rgb, RgbImage};
 use serde::Serialize;
 use std::collections::BTreeMap;
 
@@ -98,10 +98,10 @@ pub fn distance_preview(field: &LightField) -> RgbImage {
     RgbImage::from_fn(w, h, |x, y| {
         let v = px[(y * w + x) as usize];
         if v[0] < 0.0 {
-            Rgb([40, 60, 160])
+            [40, 60, 160]
         } else {
             let g = (255.0 * v[0].sqrt()) as u8;
-            Rgb([g, g, g])
+            [g, g, g]
         }
     })
 }
@@ -117,6 +117,6 @@ pub fn normal_preview(field: &LightField) -> RgbImage {
     });
     RgbImage::from_fn(w, h, |x, y| {
         let v = px[(y * w + x) as usize];
-        Rgb(v.map(|c| (127.5 * (c + 1.0)).clamp(0.0, 255.0) as u8))
+        v.map(|c| (127.5 * (c + 1.0)).clamp(0.0, 255.0) as u8)
     })
 }

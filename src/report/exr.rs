@@ -11,7 +11,7 @@
 //! attributes ended by a null byte, the table of block offsets, the blocks.
 //! Write the bytes with [`super::write_atomic`].
 
-use image::RgbImage;
+use crate::raster::RgbImage;
 
 /// The OpenEXR magic number, 20000630.
 const MAGIC: u32 = 20_000_630;
@@ -181,7 +181,7 @@ pub fn tonemap(pixels: &[[f32; 3]], width: u32, height: u32, exposure: f32) -> R
     );
     let mut img = RgbImage::new(width, height);
     for (out, p) in img.pixels_mut().zip(pixels) {
-        out.0 = p.map(|c| srgb_byte(c * exposure));
+        *out = p.map(|c| srgb_byte(c * exposure));
     }
     img
 }
@@ -289,11 +289,11 @@ mod tests {
     fn tonemap_applies_exposure_and_srgb() {
         let px = [[0.0, 0.5, 1.0], [0.22, 2.0, f32::NAN]];
         let img = tonemap(&px, 2, 1, 1.0);
-        assert_eq!(img.get_pixel(0, 0).0, [0, 188, 255]);
+        assert_eq!(img.get_pixel(0, 0), [0, 188, 255]);
         // sRGB(0.22) ≈ 0.506; over-range clamps; NaN is black.
-        assert_eq!(img.get_pixel(1, 0).0, [129, 255, 0]);
+        assert_eq!(img.get_pixel(1, 0), [129, 255, 0]);
         let darker = tonemap(&px, 2, 1, 0.5);
-        assert_eq!(darker.get_pixel(0, 0).0[2], 188);
-        assert_eq!(darker.get_pixel(1, 0).0[1], 255);
+        assert_eq!(darker.get_pixel(0, 0)[2], 188);
+        assert_eq!(darker.get_pixel(1, 0)[1], 255);
     }
 }

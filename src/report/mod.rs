@@ -26,6 +26,7 @@ use crate::coverage::Coverage;
 use crate::error::{Error, Result};
 use crate::placement::ProbeSet;
 use crate::provenance::Provenance;
+use crate::raster::RgbImage;
 use crate::refine::RefineReport;
 use crate::scene::{world_to_file, Bounds, Scene};
 use crate::sdf::{Sdf, VoxelClass};
@@ -380,7 +381,7 @@ pub fn placement_views(
     probes: &[glam::Vec3],
     holes: &[glam::Vec3],
     view_size: u32,
-) -> image::RgbImage {
+) -> RgbImage {
     let colors: Vec<[f32; 3]> = scene
         .material_ids
         .iter()
@@ -400,14 +401,22 @@ pub fn placement_views(
 }
 
 /// PNG bytes of `image`, which will be written as `name`.
-pub fn encode_png(image: &image::RgbImage, name: &str) -> Result<Vec<u8>> {
+///
+/// An 8-bit RGB PNG, encoded by the `png` crate with fast compression and
+/// adaptive filtering: the settings of the `image` crate's PNG encoder,
+/// which wrote these files before, so the bytes are the same.
+pub fn encode_png(image: &RgbImage, name: &str) -> Result<Vec<u8>> {
+    let fail = |e: png::EncodingError| Error::Internal(format!("encoding {name}: {e}"));
     let mut bytes = Vec::new();
-    image
-        .write_to(
-            &mut std::io::Cursor::new(&mut bytes),
-            image::ImageFormat::Png,
-        )
-        .map_err(|e| Error::Internal(format!("encoding {name}: {e}")))?;
+    let mut encoder = png::Encoder::new(&mut bytes, image.width(), image.height());
+    encoder.set_color(png::ColorType::Rgb);
+    encoder.set_depth(png::BitDepth::Eight);
+    // In this order: `set_compression` also sets a filter.
+    encoder.set_compression(png::Compression::Fast);
+    encoder.set_filter(png::Filter::Adaptive);
+    let mut writer = encoder.write_header().map_err(fail)?;
+    writer.write_image_data(image.as_raw()).map_err(fail)?;
+    writer.finish().map_err(fail)?;
     Ok(bytes)
 }
 

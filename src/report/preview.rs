@@ -43,8 +43,8 @@
 //! Shading is flat per triangle with no lighting beyond a view-facing term,
 //! and there is no anti-aliasing.
 
+use crate::raster::RgbImage;
 use glam::{DVec3, Vec3};
-use image::RgbImage;
 
 /// What to draw.
 pub struct PreviewInput<'a> {
@@ -89,7 +89,7 @@ const MISSING_COLOR: [f32; 3] = [0.5, 0.5, 0.5];
 pub fn render_preview(input: &PreviewInput, view_size: u32) -> RgbImage {
     let gap = (view_size / 32).max(4);
     let width = view_size.saturating_mul(2).saturating_add(gap);
-    let mut img = RgbImage::from_pixel(width, view_size, image::Rgb(GAP_COLOR));
+    let mut img = RgbImage::from_pixel(width, view_size, GAP_COLOR);
     if view_size == 0 {
         return img;
     }
@@ -98,7 +98,7 @@ pub fn render_preview(input: &PreviewInput, view_size: u32) -> RgbImage {
     let size = view_size as usize;
     let stride = width as usize * 3;
     let mut zbuf = vec![f32::NEG_INFINITY; size * size];
-    let buf: &mut [u8] = &mut img;
+    let buf = img.as_raw_mut();
 
     let side = side_view(input);
     for (view, x0) in [(View::Top, 0), (side, size + gap as usize)] {
@@ -633,7 +633,7 @@ mod tests {
     }
 
     fn px(img: &RgbImage, x: u32, y: u32) -> [u8; 3] {
-        img.get_pixel(x, y).0
+        img.get_pixel(x, y)
     }
 
     /// Which channels are lit: compares colours independently of shading.

@@ -19,7 +19,7 @@ pub struct Placed {
     /// The probes.
     pub probes: ProbeSet,
     /// Refinement's report and its atlas image; `None` when it was off.
-    pub refined: Option<(RefineReport, image::RgbImage)>,
+    pub refined: Option<(RefineReport, crate::raster::RgbImage)>,
     /// Their coverage by the run's reference.
     pub coverage: Coverage,
     /// The coverable samples no probe sees.

@@ -9,6 +9,7 @@ use crate::config::{CameraParams, Config};
 use crate::error::{Error, Result};
 use crate::gpu::{kind, twin, Context, ProbeTracer, Record, SelectionKind};
 use crate::lightfield::LightField;
+use crate::raster::RgbImage;
 use crate::render::flip;
 use crate::render::lights::luminance;
 use crate::render::probes::{
@@ -166,7 +167,7 @@ impl View {
     }
 
     /// The glossy error heat map of `glossy` against the reference.
-    pub fn heat_map(&self, glossy: &[[f32; 3]]) -> image::RgbImage {
+    pub fn heat_map(&self, glossy: &[[f32; 3]]) -> RgbImage {
         let r = &self.reference;
         error_heat_map(
             glossy,

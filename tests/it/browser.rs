@@ -137,11 +137,11 @@ pub fn load(chromium: &Path, page: &Path) -> Loaded {
 }
 
 /// A screenshot of `page` in [`WINDOW`].
-pub fn screenshot(chromium: &Path, page: &Path) -> image::RgbImage {
+pub fn screenshot(chromium: &Path, page: &Path) -> probeplace::raster::RgbImage {
     let dir = tempfile::tempdir().unwrap();
     let png = dir.path().join("shot.png");
     run(chromium, page, &format!("--screenshot={}", png.display()));
-    image::open(&png).expect("a screenshot").to_rgb8()
+    crate::common::read_png(&png)
 }
 
 /// `html` without its `#timings` section: what differs between two runs of

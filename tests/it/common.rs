@@ -163,6 +163,50 @@ pub fn read_json(p: &Path) -> serde_json::Value {
     serde_json::from_slice(&std::fs::read(p).unwrap()).unwrap()
 }
 
+/// The PNG at `p` as 8-bit RGB, decoded with the `png` crate whatever its
+/// colour type: palettes and depths below 8 expanded, 16-bit samples cut to
+/// their high byte, alpha dropped and grey repeated (what the `image`
+/// crate's `open(p)?.to_rgb8()`, which the tests used, gave for the 8-bit
+/// PNGs they read).
+pub fn read_png(p: &Path) -> probeplace::raster::RgbImage {
+    let file = std::fs::File::open(p).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
+    let mut decoder = png::Decoder::new(std::io::BufReader::new(file));
+    decoder.set_transformations(png::Transformations::normalize_to_color8());
+    let mut reader = decoder
+        .read_info()
+        .unwrap_or_else(|e| panic!("{}: {e}", p.display()));
+    let mut buf = vec![
+        0;
+        reader
+            .output_buffer_size()
+            .expect("a PNG that fits in memory")
+    ];
+    let frame = reader
+        .next_frame(&mut buf)
+        .unwrap_or_else(|e| panic!("{}: {e}", p.display()));
+    buf.truncate(frame.buffer_size());
+    let (color, depth) = reader.output_color_type();
+    assert_eq!(depth, png::BitDepth::Eight, "{}", p.display());
+    let rgb = match color {
+        png::ColorType::Rgb => buf,
+        png::ColorType::Rgba => buf
+            .chunks_exact(4)
+            .flat_map(|c| [c[0], c[1], c[2]])
+            .collect(),
+        png::ColorType::Grayscale => buf.iter().flat_map(|&g| [g; 3]).collect(),
+        png::ColorType::GrayscaleAlpha => buf.chunks_exact(2).flat_map(|c| [c[0]; 3]).collect(),
+        png::ColorType::Indexed => unreachable!("EXPAND turns palettes into RGB"),
+    };
+    probeplace::raster::RgbImage::from_raw(frame.width, frame.height, rgb).unwrap_or_else(|| {
+        panic!(
+            "{}: not {}×{} pixels",
+            p.display(),
+            frame.width,
+            frame.height
+        )
+    })
+}
+
 /// The `svo` section of a report meets the bar on any scene: a
 /// tree, far smaller than the paper's dense texture, that lists a probe for
 /// every free cell.

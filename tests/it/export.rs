@@ -1,6 +1,7 @@
 //! Exports for other tools (`probeplace export`, the config's `export`
 //! list): the glTF binary checked by the Khronos validator and read back
-//! with the `gltf` crate, the Godot scene parsed, the Unity file checked
+//! by a GLB reader of our own (`read_back`, which checks the container as
+//! it reads), the Godot scene parsed, the Unity file checked
 //! against the importer's schema and the importer's fields against the
 //! schema, the DDGI volume reproducing the probes, and the refusals.
 
@@ -75,7 +76,7 @@ fn validate(script: &Path, files: &[&Path]) -> Vec<Value> {
     reports
 }
 
-/// What a `.glb` read back with the `gltf` crate holds.
+/// What a `.glb` read back holds.
 struct ReadBack {
     /// Translations of the nodes named `probe N`, by N.
     probes: Vec<[f32; 3]>,
@@ -85,28 +86,139 @@ struct ReadBack {
     scene_triangles: usize,
 }
 
+/// The little-endian `u32` at `at` of `bytes`.
+fn u32_at(bytes: &[u8], at: usize) -> usize {
+    u32::from_le_bytes(bytes[at..at + 4].try_into().unwrap()) as usize
+}
+
+/// A JSON number that must be a non-negative integer, as `usize`.
+fn index(v: &Value, what: &str) -> usize {
+    v.as_u64()
+        .unwrap_or_else(|| panic!("{what}: not an index: {v}")) as usize
+}
+
+/// Reads `glb` back, checking its container on the way (glTF 2.0, "GLB
+/// File Format Specification"): the 12-byte header (`glTF`, version 2, the
+/// file's length), a JSON chunk padded with spaces, then one BIN chunk
+/// padded with zeros, each chunk's length a multiple of 4, nothing after
+/// them, and buffer 0 (the BIN chunk, no `uri`) within the chunk. A
+/// node's translation is its `translation` ([0, 0, 0] without), or the
+/// last column of its `matrix`. A scene primitive is checked to be a list
+/// of triangles whose POSITION accessor (3 floats a vertex, tightly packed)
+/// lies within its buffer view and that within the buffer; it counts its
+/// vertices / 3 triangles, or its indices / 3 when indexed.
 fn read_back(glb: &Path) -> ReadBack {
-    let doc = gltf::Gltf::from_slice(&std::fs::read(glb).unwrap()).unwrap();
-    let blob = doc.blob.clone().expect("a GLB carries its buffer");
+    let bytes = std::fs::read(glb).unwrap();
+    let file = glb.display();
+    assert!(bytes.len() >= 20, "{file}: {} bytes", bytes.len());
+    assert_eq!(&bytes[..4], b"glTF", "{file}: magic");
+    assert_eq!(u32_at(&bytes, 4), 2, "{file}: GLB version");
+    assert_eq!(u32_at(&bytes, 8), bytes.len(), "{file}: header length");
+    // The chunks: (type, data), each length 4-aligned and within the file.
+    let mut chunks = Vec::new();
+    let mut at = 12;
+    while at < bytes.len() {
+        assert!(
+            at + 8 <= bytes.len(),
+            "{file}: chunk header at {at} cut off"
+        );
+        let len = u32_at(&bytes, at);
+        assert_eq!(len % 4, 0, "{file}: chunk at {at} is {len} bytes");
+        let end = at + 8 + len;
+        assert!(
+            end <= bytes.len(),
+            "{file}: chunk at {at} overruns the file"
+        );
+        chunks.push((&bytes[at + 4..at + 8], &bytes[at + 8..end]));
+        at = end;
+    }
+    assert_eq!(at, bytes.len(), "{file}: trailing bytes");
+    let types: Vec<&[u8]> = chunks.iter().map(|c| c.0).collect();
+    assert_eq!(types, [&b"JSON"[..], b"BIN\0"], "{file}: chunks");
+    let (text, bin) = (chunks[0].1, chunks[1].1);
+    let json_end = text.iter().rposition(|&b| b != b' ').map_or(0, |i| i + 1);
+    assert!(
+        text.len() - json_end < 4,
+        "{file}: JSON padded past 4 bytes"
+    );
+    let doc: Value = serde_json::from_slice(&text[..json_end]).unwrap();
+
+    let buffers = doc["buffers"].as_array().expect("buffers");
+    assert_eq!(buffers.len(), 1, "{file}: one buffer");
+    assert!(
+        buffers[0].get("uri").is_none(),
+        "{file}: buffer 0 is the BIN chunk"
+    );
+    let buffer_len = index(&buffers[0]["byteLength"], "buffer 0");
+    assert!(
+        buffer_len <= bin.len() && bin.len() - buffer_len < 4,
+        "{file}: buffer of {buffer_len} bytes in a BIN chunk of {}",
+        bin.len()
+    );
+    assert!(
+        bin[buffer_len..].iter().all(|&b| b == 0),
+        "{file}: BIN padding"
+    );
+    let accessor = |i: &Value| &doc["accessors"][index(i, "accessor")];
+    // Vertices of the POSITION accessor of `primitive`, checked to lie in
+    // the buffer.
+    let positions = |primitive: &Value| {
+        let a = accessor(&primitive["attributes"]["POSITION"]);
+        assert_eq!(a["type"], "VEC3", "{file}: {a}");
+        assert_eq!(a["componentType"], 5126, "{file}: FLOAT positions: {a}");
+        let count = index(&a["count"], "accessor count");
+        let view = &doc["bufferViews"][index(&a["bufferView"], "bufferView")];
+        assert_eq!(view["buffer"], 0, "{file}: {view}");
+        assert!(
+            view.get("byteStride").is_none_or(|s| s == 12),
+            "{file}: {view}"
+        );
+        let offset = a.get("byteOffset").map_or(0, |o| index(o, "byteOffset"));
+        let view_offset = view.get("byteOffset").map_or(0, |o| index(o, "byteOffset"));
+        let view_len = index(&view["byteLength"], "byteLength");
+        assert_eq!((offset % 4, view_offset % 4), (0, 0), "{file}: {a} {view}");
+        assert!(offset + 12 * count <= view_len, "{file}: {a} past {view}");
+        assert!(
+            view_offset + view_len <= buffer_len,
+            "{file}: {view} past the buffer"
+        );
+        count
+    };
+
     let mut probes = Vec::new();
     let mut extras = Vec::new();
     let mut scene_triangles = 0;
-    for node in doc.nodes() {
-        let name = node.name().unwrap_or("");
+    for node in doc["nodes"].as_array().expect("nodes") {
+        let name = node["name"].as_str().unwrap_or("");
         if let Some(n) = name.strip_prefix("probe ") {
             assert_eq!(
                 n.parse::<usize>().unwrap(),
                 probes.len(),
                 "{name} out of order"
             );
-            probes.push(node.transform().decomposed().0);
-            let raw = node.extras().as_ref().expect("probe extras");
-            extras.push(serde_json::from_str(raw.get()).unwrap());
+            let f = |v: &Value| v.as_f64().unwrap() as f32;
+            let translation = match (node.get("translation"), node.get("matrix")) {
+                (Some(t), None) => [f(&t[0]), f(&t[1]), f(&t[2])],
+                // Column-major: the translation is the last column.
+                (None, Some(m)) => [f(&m[12]), f(&m[13]), f(&m[14])],
+                (None, None) => [0.0; 3],
+                (Some(_), Some(_)) => panic!("{file}: {name} has a translation and a matrix"),
+            };
+            probes.push(translation);
+            extras.push(node.get("extras").expect("probe extras").clone());
         }
         if name == "scene" {
-            for p in node.mesh().unwrap().primitives() {
-                let reader = p.reader(|_| Some(&blob[..]));
-                scene_triangles += reader.read_positions().unwrap().count() / 3;
+            let mesh = &doc["meshes"][index(&node["mesh"], "mesh")];
+            for p in mesh["primitives"].as_array().expect("primitives") {
+                assert!(
+                    p.get("mode").is_none_or(|m| m == 4),
+                    "{file}: scene primitives are TRIANGLES: {p}"
+                );
+                let vertices = positions(p);
+                scene_triangles += match p.get("indices") {
+                    Some(i) => index(&accessor(i)["count"], "indices count"),
+                    None => vertices,
+                } / 3;
             }
         }
     }

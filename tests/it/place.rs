@@ -73,7 +73,7 @@ fn cornell_default_run_meets_the_acceptance_bar() {
         (w * 1000.0 - f).abs() < 1e-2 * f.abs().max(1.0),
         "{w} vs {f}"
     );
-    let png = image::open(out.path().join("placement.png")).unwrap();
+    let png = read_png(&out.path().join("placement.png"));
     assert_eq!(png.height(), 512);
     // Nothing else (no temporary files) is left behind.
     let mut names: Vec<String> = std::fs::read_dir(out.path())
@@ -92,10 +92,10 @@ fn cornell_default_run_meets_the_acceptance_bar() {
             "svo.bin"
         ]
     );
-    let atlas = image::open(out.path().join("atlas.png")).unwrap().to_rgb8();
+    let atlas = read_png(&out.path().join("atlas.png"));
     // Both colours of the paper's Fig. 5: seen texels and unseen ones.
-    let green = atlas.pixels().filter(|p| p.0 == [70, 180, 95]).count();
-    let red = atlas.pixels().filter(|p| p.0 == [225, 45, 40]).count();
+    let green = atlas.pixels().filter(|p| *p == [70, 180, 95]).count();
+    let red = atlas.pixels().filter(|p| *p == [225, 45, 40]).count();
     assert!(green > red && red > 0, "{green} seen, {red} unseen pixels");
 
     // --no-refine in the same directory: the placement alone, and no stale atlas.

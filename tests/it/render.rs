@@ -56,7 +56,7 @@ fn renders_both_variants(config: &str) {
             format!("render_{name}-glossy.png"),
             format!("error_{name}.png"),
         ] {
-            let img = image::open(dir.join(&file)).unwrap();
+            let img = read_png(&dir.join(&file));
             assert_eq!((img.width(), img.height()), (w, h), "{config}: {file}");
         }
         for file in [

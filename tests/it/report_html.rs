@@ -98,7 +98,7 @@ fn sponza_place_page_draws_in_headless_chromium() {
 /// The region `rect` (x, y, width, height) of `shot` is a picture: many
 /// colours, and a good share of it unlike its most common colour (the
 /// background).
-fn assert_drawn(shot: &image::RgbImage, rect: &[u32]) {
+fn assert_drawn(shot: &probeplace::raster::RgbImage, rect: &[u32]) {
     let (x0, y0) = (rect[0], rect[1]);
     let x1 = (x0 + rect[2]).min(shot.width());
     let y1 = (y0 + rect[3]).min(shot.height());
@@ -109,7 +109,7 @@ fn assert_drawn(shot: &image::RgbImage, rect: &[u32]) {
     let mut counts = std::collections::HashMap::new();
     for y in y0..y1 {
         for x in x0..x1 {
-            *counts.entry(shot.get_pixel(x, y).0).or_insert(0u64) += 1;
+            *counts.entry(shot.get_pixel(x, y)).or_insert(0u64) += 1;
         }
     }
     let total = ((x1 - x0) * (y1 - y0)) as u64;
