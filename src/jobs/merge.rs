@@ -208,14 +208,18 @@ pub fn merge(options: &MergeOptions) -> Result<Outcome> {
                 let s = &tile.reference.samples[i];
                 let mut blocker = Blocker::default();
                 // Every probe that sees the sample, in index order.
-                relevant
+                let mut list = relevant
                     .iter()
                     .filter(|&&(_, p)| {
                         tile.reference
                             .sees_from(&tile.prepared.bvh, p, s, &mut blocker)
                     })
                     .map(|&(k, _)| k as u32)
-                    .collect::<Vec<u32>>()
+                    .collect::<Vec<u32>>();
+                // Grown by doubling: hand back the spare half, which over
+                // millions of entries is most of the merge's memory.
+                list.shrink_to_fit();
+                list
             })
             .collect();
         let mut tally = TileTally {
@@ -702,27 +706,14 @@ fn tile_error(entry: &TileEntry, e: Error) -> Error {
 /// target, not at the last hard-to-see sample. Deterministic: the searches
 /// run in parallel, but each takes the best move by a total order.
 fn cover(probes: usize, lists: &[Vec<u32>], tier: &[u8], need: usize) -> Vec<bool> {
-    let index = |lists: &[Vec<u32>]| {
-        let mut by_probe: Vec<Vec<u32>> = vec![Vec::new(); probes];
-        for (l, list) in lists.iter().enumerate() {
-            for &k in list {
-                by_probe[k as usize].push(l as u32);
-            }
+    let mut by_probe: Vec<Vec<u32>> = vec![Vec::new(); probes];
+    for (l, list) in lists.iter().enumerate() {
+        for &k in list {
+            by_probe[k as usize].push(l as u32);
         }
-        by_probe
-    };
-    let tiered: Vec<Vec<u32>> = lists
-        .iter()
-        .map(|list| {
-            let first = list.iter().map(|&k| tier[k as usize]).min().unwrap_or(0);
-            list.iter()
-                .copied()
-                .filter(|&k| tier[k as usize] == first)
-                .collect()
-        })
-        .collect();
-    let mut kept = greedy_cover(probes, &tiered, &index(&tiered), need);
-    let by_probe = index(lists);
+    }
+    by_probe.iter_mut().for_each(Vec::shrink_to_fit);
+    let mut kept = greedy_cover(probes, lists, &by_probe, tier, need);
     prune_cover(&mut kept, lists, &by_probe, tier, need);
     while let Some((a, b, c)) = swap_two_for_one(&kept, lists, &by_probe, need) {
         kept[a] = false;
@@ -835,16 +826,26 @@ fn climb(
     }
 }
 
-/// Step 1 of [`cover`].
+/// Step 1 of [`cover`]: greedy with the tier rule, where a probe serves
+/// only the lists in which no probe of a higher tier (a lower number) is
+/// named.
 fn greedy_cover(
     probes: usize,
     lists: &[Vec<u32>],
     by_probe: &[Vec<u32>],
+    tier: &[u8],
     need: usize,
 ) -> Vec<bool> {
+    let first: Vec<u8> = lists
+        .iter()
+        .map(|list| list.iter().map(|&k| tier[k as usize]).min().unwrap_or(0))
+        .collect();
+    let serves = |k: usize, l: u32| tier[k] == first[l as usize];
     let mut kept = vec![false; probes];
     let mut open: Vec<bool> = vec![true; lists.len()];
-    let mut gain: Vec<usize> = by_probe.iter().map(Vec::len).collect();
+    let mut gain: Vec<usize> = (0..probes)
+        .map(|k| by_probe[k].iter().filter(|&&l| serves(k, l)).count())
+        .collect();
     let mut covered = 0;
     while covered < need {
         let best = (0..probes)
@@ -852,11 +853,13 @@ fn greedy_cover(
             .max_by(|&a, &b| gain[a].cmp(&gain[b]).then(b.cmp(&a)));
         let Some(k) = best else { break };
         kept[k] = true;
-        for &l in &by_probe[k] {
+        for &l in by_probe[k].iter().filter(|&&l| serves(k, l)) {
             if std::mem::replace(&mut open[l as usize], false) {
                 covered += 1;
                 for &other in &lists[l as usize] {
-                    gain[other as usize] -= 1;
+                    if serves(other as usize, l) {
+                        gain[other as usize] -= 1;
+                    }
                 }
             }
         }
@@ -1036,7 +1039,7 @@ mod tests {
             vec![3, 5],
         ];
         let by = by_probe(6, &lists);
-        let mut kept = greedy_cover(6, &lists, &by, 8);
+        let mut kept = greedy_cover(6, &lists, &by, &[0; 6], 8);
         prune_cover(&mut kept, &lists, &by, &[0; 6], 8);
         assert_eq!(kept, [true, true, false, false, false, true]);
         assert_eq!(swap_two_for_one(&kept, &lists, &by, 8), None);
@@ -1070,7 +1073,7 @@ mod tests {
             vec![1, 2, 4],
         ];
         let by = by_probe(5, &lists);
-        let mut kept = greedy_cover(5, &lists, &by, 7);
+        let mut kept = greedy_cover(5, &lists, &by, &[0; 5], 7);
         prune_cover(&mut kept, &lists, &by, &[0; 5], 7);
         assert_eq!(kept, [true, true, false, true, false]);
         assert_eq!(swap_two_for_one(&kept, &lists, &by, 7), Some((0, 1, 2)));
