@@ -20,7 +20,8 @@
 //!    overlaps of boxes are the report's `candidates`). [`cover`] keeps
 //!    the fewest that still reach the coverage target: the fill and
 //!    redundancy pruning of refinement (Wang et al. 2019 §1, "fewest
-//!    probes") over the whole world, with pairs swapped for one.
+//!    probes") over the whole world, then pairs swapped for one and a
+//!    local search for a smaller cover.
 //!    Coverage is what the kept probes see, summed over the cores.
 //! 4. **Index.** Tile by tile again, the SVO of the tile's box is baked
 //!    over the kept probes inside it and its leaves renumbered to the
@@ -77,8 +78,8 @@ struct WorldProbe {
     /// Whether the merge offered this position (a coverage reference point
     /// of its owner's core) rather than a tile placing a probe there.
     offered: bool,
-    /// The fill tier an offered position belongs to (the first of its
-    /// tile's clearances it keeps); 0 for a tile's probe.
+    /// The fill tier of the position: the first of its tile's clearances
+    /// it keeps ([`Tile::tier_of`] for a tile's own probe).
     tier: u8,
 }
 
@@ -732,25 +733,16 @@ fn cover(probes: usize, lists: &[Vec<u32>], tier: &[u8], need: usize) -> Vec<boo
 /// away: dropping a probe opens a hole that no other probe fills alone,
 /// yet moving one kept probe over to a position that sees that hole and
 /// most of what the moved probe saw leaves a smaller hole, and so on. So
-/// the probe that alone covers the fewest lists is dropped (in
-/// [`prune_cover`]'s order) and [`climb`] exchanges probes until `need`
+/// the probe that alone covers the fewest lists is dropped (the one
+/// [`weakest`] names) and [`climb`] exchanges probes until `need`
 /// holds again; when it cannot, the last cover that met `need` stands.
 /// On generated storeys-1's four tiles this took the merge from 35 probes
 /// to 29 (one machine keeps 30), where a cover bound by the tier rule
 /// needed at least 31 (its LP relaxation: 30.5; docs/tiles.md).
 fn shrink(kept: &mut [bool], lists: &[Vec<u32>], by_probe: &[Vec<u32>], tier: &[u8], need: usize) {
     loop {
-        let (views, _) = kept_views(kept, lists);
-        let alone = |k: usize| {
-            by_probe[k]
-                .iter()
-                .filter(|&&l| views[l as usize] == 1)
-                .count()
-        };
-        let Some(drop) = (0..kept.len()).filter(|&k| kept[k]).min_by_key(|&k| {
-            let t = std::cmp::Reverse(tier[k]);
-            (alone(k), t, by_probe[k].len(), std::cmp::Reverse(k))
-        }) else {
+        let (views, _) = kept_views(kept, by_probe, lists.len());
+        let Some((_, drop)) = weakest(kept, &views, by_probe, tier) else {
             return;
         };
         let mut trial = kept.to_vec();
@@ -776,7 +768,7 @@ fn climb(
 ) -> bool {
     use std::cmp::Reverse;
     loop {
-        let (views, covered) = kept_views(kept, lists);
+        let (views, covered) = kept_views(kept, by_probe, lists.len());
         if covered >= need {
             return true;
         }
@@ -867,14 +859,47 @@ fn greedy_cover(
     kept
 }
 
-/// How many kept probes each list names, and how many lists are covered.
-fn kept_views(kept: &[bool], lists: &[Vec<u32>]) -> (Vec<u32>, usize) {
-    let views: Vec<u32> = lists
+/// How many kept probes each of the `lists` lists names, and how many
+/// lists are covered: counted over the kept probes' own lists in
+/// `by_probe`, a few dozen where the lists hold every candidate.
+fn kept_views(kept: &[bool], by_probe: &[Vec<u32>], lists: usize) -> (Vec<u32>, usize) {
+    let mut views = vec![0u32; lists];
+    for own in by_probe
         .iter()
-        .map(|l| l.iter().filter(|&&k| kept[k as usize]).count() as u32)
-        .collect();
+        .zip(kept)
+        .filter(|(_, &k)| k)
+        .map(|(o, _)| o)
+    {
+        for &l in own {
+            views[l as usize] += 1;
+        }
+    }
     let covered = views.iter().filter(|&&v| v > 0).count();
     (views, covered)
+}
+
+/// The kept probe pruning would drop first, with the number of lists it
+/// alone covers (`views` from [`kept_views`]): the fewest such lists, ties
+/// by the lower tier (nearer a surface), then by the fewest lists naming
+/// it, then the higher index. Shared by [`prune_cover`] and [`shrink`].
+fn weakest(
+    kept: &[bool],
+    views: &[u32],
+    by_probe: &[Vec<u32>],
+    tier: &[u8],
+) -> Option<(usize, usize)> {
+    use std::cmp::Reverse;
+    (0..kept.len())
+        .filter(|&k| kept[k])
+        .map(|k| {
+            let alone = by_probe[k]
+                .iter()
+                .filter(|&&l| views[l as usize] == 1)
+                .count();
+            (alone, Reverse(tier[k]), by_probe[k].len(), Reverse(k))
+        })
+        .min()
+        .map(|(alone, .., Reverse(k))| (alone, k))
 }
 
 /// Step 2 of [`cover`].
@@ -885,25 +910,16 @@ fn prune_cover(
     tier: &[u8],
     need: usize,
 ) {
-    let (mut views, mut covered) = kept_views(kept, lists);
+    let (mut views, mut covered) = kept_views(kept, by_probe, lists.len());
     loop {
-        let alone = |k: usize| {
-            by_probe[k]
-                .iter()
-                .filter(|&&l| views[l as usize] == 1)
-                .count()
-        };
-        let drop = (0..kept.len())
-            .filter(|&k| kept[k])
-            .map(|k| {
-                let (a, t) = (alone(k), std::cmp::Reverse(tier[k]));
-                (a, t, by_probe[k].len(), std::cmp::Reverse(k))
-            })
-            .filter(|&(a, ..)| covered - a >= need)
-            .min();
-        let Some((a, .., std::cmp::Reverse(k))) = drop else {
+        // The weakest probe goes if any can: any other alone covers at
+        // least as many lists.
+        let Some((a, k)) = weakest(kept, &views, by_probe, tier) else {
             return;
         };
+        if covered - a < need {
+            return;
+        }
         kept[k] = false;
         covered -= a;
         for &l in &by_probe[k] {
@@ -920,7 +936,7 @@ fn swap_two_for_one(
     by_probe: &[Vec<u32>],
     need: usize,
 ) -> Option<(usize, usize, usize)> {
-    let (views, covered) = kept_views(kept, lists);
+    let (views, covered) = kept_views(kept, by_probe, lists.len());
     let slack = covered.saturating_sub(need);
     let ids: Vec<usize> = (0..kept.len()).filter(|&k| kept[k]).collect();
     // The lists only `a`, or only `a` and `b`, cover: what a swap must
