@@ -19,6 +19,7 @@
 pub mod obj;
 pub mod raycast;
 pub mod watertight;
+mod wide_bvh;
 
 use crate::config::UpAxis;
 use crate::error::{Error, Result};

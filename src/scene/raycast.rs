@@ -1,10 +1,12 @@
 //! Ray casting against the scene, shared by every CPU stage (SDF
 //! classification, skeleton clustering, coverage, previews).
 //!
-//! Built on obvhs's compressed wide BVH (CWBVH). Each triangle's box is padded
-//! by a tiny epsilon: the exactly flat, axis-aligned walls of architectural
-//! scenes otherwise give zero-thickness boxes, and traversal was measured about
-//! 10× slower on them (0.5–0.9 vs 4.6 Mrays/s in a box room).
+//! Built on a 4-wide BVH of our own ([`super::wide_bvh`], which says why
+//! not obvhs's compressed wide BVH), built with obvhs's PLOC builder. Each
+//! triangle's box is padded by a tiny epsilon: the exactly flat,
+//! axis-aligned walls of architectural scenes otherwise give
+//! zero-thickness boxes, and traversal was measured about 10× slower on
+//! them (0.5–0.9 vs 4.6 Mrays/s in a box room, with obvhs's CWBVH).
 //!
 //! The ray/triangle test is watertight (Woop, Benthin & Wald 2013, see
 //! [`super::watertight`]): a ray through an edge or vertex that triangles
@@ -14,19 +16,17 @@
 //! around such rays, and −0 components of a direction are made +0 before
 //! traversal, whose slab test would otherwise miss every box for them
 //! (`positive_zeros`).
+//!
+//! Answers do not depend on the tree or on the order it is traversed in:
+//! among hits at the same distance the lowest scene triangle index wins,
+//! and the box tests are inclusive, so every such hit is seen.
 
 use super::watertight::{WatertightRay, WatertightTriangle};
+use super::wide_bvh::{BoxRay, WideBvh};
 use super::Scene;
 use glam::{Vec3, Vec3A};
-use obvhs::{
-    aabb::Aabb,
-    cwbvh::{builder::build_cwbvh, CwBvh},
-    ray::{Ray, RayHit},
-    triangle::Triangle,
-    Boundable, BvhBuildParams,
-};
+use obvhs::{aabb::Aabb, ray::Ray, triangle::Triangle, Boundable, BvhBuildParams};
 use rayon::prelude::*;
-use std::time::Duration;
 
 /// A triangle whose bounding box is padded so that no box is flat.
 struct PaddedTriangle {
@@ -45,10 +45,9 @@ impl Boundable for PaddedTriangle {
 }
 
 /// `d` with any −0 component made +0 (`−0 + 0 = +0`; every other value is
-/// unchanged). obvhs's CWBVH traversal takes a component's sign from
-/// `d < 0` when it orders a box's slabs, but inverts it with `signum`, for
-/// which −0 is negative: a ray such as `-Vec3::Y`, `(−0, −1, −0)`, would
-/// miss every box.
+/// unchanged). The box test takes a component's sign from `d < 0` when it
+/// orders a box's slabs, but `1/−0 = −∞`: a ray such as `-Vec3::Y`,
+/// `(−0, −1, −0)`, would miss every box.
 fn positive_zeros(d: Vec3A) -> Vec3A {
     d + Vec3A::ZERO
 }
@@ -66,10 +65,10 @@ pub struct Hit {
 
 /// A BVH over a scene's triangles.
 pub struct SceneBvh {
-    bvh: CwBvh,
-    /// Triangles in BVH leaf order, so traversal reads them contiguously: the
-    /// traversal callback's id is a slot of `bvh.primitive_indices`, and slot
-    /// `i` holds scene triangle `scene_index[i]`.
+    bvh: WideBvh,
+    /// Triangles in BVH leaf order, so traversal reads them contiguously: a
+    /// leaf is a range of slots (of `bvh.order`), and slot `i` holds scene
+    /// triangle `scene_index[i]`.
     triangles: Vec<WatertightTriangle>,
     /// Scene triangle index of each entry of `triangles`.
     scene_index: Vec<u32>,
@@ -86,10 +85,9 @@ pub struct SceneBvh {
 /// which pays on the scenes of configs/ (tens of thousands of triangles,
 /// millions of rays); at millions of triangles its build alone took 10.8 s
 /// of a 5.4M-triangle block's run and the fast one 8.0 s, for no slower a
-/// run overall (BENCHMARKS.md, "Scale"). Rays return the same nearest hit
-/// either way; only which of two hits at exactly the same distance comes
-/// back can differ, so scenes under this size keep their outputs byte for
-/// byte.
+/// run overall (BENCHMARKS.md, "Scale"). Rays return the same answers
+/// either way: the nearest hit, ties going to the lowest triangle index
+/// ([`SceneBvh::closest_hit`]).
 pub const FAST_BUILD_TRIANGLES: usize = 1_000_000;
 
 fn build_params(triangles: usize) -> BvhBuildParams {
@@ -102,6 +100,7 @@ fn build_params(triangles: usize) -> BvhBuildParams {
 
 impl SceneBvh {
     /// Builds the BVH. Deterministic: the same scene gives the same tree.
+    /// obvhs builds a binary tree, on one thread; [`WideBvh`] collapses it.
     pub fn new(scene: &Scene) -> SceneBvh {
         let diag = scene.bounds.size().length().max(1e-3);
         let pad = 5e-5 * diag;
@@ -120,12 +119,8 @@ impl SceneBvh {
                 pad,
             })
             .collect();
-        let bvh = build_cwbvh(
-            &prims,
-            build_params(scene.triangles.len()),
-            &mut Duration::default(),
-        );
-        let scene_index: Vec<u32> = bvh.primitive_indices.clone();
+        let bvh = WideBvh::build(&prims, build_params(scene.triangles.len()));
+        let scene_index: Vec<u32> = bvh.order.clone();
         let triangles = scene_index
             .par_iter()
             .map(|&i| {
@@ -151,7 +146,9 @@ impl SceneBvh {
         }
     }
 
-    /// Closest hit along `origin + t·dir` for `t` in `(tmin, tmax)`; `dir` must be unit length.
+    /// Closest hit along `origin + t·dir` for `t` in `[tmin, tmax)`; `dir`
+    /// must be unit length. Of hits at exactly the same distance, the one
+    /// of the lowest triangle index ([`Hit::triangle`]), whatever the tree.
     pub fn closest_hit(&self, origin: Vec3, dir: Vec3, tmin: f32, tmax: f32) -> Option<Hit> {
         self.closest_hit_prefer_back(origin, dir, tmin, tmax, 0.0)
     }
@@ -171,6 +168,12 @@ impl SceneBvh {
     /// its face towards the room is the one hit. Preferring the back face
     /// there made whole rooms walled by sheets read as solid (42% of a
     /// generated thin-walled building's voxels).
+    ///
+    /// Precisely: each hit's distance `t` in `[tmin, tmax]` is shifted by
+    /// `+tie` for a sheet's back face, `−tie` for another back face, 0 for
+    /// a front face; the least shifted distance below `tmax` wins, equal
+    /// ones going to the lowest triangle index; the hit reports its
+    /// unshifted distance.
     #[inline]
     pub fn closest_hit_prefer_back(
         &self,
@@ -192,33 +195,51 @@ impl SceneBvh {
         let d = positive_zeros(dir);
         let ray = Ray::new(origin, d, tmin, tmax);
         let wray = WatertightRay::new(origin, d);
-        let mut hit = RayHit::none();
-        let shift = |id: usize| -> f32 {
-            if tie == 0.0 || self.normals[id].dot(d) <= 0.0 {
+        let shift = |slot: usize| -> f32 {
+            if tie == 0.0 || self.normals[slot].dot(d) <= 0.0 {
                 0.0
-            } else if self.sheet[id] {
+            } else if self.sheet[slot] {
                 tie
             } else {
                 -tie
             }
         };
-        let found = self.bvh.ray_traverse(ray, &mut hit, |r, id| {
-            let t = wray.intersect(&self.triangles[id], r.tmin, r.tmax);
-            if t.is_finite() {
-                t + shift(id)
+        // The best shifted distance so far and its slot (none yet: `tmax`).
+        let (mut best_t, mut best) = (tmax, usize::MAX);
+        // The unshifted distances that can still win: a hit shifted by
+        // −|tie| wins from up to |tie| beyond the best, which the bound
+        // covers with a margin for the rounding of the shift.
+        let reach = tie.abs();
+        let bound = |best_t: f32| -> f32 {
+            if reach == 0.0 {
+                best_t
             } else {
-                t
+                (best_t + reach + (best_t.abs() + reach) * 1e-6).min(tmax)
             }
+        };
+        self.bvh.closest(&BoxRay::new(&ray), tmax, |slots| {
+            for slot in slots {
+                let t = wray.intersect(&self.triangles[slot], tmin, bound(best_t));
+                if t.is_finite() {
+                    let ts = t + shift(slot);
+                    if ts < best_t
+                        || (ts == best_t
+                            && best != usize::MAX
+                            && self.scene_index[slot] < self.scene_index[best])
+                    {
+                        (best_t, best) = (ts, slot);
+                    }
+                }
+            }
+            bound(best_t)
         });
-        if !found {
+        if best == usize::MAX {
             return None;
         }
-        let slot = hit.primitive_id as usize;
-        let backface = self.normals[slot].dot(d) > 0.0;
         Some(Hit {
-            t: hit.t - shift(slot),
-            triangle: self.scene_index[slot],
-            backface,
+            t: best_t - shift(best),
+            triangle: self.scene_index[best],
+            backface: self.normals[best].dot(d) > 0.0,
         })
     }
 
@@ -265,17 +286,19 @@ impl SceneBvh {
             }
         }
         let mut last = None;
-        let missed = self.bvh.ray_traverse_miss(ray, |r, id| {
-            let t = wray.intersect(&self.triangles[id], r.tmin, r.tmax);
-            if t < r.tmax {
-                last = Some(id as u32);
+        let blocked = self.bvh.any(&BoxRay::new(&ray), ray.tmax, |slots| {
+            for slot in slots {
+                if wray.intersect(&self.triangles[slot], ray.tmin, ray.tmax) < ray.tmax {
+                    last = Some(slot as u32);
+                    return true;
+                }
             }
-            t
+            false
         });
-        if !missed {
+        if blocked {
             blocker.0 = last;
         }
-        !missed
+        blocked
     }
 }
 
@@ -967,5 +990,139 @@ mod tests {
             }
         }
         assert!(hits > 1000 && misses > 300, "{hits} hits, {misses} misses");
+    }
+}
+
+/// The BVH against a loop over every triangle with the same test.
+#[cfg(test)]
+mod brute_force {
+    use super::*;
+    use crate::sampling::{cube_point, hash2, unit_f32};
+    use crate::scene::Material;
+
+    /// [`SceneBvh::closest_hit_prefer_back`]'s documented rule, over all
+    /// triangles.
+    fn closest(s: &Scene, o: Vec3, dir: Vec3, tmax: f32, tie: f32) -> Option<Hit> {
+        let d = positive_zeros(dir.into());
+        let ray = WatertightRay::new(o.into(), d);
+        let sheet = sheet_faces(&s.triangles);
+        let mut best: Option<(f32, u32, f32)> = None;
+        for (i, t) in s.triangles.iter().enumerate() {
+            let t = ray.intersect(&WatertightTriangle::new(t.map(Vec3A::from)), 0.0, tmax);
+            if !t.is_finite() {
+                continue;
+            }
+            let back = Vec3A::from(s.normals[i]).dot(d) > 0.0;
+            let shift = match (tie != 0.0 && back, sheet[i]) {
+                (false, _) => 0.0,
+                (true, true) => tie,
+                (true, false) => -tie,
+            };
+            let ts = t + shift;
+            if ts < tmax && best.is_none_or(|b| ts < b.0) {
+                best = Some((ts, i as u32, shift));
+            }
+        }
+        best.map(|(ts, i, shift)| Hit {
+            t: ts - shift,
+            triangle: i,
+            backface: Vec3A::from(s.normals[i as usize]).dot(d) > 0.0,
+        })
+    }
+
+    fn occluded(s: &Scene, a: Vec3, b: Vec3, eps: f32) -> bool {
+        let (d, len) = (Vec3A::from(b - a), (b - a).length());
+        if len <= 2.0 * eps {
+            return false;
+        }
+        let ray = WatertightRay::new(a.into(), positive_zeros(d / len));
+        s.triangles.iter().any(|t| {
+            ray.intersect(&WatertightTriangle::new(t.map(Vec3A::from)), eps, len - eps) < len - eps
+        })
+    }
+
+    #[test]
+    fn answers_are_those_of_every_triangle_tried() {
+        // A soup, and two grids of quads whose shared edges and vertices
+        // give ties, one axis-aligned; every triangle also reversed once
+        // in ten (two-sided sheets), and a coplanar copy (pressed solids).
+        let mut tris: Vec<[Vec3; 3]> = Vec::new();
+        for i in 0..300u64 {
+            let h = hash2(41, i);
+            let c = cube_point(h);
+            tris.push([0, 1, 2].map(|k| c + cube_point(hash2(h, k)) * 0.3));
+        }
+        for (corner, u, v) in [
+            (Vec3::new(-1.0, -0.5, -1.0), Vec3::X * 2.0, Vec3::Z * 2.0),
+            (
+                Vec3::new(-0.8, -1.0, 0.3),
+                Vec3::new(1.5, 1.7, 0.2),
+                Vec3::Z,
+            ),
+        ] {
+            for j in 0..8 {
+                for i in 0..8 {
+                    let at =
+                        |i: usize, j: usize| corner + u * (i as f32 / 8.0) + v * (j as f32 / 8.0);
+                    let (a, b, c, d) = (at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1));
+                    tris.push([a, b, c]);
+                    tris.push([a, c, d]);
+                }
+            }
+        }
+        let n = tris.len();
+        for i in (0..n).step_by(10) {
+            let t = tris[i];
+            tris.push([t[0], t[2], t[1]]);
+        }
+        for i in (5..n).step_by(10) {
+            let t = tris[i];
+            tris.push([t[1], t[0], (t[0] + t[1] + t[2]) / 3.0]);
+        }
+        let s = Scene::from_triangles(
+            "t".into(),
+            tris.iter().map(|&t| (t, 0)),
+            vec![Material::fallback()],
+        )
+        .unwrap();
+        assert_eq!(s.triangles.len(), tris.len());
+        let bvh = SceneBvh::new(&s);
+        let vertices: Vec<Vec3> = tris.iter().flatten().copied().collect();
+        let (mut hits, mut blocked) = (0, 0);
+        for i in 0..3000u64 {
+            let h = hash2(42, i);
+            let o = cube_point(hash2(h, 1)) * 1.5;
+            // Random, exactly axis-aligned, and through vertices and edge
+            // midpoints (seams).
+            let q = vertices[(hash2(h, 2) % vertices.len() as u64) as usize];
+            let r = vertices[(hash2(h, 3) % vertices.len() as u64) as usize];
+            let axis = [Vec3::X, Vec3::Y, Vec3::Z, -Vec3::X, -Vec3::Y, -Vec3::Z][i as usize % 6];
+            let end = match i % 4 {
+                0 => o + cube_point(hash2(h, 4)) * 3.0,
+                1 => o + axis * 2.5,
+                2 => q + (q - o),
+                _ => (q + r) * 0.5 + ((q + r) * 0.5 - o),
+            };
+            let dir = (end - o).normalize();
+            let tie = if i % 2 == 0 { 0.0 } else { 1e-3 };
+            let tmax = if i % 3 == 0 { 1.0 } else { f32::INFINITY };
+            let got = bvh.closest_hit_prefer_back(o, dir, 0.0, tmax, tie);
+            let want = closest(&s, o, dir, tmax, tie);
+            assert_eq!(
+                got.map(|h| h.t.to_bits()),
+                want.map(|h| h.t.to_bits()),
+                "ray {i}"
+            );
+            assert_eq!(got, want, "ray {i}");
+            hits += got.is_some() as u32;
+            let eps = 1e-4 * unit_f32(hash2(h, 5));
+            let b = bvh.occluded(o, end, eps);
+            assert_eq!(b, occluded(&s, o, end, eps), "segment {i}");
+            blocked += b as u32;
+        }
+        assert!(
+            hits > 1000 && blocked > 1000,
+            "{hits} hits, {blocked} blocked"
+        );
     }
 }

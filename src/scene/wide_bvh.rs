@@ -1,0 +1,493 @@
+//! A 4-wide BVH with uncompressed child boxes, and its single-ray
+//! traversal: the acceleration structure under [`super::raycast`].
+//!
+//! **Why this and not obvhs's compressed wide BVH (CWBVH).** Our rays are
+//! incoherent single rays on the CPU. The CWBVH (Ylitie, Karras & Laine
+//! 2017, "Efficient Incoherent Ray Traversal on GPUs Using Compressed Wide
+//! BVHs") was designed for GPU memory bandwidth: 8 children per node with
+//! 8-bit quantized boxes, decoded per node. On the CPU the decoding and its
+//! octant-ordered traversal state cost more than the memory they save;
+//! the CPU ray tracers of Wald, Benthin & Boulos 2008 ("Getting Rid of
+//! Packets") and Ernst & Greiner 2008 ("Multi Bounding Volume
+//! Hierarchies"), and Embree since, test one ray against the four f32 boxes
+//! of a node at once with SSE, children stored by coordinate ("SoA"): one
+//! subtract and one multiply per slab plane for four boxes.
+//!
+//! **Build.** obvhs's PLOC builder and reinsertion optimizer make a binary
+//! tree of one primitive per leaf, as its CWBVH builder does (same
+//! parameters, so the same tree). It is then collapsed here, in O(n):
+//! a bottom-up pass chooses where subtrees of at most [`MAX_LEAF`]
+//! primitives become leaves, by the surface area heuristic (MacDonald &
+//! Booth 1990) against keeping them as nodes; a top-down pass makes each
+//! 4-wide node from a binary node by opening, while it has fewer than four
+//! children, the child of largest surface area that is not to be a leaf
+//! (Wald et al. 2008, §3). Leaves are ranges of a leaf-ordered primitive
+//! list ([`WideBvh::order`]), so a leaf's primitives are read contiguously.
+//!
+//! **Traversal.** One ray, a fixed stack ([`STACK`] entries, bounded by
+//! the tree's depth, which the build measures), SSE node tests on x86-64
+//! with a scalar fallback elsewhere. Box tests are inclusive (a box whose
+//! entry equals the current bound is still visited), so that callers that
+//! break ties between hits at equal distances see every such hit.
+//! Directions' zero components give infinite inverse components; the NaN
+//! of `0·∞` (an origin exactly on a slab plane of such an axis) is dropped
+//! from the interval, never culling the box.
+
+use obvhs::{
+    aabb::Aabb,
+    bvh2::{reinsertion::ReinsertionOptimizer, Bvh2},
+    ploc::PlocBuilder,
+    ray::Ray,
+    Boundable, BvhBuildParams,
+};
+use std::ops::Range;
+
+/// Most primitives in a leaf.
+pub const MAX_LEAF: u32 = 8;
+
+/// Stack entries a traversal keeps on the call stack; a tree deeper than
+/// this allows (over 40 levels of 4-wide nodes) traverses with a stack on
+/// the heap instead.
+const STACK: usize = 128;
+
+/// Cost of testing one primitive against the cost of one 4-wide node test,
+/// for the leaf decision.
+const PRIMITIVE_COST: f32 = 1.0;
+/// Cost of one binary node of the tree being collapsed. A 4-wide node
+/// replaces about three of them, but its 128 bytes are what incoherent
+/// rays wait for: on Dabrovic Sponza, 2 (9.5k nodes of 66k triangles)
+/// was as fast as or faster than 0.4 (18.5k nodes) and 1.
+const NODE_COST: f32 = 2.0;
+
+/// A child reference: an inner node's index, or, with [`LEAF_BIT`] set, a
+/// leaf's first slot (bits 0..27) and its count less one (bits 27..31).
+type ChildRef = u32;
+const LEAF_BIT: u32 = 1 << 31;
+const FIRST_BITS: u32 = 27;
+/// A node's empty slot (its box is empty too, so it is never entered), and
+/// the root of an empty tree.
+const EMPTY: ChildRef = u32::MAX;
+
+fn leaf_ref(first: usize, count: usize) -> ChildRef {
+    assert!(
+        first < 1 << FIRST_BITS && (1..=16).contains(&count),
+        "a leaf of {count} primitives at {first}"
+    );
+    LEAF_BIT | ((count as u32 - 1) << FIRST_BITS) | first as u32
+}
+
+fn leaf_range(r: ChildRef) -> Range<usize> {
+    let first = (r & ((1 << FIRST_BITS) - 1)) as usize;
+    let count = ((r & !LEAF_BIT) >> FIRST_BITS) as usize + 1;
+    first..first + count
+}
+
+/// Four children's boxes by coordinate, rows `[min x, max x, min y, max y,
+/// min z, max z]`, and the children. Two cache lines.
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(64))]
+struct Node {
+    bounds: [[f32; 4]; 6],
+    child: [ChildRef; 4],
+}
+
+impl Node {
+    const EMPTY: Node = Node {
+        bounds: [
+            [f32::INFINITY; 4],
+            [f32::NEG_INFINITY; 4],
+            [f32::INFINITY; 4],
+            [f32::NEG_INFINITY; 4],
+            [f32::INFINITY; 4],
+            [f32::NEG_INFINITY; 4],
+        ],
+        child: [EMPTY; 4],
+    };
+
+    fn set(&mut self, slot: usize, b: &Aabb, child: ChildRef) {
+        for k in 0..3 {
+            self.bounds[2 * k][slot] = b.min[k];
+            self.bounds[2 * k + 1][slot] = b.max[k];
+        }
+        self.child[slot] = child;
+    }
+}
+
+/// A 4-wide BVH over primitives given by their boxes.
+pub struct WideBvh {
+    nodes: Vec<Node>,
+    root: ChildRef,
+    /// Input index of the primitive in each leaf slot: leaves name ranges
+    /// of slots.
+    pub order: Vec<u32>,
+    /// Stack entries a traversal may need: three per level of nodes.
+    stack: usize,
+}
+
+/// A ray's constants for the box tests, made once per query.
+#[derive(Clone, Copy, Debug)]
+pub struct BoxRay {
+    origin: [f32; 3],
+    inv: [f32; 3],
+    /// Per axis, the row of [`Node::bounds`] the ray enters by: the min
+    /// row `2k` for a non-negative direction component, the max row
+    /// `2k + 1` otherwise (it leaves by the other).
+    near: [usize; 3],
+    tmin: f32,
+}
+
+impl BoxRay {
+    /// The constants of `ray` for `t ≥ ray.tmin`. Its direction must have
+    /// no −0 component: a component's sign picks the entry plane, and
+    /// `1/−0 = −∞` would put the exit before it. The inverse is exact:
+    /// obvhs's `inv_direction` clamps components under `f32::EPSILON`,
+    /// which would shorten the slab intervals of nearly axis-aligned rays
+    /// and cull boxes they enter.
+    pub fn new(ray: &Ray) -> BoxRay {
+        let dir = ray.direction.to_array();
+        BoxRay {
+            origin: ray.origin.to_array(),
+            inv: dir.map(|d| 1.0 / d),
+            near: [0, 1, 2].map(|k| 2 * k + (dir[k] < 0.0) as usize),
+            tmin: ray.tmin,
+        }
+    }
+}
+
+/// The children of `node` whose boxes `ray` enters within `[tmin, tmax]`
+/// (bit `i` of the mask for child `i`), and each child's entry distance.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn enter(node: &Node, ray: &BoxRay, tmax: f32) -> (u32, [f32; 4]) {
+    use std::arch::x86_64::*;
+    let mut entry = [0.0f32; 4];
+    // SAFETY: SSE is part of every x86-64 target's baseline; the loads
+    // read 16-byte rows of `node.bounds` and the store writes the 16
+    // bytes of `entry` (unaligned loads and stores have no alignment
+    // requirement).
+    let mask = unsafe {
+        let mut near = _mm_set1_ps(ray.tmin);
+        let mut far = _mm_set1_ps(tmax);
+        for k in 0..3 {
+            let o = _mm_set1_ps(ray.origin[k]);
+            let inv = _mm_set1_ps(ray.inv[k]);
+            let n = ray.near[k];
+            let t0 = _mm_mul_ps(_mm_sub_ps(_mm_loadu_ps(node.bounds[n].as_ptr()), o), inv);
+            let t1 = _mm_mul_ps(
+                _mm_sub_ps(_mm_loadu_ps(node.bounds[n ^ 1].as_ptr()), o),
+                inv,
+            );
+            // MAXPS and MINPS return their second operand when either is
+            // NaN, so a NaN plane distance leaves the interval as it was.
+            near = _mm_max_ps(t0, near);
+            far = _mm_min_ps(t1, far);
+        }
+        _mm_storeu_ps(entry.as_mut_ptr(), near);
+        _mm_movemask_ps(_mm_cmple_ps(near, far)) as u32
+    };
+    (mask, entry)
+}
+
+/// The scalar [`enter`], for other architectures.
+#[cfg(not(target_arch = "x86_64"))]
+#[inline(always)]
+fn enter(node: &Node, ray: &BoxRay, tmax: f32) -> (u32, [f32; 4]) {
+    let mut mask = 0;
+    let mut entry = [0.0f32; 4];
+    for i in 0..4 {
+        let (mut near, mut far) = (ray.tmin, tmax);
+        for k in 0..3 {
+            let n = ray.near[k];
+            let t0 = (node.bounds[n][i] - ray.origin[k]) * ray.inv[k];
+            let t1 = (node.bounds[n ^ 1][i] - ray.origin[k]) * ray.inv[k];
+            // `max` and `min` return the other operand for a NaN one.
+            near = t0.max(near);
+            far = t1.min(far);
+        }
+        mask |= ((near <= far) as u32) << i;
+        entry[i] = near;
+    }
+    (mask, entry)
+}
+
+impl WideBvh {
+    /// Builds the tree over `prims` (their boxes) with obvhs's PLOC and
+    /// reinsertion parameters from `params`. Deterministic.
+    pub fn build<T: Boundable>(prims: &[T], params: BvhBuildParams) -> WideBvh {
+        if prims.is_empty() {
+            return WideBvh {
+                nodes: Vec::new(),
+                root: EMPTY,
+                order: Vec::new(),
+                stack: 0,
+            };
+        }
+        let mut bvh2 = PlocBuilder::with_capacity(prims.len()).build(
+            params.ploc_search_distance,
+            prims,
+            (0..prims.len() as u32).collect(),
+            params.sort_precision,
+            params.search_depth_threshold,
+        );
+        ReinsertionOptimizer::default().run(&mut bvh2, params.reinsertion_batch_ratio, None);
+        collapse(&bvh2)
+    }
+
+    /// Visits the leaves whose boxes the ray enters within `[tmin, bound]`,
+    /// nearest entry first, calling `leaf` with each one's slots; `leaf`
+    /// returns the bound from then on (the distance of the best hit so
+    /// far, say), which culls the leaves and nodes entered beyond it.
+    #[inline]
+    pub fn closest<F: FnMut(Range<usize>) -> f32>(&self, ray: &BoxRay, bound: f32, leaf: F) {
+        if self.stack > STACK {
+            self.closest_with(&mut vec![(0, 0.0); self.stack], ray, bound, leaf);
+        } else {
+            self.closest_with(&mut [(0, 0.0); STACK], ray, bound, leaf);
+        }
+    }
+
+    #[inline(always)]
+    fn closest_with<F: FnMut(Range<usize>) -> f32>(
+        &self,
+        stack: &mut [(ChildRef, f32)],
+        ray: &BoxRay,
+        mut bound: f32,
+        mut leaf: F,
+    ) {
+        let mut sp = 0;
+        let mut cur = self.root;
+        'visit: loop {
+            if cur & LEAF_BIT == 0 {
+                let node = &self.nodes[cur as usize];
+                let (mask, entry) = enter(node, ray, bound);
+                if mask != 0 {
+                    self.prefetch(node, mask);
+                    let first = mask.trailing_zeros() as usize;
+                    if mask & (mask - 1) == 0 {
+                        cur = node.child[first];
+                        continue 'visit;
+                    }
+                    // The entered children by entry distance, nearest
+                    // first (insertion sort of at most four).
+                    let mut hit = [(0, 0.0f32); 4];
+                    let mut n = 0;
+                    let mut m = mask;
+                    while m != 0 {
+                        let i = m.trailing_zeros() as usize;
+                        m &= m - 1;
+                        let mut j = n;
+                        while j > 0 && hit[j - 1].1 > entry[i] {
+                            hit[j] = hit[j - 1];
+                            j -= 1;
+                        }
+                        hit[j] = (node.child[i], entry[i]);
+                        n += 1;
+                    }
+                    for &h in hit[1..n].iter().rev() {
+                        stack[sp] = h;
+                        sp += 1;
+                    }
+                    cur = hit[0].0;
+                    continue 'visit;
+                }
+            } else if cur != EMPTY {
+                bound = leaf(leaf_range(cur));
+            }
+            loop {
+                if sp == 0 {
+                    return;
+                }
+                sp -= 1;
+                let (next, entry) = stack[sp];
+                if entry <= bound {
+                    cur = next;
+                    continue 'visit;
+                }
+            }
+        }
+    }
+
+    /// Starts loading the inner nodes among the children of `node` in
+    /// `mask`, so that their cache misses overlap rather than follow one
+    /// another as the traversal reaches them.
+    #[inline(always)]
+    fn prefetch(&self, node: &Node, mask: u32) {
+        #[cfg(target_arch = "x86_64")]
+        {
+            use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
+            let mut m = mask;
+            while m != 0 {
+                let c = node.child[m.trailing_zeros() as usize];
+                m &= m - 1;
+                if c & LEAF_BIT == 0 {
+                    let p = self.nodes[c as usize].bounds.as_ptr() as *const i8;
+                    // SAFETY: a prefetch is only a hint and reads nothing;
+                    // `p` and `p + 64` lie within the node (128 bytes).
+                    unsafe {
+                        _mm_prefetch(p, _MM_HINT_T0);
+                        _mm_prefetch(p.add(64), _MM_HINT_T0);
+                    }
+                }
+            }
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        let _ = (node, mask);
+    }
+
+    /// Whether `leaf` returns true for some leaf whose box the ray enters
+    /// within `[tmin, tmax]`; it stops at the first.
+    #[inline]
+    pub fn any<F: FnMut(Range<usize>) -> bool>(&self, ray: &BoxRay, tmax: f32, leaf: F) -> bool {
+        if self.stack > STACK {
+            self.any_with(&mut vec![0; self.stack], ray, tmax, leaf)
+        } else {
+            self.any_with(&mut [0; STACK], ray, tmax, leaf)
+        }
+    }
+
+    #[inline(always)]
+    fn any_with<F: FnMut(Range<usize>) -> bool>(
+        &self,
+        stack: &mut [ChildRef],
+        ray: &BoxRay,
+        tmax: f32,
+        mut leaf: F,
+    ) -> bool {
+        let mut sp = 0;
+        let mut cur = self.root;
+        loop {
+            if cur & LEAF_BIT == 0 {
+                let node = &self.nodes[cur as usize];
+                let (mut mask, _) = enter(node, ray, tmax);
+                if mask != 0 {
+                    self.prefetch(node, mask);
+                    cur = node.child[mask.trailing_zeros() as usize];
+                    mask &= mask - 1;
+                    while mask != 0 {
+                        stack[sp] = node.child[mask.trailing_zeros() as usize];
+                        sp += 1;
+                        mask &= mask - 1;
+                    }
+                    continue;
+                }
+            } else if cur != EMPTY && leaf(leaf_range(cur)) {
+                return true;
+            }
+            if sp == 0 {
+                return false;
+            }
+            sp -= 1;
+            cur = stack[sp];
+        }
+    }
+}
+
+/// The 4-wide tree of `bvh2` (a tree of one primitive per leaf, root at
+/// node 0); see the module docs.
+fn collapse(bvh2: &Bvh2) -> WideBvh {
+    let nodes2 = &bvh2.nodes;
+    // Pre-order, so that reversed it visits children before parents.
+    let mut pre = Vec::with_capacity(nodes2.len());
+    let mut todo = vec![0u32];
+    while let Some(n) = todo.pop() {
+        pre.push(n);
+        let node = &nodes2[n as usize];
+        if !node.is_leaf() {
+            todo.push(node.first_index + 1);
+            todo.push(node.first_index);
+        }
+    }
+    // Per binary node: its primitives, its SAH cost (in half-areas), and
+    // whether it is to be a leaf.
+    let mut count = vec![0u32; nodes2.len()];
+    let mut cost = vec![0.0f32; nodes2.len()];
+    let mut is_leaf = vec![false; nodes2.len()];
+    for &n in pre.iter().rev() {
+        let node = &nodes2[n as usize];
+        let area = node.aabb.half_area();
+        let n = n as usize;
+        if node.is_leaf() {
+            count[n] = node.prim_count;
+            cost[n] = PRIMITIVE_COST * area * node.prim_count as f32;
+            is_leaf[n] = true;
+        } else {
+            let (l, r) = (node.first_index as usize, node.first_index as usize + 1);
+            count[n] = count[l] + count[r];
+            let split = NODE_COST * area + cost[l] + cost[r];
+            let whole = PRIMITIVE_COST * area * count[n] as f32;
+            if count[n] <= MAX_LEAF && whole <= split {
+                cost[n] = whole;
+                is_leaf[n] = true;
+            } else {
+                cost[n] = split;
+            }
+        }
+    }
+    let mut bvh = WideBvh {
+        nodes: Vec::new(),
+        root: EMPTY,
+        order: Vec::with_capacity(bvh2.primitive_indices.len()),
+        stack: 0,
+    };
+    // Appends the primitives under binary node `n` to `order`, returning
+    // the leaf's reference.
+    let emit = |order: &mut Vec<u32>, n: u32| -> ChildRef {
+        let first = order.len();
+        let mut todo = vec![n];
+        while let Some(n) = todo.pop() {
+            let node = &nodes2[n as usize];
+            if node.is_leaf() {
+                let prims =
+                    node.first_index as usize..(node.first_index + node.prim_count) as usize;
+                order.extend_from_slice(&bvh2.primitive_indices[prims]);
+            } else {
+                todo.push(node.first_index + 1);
+                todo.push(node.first_index);
+            }
+        }
+        leaf_ref(first, order.len() - first)
+    };
+    if is_leaf[0] {
+        bvh.root = emit(&mut bvh.order, 0);
+        return bvh;
+    }
+    bvh.root = 0;
+    bvh.nodes.push(Node::EMPTY);
+    // (binary node, wide node made from it, its depth)
+    let mut todo = vec![(0u32, 0u32, 1usize)];
+    let mut depth = 0;
+    while let Some((n, wide, d)) = todo.pop() {
+        depth = depth.max(d);
+        let first = nodes2[n as usize].first_index;
+        let mut children = vec![first, first + 1];
+        while children.len() < 4 {
+            let open = children
+                .iter()
+                .enumerate()
+                .filter(|&(_, &c)| !is_leaf[c as usize])
+                .max_by(|a, b| {
+                    let area = |c: u32| nodes2[c as usize].aabb.half_area();
+                    area(*a.1).total_cmp(&area(*b.1))
+                })
+                .map(|(i, _)| i);
+            let Some(i) = open else { break };
+            let c = nodes2[children[i] as usize].first_index;
+            children[i] = c;
+            children.insert(i + 1, c + 1);
+        }
+        for (slot, &c) in children.iter().enumerate() {
+            let r = if is_leaf[c as usize] {
+                emit(&mut bvh.order, c)
+            } else {
+                let i = bvh.nodes.len() as u32;
+                bvh.nodes.push(Node::EMPTY);
+                todo.push((c, i, d + 1));
+                i
+            };
+            bvh.nodes[wide as usize].set(slot, &nodes2[c as usize].aabb, r);
+        }
+    }
+    // Each level of nodes pushes at most three entries.
+    bvh.stack = 3 * depth + 1;
+    bvh
+}
