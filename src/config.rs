@@ -702,6 +702,13 @@ pub struct RefineParams {
     /// Side of the octahedral direction map each probe is evaluated with:
     /// `directions`² rays per probe position (at most 256).
     pub directions: Count<256>,
+    /// Side of the octahedral direction map the eight corners of a
+    /// probe's support cube are scored with during the sweeps: the corners
+    /// only shape the linear models a proposal is drawn from, and the
+    /// proposal itself is scored with `directions` (Wang et al. 2019 §3.3
+    /// subsamples view directions during optimization). `None`: half of
+    /// `directions`, at least 8 and at most `directions`.
+    pub corner_directions: Option<Count<256>>,
     /// Edge of an atlas texel (world units). `None`: the spacing of the
     /// probe's directions at the scene's largest clearance.
     pub texel_size: Option<Positive>,
@@ -739,6 +746,7 @@ impl Default for RefineParams {
             w_orientation: NonNegative(1.0),
             w_distance: NonNegative(1.0),
             directions: Count(32),
+            corner_directions: None,
             texel_size: None,
             iterations: Count(20),
             initial_step: None,

@@ -7,7 +7,12 @@
 //! 1. **Support cube.** The eight corners `p_k + (γ_k/√3)·(±1, ±1, ±1)`
 //!    (so each corner is one step away) are scored by probe `k`'s marginal
 //!    fitness `R(P′_s) − R(P ∖ k)` there (see the fitness module), all eight
-//!    in parallel. A corner where a probe may not stand scores 0. The paper
+//!    in parallel, each from a view of `corner_directions`² rays, a
+//!    quarter of the proposal's by default: the paper subsamples view
+//!    directions while it optimizes (§3.3), and the corners only shape the
+//!    linear models of step 2, which a coarser view keeps (every corner is
+//!    seen the same way); the proposal itself is scored in full (step 4).
+//!    A corner where a probe may not stand scores 0. The paper
 //!    fits its linear models to `R(P′_s)` itself; subtracting the part that
 //!    does not depend on `p_k` leaves the models' shape alone where the
 //!    paper's values would all lie within a fraction of a percent of each
@@ -163,8 +168,11 @@ pub struct SweepStats {
 
 /// The settings of [`optimize`].
 pub struct Sweeps<'v, 'a> {
-    /// Casts probe views.
+    /// Casts the proposals' views.
     pub viewer: &'v Viewer<'a>,
+    /// Casts the support-cube corners' views, usually with fewer directions
+    /// than `viewer` (§3.3 subsamples view directions during optimization).
+    pub corner_viewer: &'v Viewer<'a>,
     /// Where a probe may stand, and whether it may move from `a` to `b`.
     pub legal_move: &'v (dyn Fn(Vec3, Vec3) -> bool + Sync),
     /// Most sweeps.
@@ -234,7 +242,7 @@ pub fn optimize(
                 .map(|s| {
                     let c = p + half * corner_sign(s);
                     if (sweeps.legal_move)(p, c) {
-                        state.marginal(k, &sweeps.viewer.view(c))
+                        state.marginal(k, &sweeps.corner_viewer.view(c))
                     } else {
                         0.0
                     }

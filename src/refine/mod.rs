@@ -130,6 +130,7 @@ pub struct Refined {
 struct Resolved {
     texel_size: f32,
     directions: u32,
+    corner_directions: u32,
     initial_step: f32,
     min_step: f32,
     beta: f64,
@@ -158,6 +159,7 @@ impl Resolved {
         Resolved {
             texel_size: params.texel_size.map_or(clearance * spacing, |t| t.0),
             directions: n,
+            corner_directions: corner_directions(params),
             initial_step: params
                 .initial_step
                 .map_or((0.5 * clearance).max(voxel), |s| s.0),
@@ -180,6 +182,7 @@ impl Resolved {
             ("texel_size", self.texel_size as f64),
             ("atlas_texels", texels as f64),
             ("directions", self.directions as f64),
+            ("corner_directions", self.corner_directions as f64),
             ("initial_step", self.initial_step as f64),
             ("min_step", self.min_step as f64),
             ("acceptance_exponent", self.beta),
@@ -193,6 +196,14 @@ impl Resolved {
             ("w_distance", params.w_distance.0 as f64),
         ])
     }
+}
+
+/// The side of the corners' direction map ([`RefineParams::corner_directions`]).
+fn corner_directions(params: &RefineParams) -> u32 {
+    let n = params.directions.0;
+    params
+        .corner_directions
+        .map_or((n / 2).max(8).min(n), |c| c.0)
 }
 
 /// Whether a probe may stand at `p`: inside the domain, in a free voxel,
@@ -225,7 +236,10 @@ fn check_work(params: &RefineParams, probes: usize, texels: usize, samples: usiz
     // probes sharing them; no more texels than all the views' rays together
     // can land on, however finely a scene of millions of small triangles
     // cuts the atlas.
-    let rays = (params.directions.0 as f64).powi(2);
+    // Eight corners and one proposal per step, each a view.
+    let rays = (8.0 * (corner_directions(params) as f64).powi(2)
+        + (params.directions.0 as f64).powi(2))
+        / 9.0;
     let touched = (texels as f64).min(probes as f64 * rays);
     let units =
         (probes as f64).powf(1.5) * params.iterations.0 as f64 * rays * (touched / 4216.0).max(1.0);
@@ -279,6 +293,16 @@ pub fn refine(
         params.w_distance.0,
         r.diagonal,
     );
+    let corner_viewer = Viewer::new(
+        input.scene,
+        input.bvh,
+        &atlas,
+        r.corner_directions,
+        min_cos,
+        params.w_orientation.0,
+        params.w_distance.0,
+        r.diagonal,
+    );
     let views_of = |ps: &[Vec3]| -> Vec<ProbeView> { ps.iter().map(|&p| viewer.view(p)).collect() };
 
     // Move the probes (§3.3).
@@ -293,7 +317,7 @@ pub fn refine(
         input,
         controls,
         probes.fixed,
-        (&viewer, &mut state),
+        (&viewer, &corner_viewer, &mut state),
         &initial,
     );
     let r_refined = AtlasState::new(params.fitness, &atlas, views_of(&refined)).r();
@@ -363,7 +387,7 @@ fn sweep(
     input: &PlacementInput,
     controls: &Controls,
     pinned: usize,
-    (viewer, state): (&Viewer, &mut AtlasState),
+    (viewer, corner_viewer, state): (&Viewer, &Viewer, &mut AtlasState),
     initial: &[Vec3],
 ) -> (Vec<Vec3>, SweepStats) {
     let eps = 1e-3 * input.sdf.voxel_size;
@@ -374,6 +398,7 @@ fn sweep(
     };
     let sweeps = gibbs::Sweeps {
         viewer,
+        corner_viewer,
         legal_move: &legal_move,
         iterations: params.iterations.0,
         initial_step: r.initial_step,
@@ -557,4 +582,27 @@ fn side_by_side(a: &RgbImage, b: &RgbImage) -> RgbImage {
     img.replace(a, 0, 0);
     img.replace(b, a.width() + gap, 0);
     img
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::Count;
+
+    #[test]
+    fn corners_take_half_the_directions_within_bounds_unless_set() {
+        let with = |directions: u32, corners: Option<u32>| {
+            corner_directions(&RefineParams {
+                directions: Count(directions),
+                corner_directions: corners.map(Count),
+                ..RefineParams::default()
+            })
+        };
+        assert_eq!(with(32, None), 16);
+        assert_eq!(with(33, None), 16);
+        assert_eq!(with(12, None), 8, "at least 8");
+        assert_eq!(with(6, None), 6, "never more than the proposal's");
+        assert_eq!(with(32, Some(32)), 32);
+        assert_eq!(with(16, Some(24)), 24, "a set value stands");
+    }
 }

@@ -23,6 +23,12 @@
 //!   tier; then the one that sees fewest overall; then the later one). A probe can go when coverage without it stays at
 //!   or above the target, or, when the target is out of reach, when nothing
 //!   depends on it alone.
+//! * **Merge** ([`CoverMatrix::merge_pairs`]) then replaces pairs of
+//!   neighbours by one position that keeps the target, and pruning runs
+//!   again. Both run once more after polish (src/refine/polish.rs) moves
+//!   the probes, since a moved probe can leave another with nothing of its
+//!   own to see; not under a `min_probes` minimum, whose extra probes are
+//!   there by design.
 //!
 //! **Demand and the artist controls** ([`crate::placement::controls`]).
 //! Each coverable sample needs a number of views, 1 unless a
@@ -607,6 +613,17 @@ impl<'r> CoverMatrix<'r> {
         }
         if prune {
             changed += self.polish(tiers, &mut w, pinned, target_count);
+            // Polish's moves can leave a probe, or a pair, with nothing of
+            // its own to see; a top-up's probes are there for the minimum.
+            if rules.minimum.is_none() {
+                let live = w.live();
+                covered = self.satisfied(&w.count);
+                covered = self.prune_greedy(&mut w, pinned, covered, target_count);
+                changed += self.merge_pairs(tiers, &mut w, pinned, covered, target_count);
+                covered = self.satisfied(&w.count);
+                self.prune_greedy(&mut w, pinned, covered, target_count);
+                changed += live - w.live();
+            }
         }
         if changed > 0 {
             filled.added = w.all[positions.len()..].to_vec();
