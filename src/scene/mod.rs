@@ -291,6 +291,16 @@ impl Scene {
                 "scene has no usable triangle (empty, or every face degenerate or non-finite)",
             ));
         }
+        if self.triangles.len() > wide_bvh::MAX_PRIMITIVES {
+            return Err(Error::user_file(
+                &self.source,
+                format!(
+                    "{} triangles, more than the {} one BVH holds; split the scene into tiles (`probeplace split`)",
+                    self.triangles.len(),
+                    wide_bvh::MAX_PRIMITIVES
+                ),
+            ));
+        }
         Ok(())
     }
 

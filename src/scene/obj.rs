@@ -256,7 +256,9 @@ fn parse_batches(
         }
         let bytes =
             obj.positions.len() as f64 * 24.0 + obj.triangles.len() as f64 * BYTES_PER_TRIANGLE;
-        if bytes > limits::memory_budget() as f64 {
+        if bytes > limits::memory_budget() as f64
+            || obj.triangles.len() > super::wide_bvh::MAX_PRIMITIVES
+        {
             return None;
         }
         if end {
@@ -423,6 +425,15 @@ pub fn parse(
                 ),
                 bytes,
             )?;
+            if obj.triangles.len() > super::wide_bvh::MAX_PRIMITIVES {
+                return Err(at(
+                    n,
+                    format!(
+                        "more than {} triangles, the most one BVH holds; split the scene into tiles (`probeplace split`)",
+                        super::wide_bvh::MAX_PRIMITIVES
+                    ),
+                ));
+            }
         }
         let text = String::from_utf8_lossy(&line);
         let text = text.split('#').next().unwrap_or("");

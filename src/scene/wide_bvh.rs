@@ -83,7 +83,9 @@ fn leaf_cost(n: u32) -> f32 {
 const NODE_COST: f32 = 2.0;
 
 /// A child reference: an inner node's index, or, with [`LEAF_BIT`] set, a
-/// leaf's first slot (bits 0..27) and its count less one (bits 27..31).
+/// leaf's first block of [`LEAF_ALIGN`] slots (bits 0..27) and its slot
+/// count less one (bits 27..31). Counting blocks rather than slots (leaves
+/// start on block boundaries) lets a tree address 2²⁹ slots.
 type ChildRef = u32;
 const LEAF_BIT: u32 = 1 << 31;
 const FIRST_BITS: u32 = 27;
@@ -91,16 +93,24 @@ const FIRST_BITS: u32 = 27;
 /// the root of an empty tree.
 const EMPTY: ChildRef = u32::MAX;
 
+/// Most primitives a tree is built over: each leaf can pad its last block,
+/// so at worst every primitive takes a block of its own, and 2²⁷ blocks
+/// are what a [`ChildRef`] addresses. The scene loader refuses larger
+/// scenes (a tile of `probeplace split` holds a part of one).
+pub const MAX_PRIMITIVES: usize = 1 << FIRST_BITS;
+
 fn leaf_ref(first: usize, count: usize) -> ChildRef {
     assert!(
-        first < 1 << FIRST_BITS && (1..=16).contains(&count),
+        first.is_multiple_of(LEAF_ALIGN)
+            && first / LEAF_ALIGN < 1 << FIRST_BITS
+            && (1..=16).contains(&count),
         "a leaf of {count} primitives at {first}"
     );
-    LEAF_BIT | ((count as u32 - 1) << FIRST_BITS) | first as u32
+    LEAF_BIT | ((count as u32 - 1) << FIRST_BITS) | (first / LEAF_ALIGN) as u32
 }
 
 fn leaf_range(r: ChildRef) -> Range<usize> {
-    let first = (r & ((1 << FIRST_BITS) - 1)) as usize;
+    let first = (r & ((1 << FIRST_BITS) - 1)) as usize * LEAF_ALIGN;
     let count = ((r & !LEAF_BIT) >> FIRST_BITS) as usize + 1;
     first..first + count
 }
@@ -235,7 +245,9 @@ fn enter(node: &Node, ray: &BoxRay, tmax: f32) -> (u32, [f32; 4]) {
 
 impl WideBvh {
     /// Builds the tree over `prims` (their boxes) with obvhs's PLOC and
-    /// reinsertion parameters from `params`. Deterministic.
+    /// reinsertion parameters from `params`. Deterministic. Panics with
+    /// more than [`MAX_PRIMITIVES`] primitives, which the scene loader
+    /// refuses first.
     pub fn build<T: Boundable>(prims: &[T], params: BvhBuildParams) -> WideBvh {
         if prims.is_empty() {
             return WideBvh {
@@ -538,4 +550,27 @@ fn collapse(bvh2: &Bvh2) -> WideBvh {
     // Each level of nodes pushes at most three entries.
     bvh.stack = 3 * depth + 1;
     bvh
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn leaf_references_reach_every_block_and_keep_their_range() {
+        // The last block a reference addresses, and a leaf of 16 slots
+        // (the most a count field holds) at the first.
+        let last = (MAX_PRIMITIVES - 1) * LEAF_ALIGN;
+        for (first, count) in [(0, 1), (0, 16), (4, 3), (last, 8), (last, 1)] {
+            let r = leaf_ref(first, count);
+            assert!(r & LEAF_BIT != 0 && r != EMPTY);
+            assert_eq!(leaf_range(r), first..first + count);
+        }
+    }
+
+    #[test]
+    #[should_panic(expected = "a leaf of 1 primitives")]
+    fn a_leaf_off_a_block_boundary_is_refused() {
+        leaf_ref(2, 1);
+    }
 }
