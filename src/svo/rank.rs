@@ -204,15 +204,12 @@ const FALLBACK_RUNNERS_UP: usize = 2 * KEEP;
 /// ([`LeafRanker::best_visible`]); more only when the visit gets past them.
 const VISIT_PREFIX: usize = 32;
 
-/// Reusable buffers of one worker, and what its last leaves learnt.
+/// Reusable buffers of one worker.
 #[derive(Debug, Default)]
 pub struct Scratch {
     samples: Vec<Vec3>,
     candidates: Vec<(f32, u32)>,
     best: Vec<(f32, u32)>,
-    /// Per probe, the triangle that last blocked a segment from one of
-    /// this worker's leaves to it ([`LeafRanker::visible_within`]).
-    blockers: Vec<Blocker>,
 }
 
 /// Ranks the probes of any leaf of the grid.
@@ -265,33 +262,19 @@ impl LeafRanker<'_> {
         }
     }
 
-    /// How many of `samples` see probe `k`, or 0 as soon as more than
+    /// How many of `samples` see `probe`, or 0 as soon as more than
     /// `may_miss` of them do not.
     ///
-    /// The samples lie within one leaf, and a worker ranks neighbouring
-    /// leaves one after another, so a wall that hides the probe from one
-    /// point usually hides it from the next: each segment first tries the
-    /// triangle that blocked the last one to the same probe (`blockers[k]`,
-    /// a [`Blocker`]), which never changes an answer, only skips a
-    /// traversal. Kept across leaves, it skipped most of Sponza's blocked
-    /// traversals, which are 64% of the ranking's segments.
-    fn visible_within(
-        &self,
-        samples: &[Vec3],
-        k: u32,
-        may_miss: usize,
-        blockers: &mut Vec<Blocker>,
-    ) -> usize {
+    /// The samples lie within one leaf, so a wall that hides the probe
+    /// from one usually hides it from the next: each segment first tries
+    /// the triangle that blocked the last ([`Blocker`]), which never
+    /// changes an answer, only skips a traversal.
+    fn visible_within(&self, samples: &[Vec3], probe: Vec3, may_miss: usize) -> usize {
         let eps = 1e-3 * self.sdf.voxel_size;
-        if blockers.len() != self.influence.len() {
-            blockers.clear();
-            blockers.resize(self.influence.len(), Blocker::default());
-        }
-        let probe = self.influence[k as usize].position;
-        let blocker = &mut blockers[k as usize];
         let mut missed = 0;
+        let mut blocker = Blocker::default();
         for &s in samples {
-            if self.bvh.occluded_from(s, probe, eps, blocker) {
+            if self.bvh.occluded_from(s, probe, eps, &mut blocker) {
                 missed += 1;
                 if missed > may_miss {
                     return 0;
@@ -318,7 +301,6 @@ impl LeafRanker<'_> {
             samples,
             candidates: bounded,
             best,
-            blockers,
         } = scratch;
         self.samples(cell, samples);
         if samples.is_empty() {
@@ -334,7 +316,7 @@ impl LeafRanker<'_> {
                 .filter(|&&k| self.influence[k as usize].overlaps(lo, hi))
                 .map(|&k| (self.bound(k, centre), k)),
         );
-        self.best_visible(samples, bounded, best, blockers);
+        self.best_visible(samples, bounded, best);
         if !best.is_empty() {
             return Some((ranked(best, None), Source::Influence));
         }
@@ -354,7 +336,8 @@ impl LeafRanker<'_> {
         // Short-circuits only when every sample misses, so a probe that is
         // seen gets its exact count in the same pass.
         let Some((at, seen)) = bounded.iter().enumerate().find_map(|(i, &(_, k))| {
-            let seen = self.visible_within(samples, k, samples.len() - 1, blockers);
+            let probe = self.influence[k as usize].position;
+            let seen = self.visible_within(samples, probe, samples.len() - 1);
             (seen > 0).then_some((i, seen))
         }) else {
             return Some((Ranked::single(nearest), Source::Blind));
@@ -366,7 +349,7 @@ impl LeafRanker<'_> {
         for i in rest.clone() {
             bounded[i].0 = self.bound(bounded[i].1, centre);
         }
-        self.best_visible(samples, &mut bounded[rest], best, blockers);
+        self.best_visible(samples, &mut bounded[rest], best);
         Some((ranked(best, Some((first_score, first))), Source::Fallback))
     }
 
@@ -386,7 +369,6 @@ impl LeafRanker<'_> {
         samples: &[Vec3],
         bounded: &mut [(f32, u32)],
         best: &mut Vec<(f32, u32)>,
-        blockers: &mut Vec<Blocker>,
     ) {
         // (bound descending, index ascending) is a total order, and the
         // walk below usually stops within the first few pairs: only the
@@ -416,7 +398,7 @@ impl LeafRanker<'_> {
             } else {
                 samples.len() - 1
             };
-            let seen = self.visible_within(samples, k, may_miss, blockers);
+            let seen = self.visible_within(samples, self.influence[k as usize].position, may_miss);
             if seen == 0 {
                 continue;
             }
