@@ -594,12 +594,8 @@ impl<'r> CoverMatrix<'r> {
         let pinned = rules.pinned.min(positions.len());
         let mut changed = 0;
         if prune {
-            covered = self.prune_greedy(&mut w, pinned, covered, target_count);
-            let merged = self.merge_pairs(tiers, &mut w, pinned, covered, target_count);
-            if merged > 0 {
-                covered = self.satisfied(&w.count);
-                covered = self.prune_greedy(&mut w, pinned, covered, target_count);
-            }
+            let merged;
+            (covered, merged) = self.prune_and_merge(tiers, &mut w, pinned, covered, target_count);
             changed += merged;
         }
         // The budget coverage does not need goes where views sharpen most
@@ -616,13 +612,11 @@ impl<'r> CoverMatrix<'r> {
             // Polish's moves can leave a probe, or a pair, with nothing of
             // its own to see; a top-up's probes are there for the minimum.
             if rules.minimum.is_none() {
-                let live = w.live();
+                let merged;
                 covered = self.satisfied(&w.count);
-                covered = self.prune_greedy(&mut w, pinned, covered, target_count);
-                changed += self.merge_pairs(tiers, &mut w, pinned, covered, target_count);
-                covered = self.satisfied(&w.count);
-                self.prune_greedy(&mut w, pinned, covered, target_count);
-                changed += live - w.live();
+                (covered, merged) =
+                    self.prune_and_merge(tiers, &mut w, pinned, covered, target_count);
+                changed += merged;
             }
         }
         if changed > 0 {
@@ -660,6 +654,26 @@ impl<'r> CoverMatrix<'r> {
             before_minimum,
             kept_cols,
         }
+    }
+
+    /// Pruning, then pair merges, then pruning again if a pair merged:
+    /// returns how many samples the live probes of `w` cover (`covered`
+    /// before) and how many pairs merged.
+    fn prune_and_merge(
+        &self,
+        tiers: &[Vec<Vec3>],
+        w: &mut Working,
+        pinned: usize,
+        covered: usize,
+        target_count: usize,
+    ) -> (usize, usize) {
+        let covered = self.prune_greedy(w, pinned, covered, target_count);
+        let merged = self.merge_pairs(tiers, w, pinned, covered, target_count);
+        if merged == 0 {
+            return (covered, 0);
+        }
+        let covered = self.satisfied(&w.count);
+        (self.prune_greedy(w, pinned, covered, target_count), merged)
     }
 
     /// Greedy set cover of the holes (coverable samples with `count` 0)
