@@ -61,8 +61,14 @@ type Pass = (Vec<(Vec3, usize)>, Option<usize>);
 pub const MAX_SCORED_HOLES: usize = 2048;
 
 /// Nearest live probes each probe is tried with for a merge (see
-/// [`CoverMatrix::merge_pairs`]).
-pub const MERGE_NEIGHBOURS: usize = 3;
+/// [`CoverMatrix::merge_pairs`]): six, the face neighbours a probe has in
+/// a three-dimensional arrangement, so that a probe is paired along every
+/// axis, not only towards the nearest side. Three (one per axis at best)
+/// left one probe too many at the configs' own seeds in the Cornell box
+/// with spheres (10 vs 9) and Sponza (49 vs 48), and none of 55 runs (11
+/// configs × 5 seeds) kept fewer probes than six; the extra pairs cost no
+/// measurable time (BENCHMARKS.md, fifth session).
+pub const MERGE_NEIGHBOURS: usize = 6;
 
 /// Candidates nearest a pair's midpoint scored as its replacement.
 pub const MERGE_CANDIDATES: usize = 256;
@@ -93,11 +99,29 @@ fn popcount_and(a: &[u64], b: &[u64]) -> u32 {
     a.iter().zip(b).map(|(x, y)| (x & y).count_ones()).sum()
 }
 
+/// The indices of the set bits, ascending.
 pub(super) fn ones(bits: &[u64]) -> impl Iterator<Item = usize> + '_ {
-    bits.iter().enumerate().flat_map(|(w, &word)| {
-        (0..64)
-            .filter(move |b| word >> b & 1 == 1)
-            .map(move |b| w * 64 + b)
+    bits.iter()
+        .enumerate()
+        .flat_map(|(w, &word)| set_bits(word).map(move |b| w * 64 + b))
+}
+
+/// The indices set in `a` or `b` (of equal length), ascending.
+fn ones_either<'a>(a: &'a [u64], b: &'a [u64]) -> impl Iterator<Item = usize> + 'a {
+    a.iter()
+        .zip(b)
+        .enumerate()
+        .flat_map(|(w, (&x, &y))| set_bits(x | y).map(move |b| w * 64 + b))
+}
+
+/// The set bits of `word`, lowest first.
+fn set_bits(mut word: u64) -> impl Iterator<Item = usize> {
+    std::iter::from_fn(move || {
+        (word != 0).then(|| {
+            let b = word.trailing_zeros() as usize;
+            word &= word - 1;
+            b
+        })
     })
 }
 
@@ -851,7 +875,8 @@ impl<'r> CoverMatrix<'r> {
                         ((cols[i][s / 64] >> (s % 64) & 1) + (cols[j][s / 64] >> (s % 64) & 1))
                             as u32
                     };
-                    let only: Vec<usize> = (0..count.len())
+                    // Only samples i or j sees can depend on them.
+                    let only: Vec<usize> = ones_either(&cols[i], &cols[j])
                         .filter(|&s| {
                             let n = self.need[s];
                             n > 0 && count[s] >= n && count[s] - mine(s) < n
