@@ -95,6 +95,14 @@ pub struct Sdf {
 }
 
 impl Sdf {
+    /// Distance below which [`Sdf::distance`] is exact (up to rounding):
+    /// the band where it is computed point to triangle. Beyond it the
+    /// jump-flooded distance may exceed the true one, which is then still
+    /// at least this.
+    pub fn exact_reach(&self) -> f32 {
+        BAND * self.voxel_size
+    }
+
     /// Linear index of voxel `v` (x fastest).
     pub fn index(&self, v: UVec3) -> usize {
         (v.x + self.dims.x * (v.y + self.dims.y * v.z)) as usize

@@ -147,8 +147,8 @@ pub fn is_free(sdf: &Sdf, bvh: &SceneBvh, p: Vec3) -> bool {
     }
     // A centre lying on a surface would join `p` to the wrong side.
     let margin = FREE_NEIGHBOUR_CLEARANCE * sdf.voxel_size;
-    let mut near: [(f32, usize); 27] = [(f32::INFINITY, 0); 27];
-    let mut n = 0;
+    // The nearest such centres, nearest first (ties: the lower index).
+    let mut near = [(f32::INFINITY, usize::MAX); FREE_NEIGHBOURS_TRIED];
     for dz in -1..=1 {
         for dy in -1..=1 {
             for dx in -1..=1 {
@@ -157,24 +157,32 @@ pub fn is_free(sdf: &Sdf, bvh: &SceneBvh, p: Vec3) -> bool {
                     continue;
                 }
                 let j = sdf.index(w.as_uvec3());
-                if sdf.class[j] == VoxelClass::Free && sdf.distance[j] > margin {
-                    near[n] = (p.distance_squared(sdf.center(j)), j);
-                    n += 1;
+                if sdf.class[j] != VoxelClass::Free || sdf.distance[j] <= margin {
+                    continue;
+                }
+                let mut item = (p.distance_squared(sdf.center(j)), j);
+                for slot in near.iter_mut() {
+                    if item.0 < slot.0 || (item.0 == slot.0 && item.1 < slot.1) {
+                        std::mem::swap(slot, &mut item);
+                    }
                 }
             }
         }
     }
-    let near = &mut near[..n];
-    near.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
     // Short of the shadow rays' tolerance: a point a hair behind a wall
     // must not pass for free.
     let eps = 1e-5 * sdf.voxel_size;
+    // A segment no longer than the centre's (exact) distance to every
+    // surface cannot be blocked: the ray would say so too, so it is not
+    // cast. The slack covers the rounding of distances and of the ray test.
+    let exact = sdf.exact_reach();
+    let slack = 1e-3 * sdf.voxel_size + 1e-5 * p.abs().max_element();
     // Exactly the centres: a segment between points of the grid may run
     // along the diagonal seam of an axis-aligned quad, which the watertight
     // ray/triangle test does not let it slip through.
-    near.iter()
-        .take(FREE_NEIGHBOURS_TRIED)
-        .any(|&(_, j)| !bvh.occluded(p, sdf.center(j), eps))
+    near.iter().take_while(|&&(_, j)| j != usize::MAX).any(|&(d2, j)| {
+        sdf.distance[j].min(exact) > d2.sqrt() + slack || !bvh.occluded(p, sdf.center(j), eps)
+    })
 }
 
 /// How a leaf got its list.
