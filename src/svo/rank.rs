@@ -136,7 +136,9 @@ impl Ranked {
 /// bound), or an unblocked segment joins `p` to the centre of one of
 /// the three nearest free voxels around it. An SDF
 /// interpolation cannot decide this near edges and thin walls; the
-/// segment test is exact.
+/// segment test is exact. A segment shorter than its centre's distance to
+/// every surface (exact within the SDF's band, [`Sdf::exact_reach`]) is
+/// unblocked without casting it.
 pub fn is_free(sdf: &Sdf, bvh: &SceneBvh, p: Vec3) -> bool {
     let v = sdf.nearest_voxel(p).as_ivec3();
     let i = sdf.index(v.as_uvec3());
@@ -479,6 +481,74 @@ mod tests {
             }
         }
         assert_eq!(n, 39 * 3);
+    }
+
+    /// [`is_free`] as it was before it skipped any segment: the three
+    /// nearest eligible free centres by a full sort, each tried by a ray.
+    /// Also says whether the distance test would settle one of those
+    /// segments (so that a test knows it ran).
+    fn is_free_by_rays(sdf: &Sdf, bvh: &SceneBvh, p: Vec3) -> (bool, bool) {
+        let v = sdf.nearest_voxel(p).as_ivec3();
+        let i = sdf.index(v.as_uvec3());
+        match sdf.class[i] {
+            VoxelClass::Outside => return (false, false),
+            VoxelClass::Free if sdf.distance[i] > p.distance(sdf.center(i)) => return (true, false),
+            _ => {}
+        }
+        let margin = FREE_NEIGHBOUR_CLEARANCE * sdf.voxel_size;
+        let mut near: Vec<(f32, usize)> = Vec::new();
+        for dz in -1..=1 {
+            for dy in -1..=1 {
+                for dx in -1..=1 {
+                    let w = v + glam::IVec3::new(dx, dy, dz);
+                    if w.cmplt(glam::IVec3::ZERO).any() || w.cmpge(sdf.dims.as_ivec3()).any() {
+                        continue;
+                    }
+                    let j = sdf.index(w.as_uvec3());
+                    if sdf.class[j] == VoxelClass::Free && sdf.distance[j] > margin {
+                        near.push((p.distance_squared(sdf.center(j)), j));
+                    }
+                }
+            }
+        }
+        near.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        near.truncate(FREE_NEIGHBOURS_TRIED);
+        let eps = 1e-5 * sdf.voxel_size;
+        let free = near
+            .iter()
+            .any(|&(_, j)| !bvh.occluded(p, sdf.center(j), eps));
+        let proven = near
+            .iter()
+            .any(|&(d2, j)| sdf.distance[j].min(sdf.exact_reach()) > d2.sqrt() + 1e-3 * sdf.voxel_size);
+        (free, proven)
+    }
+
+    #[test]
+    fn free_space_proven_by_distances_is_what_the_rays_say() {
+        // Points near the room's and the box's surfaces, on both sides, in
+        // grids aligned with the walls and not: where `is_free` takes a
+        // centre's surface distance for its segment, the segment is
+        // unblocked, so the answer is the rays' own.
+        for (voxel, seed) in [(0.1, 1), (0.07, 2)] {
+            let (_, bvh, sdf) = crate::scene::testing::room_sdf(voxel, seed);
+            let (mut free, mut proven, mut tried) = (0, 0, 0);
+            for i in 0..sdf.len() {
+                if sdf.distance[i].abs() > 1.5 * voxel {
+                    continue;
+                }
+                for k in 0..4u64 {
+                    let h = crate::sampling::hash2(seed, (i as u64) << 2 | k);
+                    let p = sdf.center(i) + crate::sampling::cube_point(h) * (0.5 * voxel);
+                    let (want, settled) = is_free_by_rays(&sdf, &bvh, p);
+                    assert_eq!(is_free(&sdf, &bvh, p), want, "{p} at {voxel}");
+                    free += want as usize;
+                    proven += settled as usize;
+                    tried += 1;
+                }
+            }
+            assert!(free > tried / 4 && free < tried, "{free} of {tried} free");
+            assert!(proven > tried / 20, "{proven} of {tried} settled by distance");
+        }
     }
 
     #[test]
