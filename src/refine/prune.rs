@@ -66,8 +66,11 @@ pub const MAX_SCORED_HOLES: usize = 2048;
 /// axis, not only towards the nearest side. Three (one per axis at best)
 /// left one probe too many at the configs' own seeds in the Cornell box
 /// with spheres (10 vs 9) and Sponza (49 vs 48), and none of 55 runs (11
-/// configs × 5 seeds) kept fewer probes than six; the extra pairs cost no
-/// measurable time (BENCHMARKS.md, fifth session).
+/// configs × 5 seeds) kept fewer probes than six. It is a greedy step, so
+/// more pairs is not better everywhere: over the 74 runs of the generated
+/// suite (docs/results.md) six kept 1478 probes against 1487, fewer in 9
+/// runs and more in 6 (by 1 or 2). The extra pairs cost no measurable
+/// time (BENCHMARKS.md, fifth session).
 pub const MERGE_NEIGHBOURS: usize = 6;
 
 /// Candidates nearest a pair's midpoint scored as its replacement.
