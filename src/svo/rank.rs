@@ -147,27 +147,14 @@ pub fn is_free(sdf: &Sdf, bvh: &SceneBvh, p: Vec3) -> bool {
         VoxelClass::Free if sdf.distance[i] > p.distance(sdf.center(i)) => return true,
         _ => {}
     }
-    // A centre lying on a surface would join `p` to the wrong side.
-    let margin = FREE_NEIGHBOUR_CLEARANCE * sdf.voxel_size;
-    // The nearest such centres, nearest first (ties: the lower index).
+    // The nearest eligible centres, nearest first (ties: the lower index).
     let mut near = [(f32::INFINITY, usize::MAX); FREE_NEIGHBOURS_TRIED];
-    for dz in -1..=1 {
-        for dy in -1..=1 {
-            for dx in -1..=1 {
-                let w = v + glam::IVec3::new(dx, dy, dz);
-                if w.cmplt(glam::IVec3::ZERO).any() || w.cmpge(sdf.dims.as_ivec3()).any() {
-                    continue;
-                }
-                let j = sdf.index(w.as_uvec3());
-                if sdf.class[j] != VoxelClass::Free || sdf.distance[j] <= margin {
-                    continue;
-                }
-                let mut item = (p.distance_squared(sdf.center(j)), j);
-                for slot in near.iter_mut() {
-                    if item.0 < slot.0 || (item.0 == slot.0 && item.1 < slot.1) {
-                        std::mem::swap(slot, &mut item);
-                    }
-                }
+    let (neighbours, n) = free_neighbours(sdf, v);
+    for &j in &neighbours[..n] {
+        let mut item = (p.distance_squared(sdf.center(j)), j);
+        for slot in near.iter_mut() {
+            if item.0 < slot.0 || (item.0 == slot.0 && item.1 < slot.1) {
+                std::mem::swap(slot, &mut item);
             }
         }
     }
@@ -182,9 +169,38 @@ pub fn is_free(sdf: &Sdf, bvh: &SceneBvh, p: Vec3) -> bool {
     // Exactly the centres: a segment between points of the grid may run
     // along the diagonal seam of an axis-aligned quad, which the watertight
     // ray/triangle test does not let it slip through.
-    near.iter().take_while(|&&(_, j)| j != usize::MAX).any(|&(d2, j)| {
-        sdf.distance[j].min(exact) > d2.sqrt() + slack || !bvh.occluded(p, sdf.center(j), eps)
-    })
+    near.iter()
+        .take_while(|&&(_, j)| j != usize::MAX)
+        .any(|&(d2, j)| {
+            sdf.distance[j].min(exact) > d2.sqrt() + slack || !bvh.occluded(p, sdf.center(j), eps)
+        })
+}
+
+/// The voxels of the 3×3×3 block around `v` (within the grid; the
+/// first `n` of the array returned) whose
+/// centres [`is_free`] may join a point to: free, and clear of the
+/// surfaces by [`FREE_NEIGHBOUR_CLEARANCE`] voxels, since a centre lying
+/// on a surface would join the point to the wrong side.
+fn free_neighbours(sdf: &Sdf, v: glam::IVec3) -> ([usize; 27], usize) {
+    let margin = FREE_NEIGHBOUR_CLEARANCE * sdf.voxel_size;
+    let mut out = [0; 27];
+    let mut n = 0;
+    for dz in -1..=1 {
+        for dy in -1..=1 {
+            for dx in -1..=1 {
+                let w = v + glam::IVec3::new(dx, dy, dz);
+                if w.cmplt(glam::IVec3::ZERO).any() || w.cmpge(sdf.dims.as_ivec3()).any() {
+                    continue;
+                }
+                let j = sdf.index(w.as_uvec3());
+                if sdf.class[j] == VoxelClass::Free && sdf.distance[j] > margin {
+                    out[n] = j;
+                    n += 1;
+                }
+            }
+        }
+    }
+    (out, n)
 }
 
 /// How a leaf got its list.
@@ -492,34 +508,25 @@ mod tests {
         let i = sdf.index(v.as_uvec3());
         match sdf.class[i] {
             VoxelClass::Outside => return (false, false),
-            VoxelClass::Free if sdf.distance[i] > p.distance(sdf.center(i)) => return (true, false),
+            VoxelClass::Free if sdf.distance[i] > p.distance(sdf.center(i)) => {
+                return (true, false)
+            }
             _ => {}
         }
-        let margin = FREE_NEIGHBOUR_CLEARANCE * sdf.voxel_size;
-        let mut near: Vec<(f32, usize)> = Vec::new();
-        for dz in -1..=1 {
-            for dy in -1..=1 {
-                for dx in -1..=1 {
-                    let w = v + glam::IVec3::new(dx, dy, dz);
-                    if w.cmplt(glam::IVec3::ZERO).any() || w.cmpge(sdf.dims.as_ivec3()).any() {
-                        continue;
-                    }
-                    let j = sdf.index(w.as_uvec3());
-                    if sdf.class[j] == VoxelClass::Free && sdf.distance[j] > margin {
-                        near.push((p.distance_squared(sdf.center(j)), j));
-                    }
-                }
-            }
-        }
+        let (neighbours, n) = free_neighbours(sdf, v);
+        let mut near: Vec<(f32, usize)> = neighbours[..n]
+            .iter()
+            .map(|&j| (p.distance_squared(sdf.center(j)), j))
+            .collect();
         near.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
         near.truncate(FREE_NEIGHBOURS_TRIED);
         let eps = 1e-5 * sdf.voxel_size;
         let free = near
             .iter()
             .any(|&(_, j)| !bvh.occluded(p, sdf.center(j), eps));
-        let proven = near
-            .iter()
-            .any(|&(d2, j)| sdf.distance[j].min(sdf.exact_reach()) > d2.sqrt() + 1e-3 * sdf.voxel_size);
+        let proven = near.iter().any(|&(d2, j)| {
+            sdf.distance[j].min(sdf.exact_reach()) > d2.sqrt() + 1e-3 * sdf.voxel_size
+        });
         (free, proven)
     }
 
@@ -547,7 +554,10 @@ mod tests {
                 }
             }
             assert!(free > tried / 4 && free < tried, "{free} of {tried} free");
-            assert!(proven > tried / 20, "{proven} of {tried} settled by distance");
+            assert!(
+                proven > tried / 20,
+                "{proven} of {tried} settled by distance"
+            );
         }
     }
 
