@@ -283,26 +283,20 @@ pub fn refine(
         reference.samples.len(),
     )?;
     let min_cos = reference.min_cos();
-    let viewer = Viewer::new(
-        input.scene,
-        input.bvh,
-        &atlas,
-        r.directions,
-        min_cos,
-        params.w_orientation.0,
-        params.w_distance.0,
-        r.diagonal,
-    );
-    let corner_viewer = Viewer::new(
-        input.scene,
-        input.bvh,
-        &atlas,
-        r.corner_directions,
-        min_cos,
-        params.w_orientation.0,
-        params.w_distance.0,
-        r.diagonal,
-    );
+    let viewer_of = |directions: u32| {
+        Viewer::new(
+            input.scene,
+            input.bvh,
+            &atlas,
+            directions,
+            min_cos,
+            params.w_orientation.0,
+            params.w_distance.0,
+            r.diagonal,
+        )
+    };
+    let viewer = viewer_of(r.directions);
+    let corner_viewer = viewer_of(r.corner_directions);
     let views_of = |ps: &[Vec3]| -> Vec<ProbeView> { ps.iter().map(|&p| viewer.view(p)).collect() };
 
     // Move the probes (§3.3).

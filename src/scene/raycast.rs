@@ -24,7 +24,7 @@
 //! and the box tests are inclusive, so every such hit is seen.
 
 use super::watertight::{in_range, TriangleBlock, WatertightRay, WatertightTriangle};
-use super::wide_bvh::{BoxRay, WideBvh, LEAF_ALIGN, PAD};
+use super::wide_bvh::{prefetch, BoxRay, WideBvh, LEAF_ALIGN, PAD};
 use super::Scene;
 use glam::{Vec3, Vec3A};
 use obvhs::{aabb::Aabb, ray::Ray, triangle::Triangle, Boundable, BvhBuildParams};
@@ -362,23 +362,6 @@ impl SceneBvh {
         }
         blocked
     }
-}
-
-/// Starts loading the cache lines of `*p` (a hint: nothing is read).
-#[inline(always)]
-fn prefetch<T>(p: &T) {
-    #[cfg(target_arch = "x86_64")]
-    {
-        use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
-        let p = p as *const T as *const i8;
-        for line in (0..size_of::<T>()).step_by(64) {
-            // SAFETY: a prefetch is only a hint and reads nothing; `p +
-            // line` lies within `*p`.
-            unsafe { _mm_prefetch(p.add(line), _MM_HINT_T0) };
-        }
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = p;
 }
 
 /// The blocks of a leaf's slots (which start at a multiple of

@@ -201,31 +201,20 @@ impl WatertightRay {
     #[inline(always)]
     pub fn distances4(&self, block: &TriangleBlock, lanes: u32) -> (u32, [f32; 4]) {
         #[cfg(target_arch = "x86_64")]
-        {
-            let (mut hit, exact, mut t) = self.distances4_sse(block);
-            // Lanes not decided in SIMD (rare: a ray through an edge or a
-            // vertex, or a padding lane, which `lanes` leaves out).
-            let mut rest = lanes & !exact;
-            while rest != 0 {
-                let i = rest.trailing_zeros() as usize;
-                rest &= rest - 1;
-                t[i] = self.distance(&block.triangle(i));
-                hit |= ((!t[i].is_nan()) as u32) << i;
-            }
-            (hit & lanes, t)
-        }
+        let (mut hit, exact, mut t) = self.distances4_sse(block);
         #[cfg(not(target_arch = "x86_64"))]
-        {
-            let (mut hit, mut t) = (0, [f32::NAN; 4]);
-            let mut rest = lanes;
-            while rest != 0 {
-                let i = rest.trailing_zeros() as usize;
-                rest &= rest - 1;
-                t[i] = self.distance(&block.triangle(i));
-                hit |= ((!t[i].is_nan()) as u32) << i;
-            }
-            (hit, t)
+        let (mut hit, exact, mut t) = (0, 0, [f32::NAN; 4]);
+        // Lanes not decided in SIMD (rare: a ray through an edge or a
+        // vertex, or a padding lane, which `lanes` leaves out; all of them
+        // without SIMD).
+        let mut rest = lanes & !exact;
+        while rest != 0 {
+            let i = rest.trailing_zeros() as usize;
+            rest &= rest - 1;
+            t[i] = self.distance(&block.triangle(i));
+            hit |= ((!t[i].is_nan()) as u32) << i;
         }
+        (hit & lanes, t)
     }
 
     /// The SIMD part of [`WatertightRay::distances4`]: the lanes it

@@ -357,28 +357,16 @@ impl WideBvh {
     /// traversal reaches them: inner nodes here, leaves by `touch`.
     #[inline(always)]
     fn prefetch<T: Fn(Range<usize>)>(&self, node: &Node, mask: u32, touch: &T) {
-        #[cfg(target_arch = "x86_64")]
-        {
-            use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
-            let mut m = mask;
-            while m != 0 {
-                let c = node.child[m.trailing_zeros() as usize];
-                m &= m - 1;
-                if c & LEAF_BIT == 0 {
-                    let p = self.nodes[c as usize].bounds.as_ptr() as *const i8;
-                    // SAFETY: a prefetch is only a hint and reads nothing;
-                    // `p` and `p + 64` lie within the node (128 bytes).
-                    unsafe {
-                        _mm_prefetch(p, _MM_HINT_T0);
-                        _mm_prefetch(p.add(64), _MM_HINT_T0);
-                    }
-                } else if c != EMPTY {
-                    touch(leaf_range(c));
-                }
+        let mut m = mask;
+        while m != 0 {
+            let c = node.child[m.trailing_zeros() as usize];
+            m &= m - 1;
+            if c & LEAF_BIT == 0 {
+                prefetch(&self.nodes[c as usize]);
+            } else if c != EMPTY {
+                touch(leaf_range(c));
             }
         }
-        #[cfg(not(target_arch = "x86_64"))]
-        let _ = (node, mask, touch);
     }
 
     /// Whether `leaf` returns true for some leaf whose box the ray enters
@@ -435,6 +423,24 @@ impl WideBvh {
             cur = stack[sp];
         }
     }
+}
+
+/// Starts loading the cache lines of `*p` (a hint: nothing is read; none
+/// off x86-64).
+#[inline(always)]
+pub(super) fn prefetch<T>(p: &T) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
+        let p = p as *const T as *const i8;
+        for line in (0..size_of::<T>()).step_by(64) {
+            // SAFETY: a prefetch is only a hint and reads nothing; `p +
+            // line` lies within `*p`.
+            unsafe { _mm_prefetch(p.add(line), _MM_HINT_T0) };
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = p;
 }
 
 /// The 4-wide tree of `bvh2` (a tree of one primitive per leaf, root at
