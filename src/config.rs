@@ -714,6 +714,9 @@ pub struct RefineParams {
     pub texel_size: Option<Positive>,
     /// Most sweeps over all probes.
     pub iterations: Count<10_000>,
+    /// The sweeps end after this many in a row without a new best set
+    /// (the gibbs module's step 6); `iterations` or more runs them all.
+    pub patience: Count<10_000>,
     /// First step of every probe (world units). `None`: half the
     /// scene's largest clearance.
     pub initial_step: Option<Positive>,
@@ -749,6 +752,7 @@ impl Default for RefineParams {
             corner_directions: None,
             texel_size: None,
             iterations: Count(20),
+            patience: Count(5),
             initial_step: None,
             min_step: None,
             acceptance_exponent: None,

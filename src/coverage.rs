@@ -84,6 +84,69 @@ pub fn evaluation_segments(params: &CoverageParams, probes: usize) -> f64 {
 /// Nearest references tried first for each sample, before all others.
 const NEAREST_FIRST: usize = 32;
 
+/// Viewers per group of neighbours whose facing test a sample makes once
+/// for the whole group ([`ViewerGroups`]).
+const GROUP: usize = 32;
+
+/// Viewers in groups of [`GROUP`] neighbours in space (Morton order), each
+/// with a ball around them: a sample none of whose viewers it faces (a
+/// surface turned towards solid or away from the domain, where most
+/// uncoverable samples lie) rejects a group with one test rather than
+/// each viewer with its own.
+struct ViewerGroups {
+    /// Viewer indices, group after group.
+    order: Vec<usize>,
+    /// Centre and radius of each group's ball.
+    balls: Vec<(Vec3, f32)>,
+}
+
+impl ViewerGroups {
+    fn new(viewers: &[Vec3]) -> ViewerGroups {
+        let order = crate::sampling::morton_order(viewers);
+        let balls = order
+            .chunks(GROUP)
+            .map(|group| {
+                let (lo, hi) = group.iter().fold(
+                    (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
+                    |(lo, hi), &v| (lo.min(viewers[v]), hi.max(viewers[v])),
+                );
+                let centre = 0.5 * (lo + hi);
+                let radius = group
+                    .iter()
+                    .map(|&v| viewers[v].distance(centre))
+                    .fold(0.0f32, f32::max);
+                (
+                    centre,
+                    radius * (1.0 + 1e-5) + 1e-6 * centre.abs().max_element(),
+                )
+            })
+            .collect();
+        ViewerGroups { order, balls }
+    }
+
+    /// The groups whose ball may hold a viewer `sample` faces within
+    /// `min_cos` ([`CoverageReference::sees_from`]'s first test, which
+    /// needs `n·(v − s) ≥ min_cos·|v − s|`): over a ball of centre `c` and
+    /// radius `r`, `n·(v − s)` is at most `n·(c − s) + r` and `|v − s|` at
+    /// least `|c − s| − r`, with a margin for rounding.
+    fn facing<'g>(
+        &'g self,
+        sample: &'g SurfaceSample,
+        min_cos: f32,
+    ) -> impl Iterator<Item = &'g [usize]> + 'g {
+        self.order
+            .chunks(GROUP)
+            .zip(&self.balls)
+            .filter(move |(_, &(c, r))| {
+                let to = c - sample.position;
+                let dist = to.length();
+                let margin = 1e-4 * (dist + r) + 1e-6 * sample.position.abs().max_element();
+                sample.normal.dot(to) + r + margin >= min_cos * (dist - r).max(0.0)
+            })
+            .map(|(group, _)| group)
+    }
+}
+
 /// Most sampling rounds drawn to reach the coverable-sample target.
 const MAX_ROUNDS: u64 = 8;
 
@@ -283,6 +346,7 @@ impl CoverageReference {
         let points: Vec<[f32; 3]> = viewers.iter().map(|v| v.to_array()).collect();
         let tree = ImmutableKdTree::<f32, 3>::new_from_slice(&points);
         let k = NonZero::new(NEAREST_FIRST.min(viewers.len())).unwrap_or(NonZero::<usize>::MIN);
+        let groups = ViewerGroups::new(viewers);
         samples
             .par_chunks(256)
             .flat_map_iter(|chunk| {
@@ -310,8 +374,10 @@ impl CoverageReference {
                             }
                         }
                         if !seen {
-                            seen = (0..viewers.len()).any(|v| {
-                                !tried[v] && self.sees_from(bvh, viewers[v], s, &mut blocker)
+                            seen = groups.facing(s, self.min_cos).any(|group| {
+                                group.iter().any(|&v| {
+                                    !tried[v] && self.sees_from(bvh, viewers[v], s, &mut blocker)
+                                })
                             });
                         }
                         for &v in &near {

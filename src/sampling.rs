@@ -117,6 +117,39 @@ impl Sampler {
 
 /// A point of the cube [-1, 1]³ from the hash `h`, for tests that need
 /// reproducible random points.
+/// Indices of `points` in the Morton order of their positions (ties: the
+/// earlier), so that neighbours in the order are neighbours in space.
+pub(crate) fn morton_order(points: &[Vec3]) -> Vec<usize> {
+    let (lo, hi) = points.iter().fold(
+        (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
+        |(lo, hi), &p| (lo.min(p), hi.max(p)),
+    );
+    let cells = ((1u32 << 10) - 1) as f32;
+    let scale = cells / (hi - lo).max_element().max(f32::MIN_POSITIVE);
+    let spread = |v: u32| {
+        let mut x = v as u64 & 0x3ff;
+        x = (x | x << 16) & 0x30000ff;
+        x = (x | x << 8) & 0x300f00f;
+        x = (x | x << 4) & 0x30c30c3;
+        (x | x << 2) & 0x9249249
+    };
+    let mut keys: Vec<(u64, usize)> = points
+        .iter()
+        .enumerate()
+        .map(|(k, &p)| {
+            let c = ((p - lo) * scale).clamp(Vec3::ZERO, Vec3::splat(cells));
+            let c = if c.is_finite() {
+                c.as_uvec3()
+            } else {
+                glam::UVec3::ZERO
+            };
+            (spread(c.x) | spread(c.y) << 1 | spread(c.z) << 2, k)
+        })
+        .collect();
+    keys.sort_unstable();
+    keys.into_iter().map(|(_, k)| k).collect()
+}
+
 #[cfg(test)]
 pub(crate) fn cube_point(h: u64) -> glam::Vec3 {
     glam::Vec3::new(

@@ -29,14 +29,20 @@
 //!
 //! Only one voxel in eight, those with even coordinates, is always
 //! classified by rays. Any other voxel lies inside a cell of that lattice; if
-//! the (up to 8) lattice voxels bracketing it agree, and its own distance to
-//! the nearest surface exceeds a voxel diagonal (so no surface can separate it
-//! from them), it takes their class without casting a ray. This skips most of
-//! the open space and the interiors of thick solids; near surfaces, and where
-//! the corners disagree, every voxel is classified by its own rays. Solid
-//! versus not solid is thereby exact (a unit test checks it against rays from
-//! every voxel); only the statistical free/outside boundary, where the escape
-//! share crosses its threshold, can shift by a voxel.
+//! the (up to 8) lattice voxels bracketing it agree, and no surface separates
+//! it from them, it takes their class without casting its own rays. No
+//! surface separates them when its distance to the nearest surface exceeds
+//! a voxel diagonal, which settles most of the open space and the interiors
+//! of thick solids; nearer a surface, when a short segment to each of them
+//! crosses none ([`sees_corners`]), up to 8 segments of at most a voxel
+//! diagonal in place of 8 to 32 rays that run until they hit. Only where
+//! the corners disagree, or a surface passes between, is a voxel classified
+//! by its own rays. Solid versus not solid matches the rays of every voxel
+//! in a unit test; the statistical free/outside boundary, where the escape
+//! share crosses its threshold, can shift by a voxel, and so can a voxel
+//! whose rays fall either side of the back-face threshold (on the
+//! configs, at most 11 voxels in one scene changed between solid and
+//! free when segments were added: BENCHMARKS.md, "Sixth session").
 //!
 //! Two stages keep the rays themselves affordable: the first 8 directions
 //! (spread over the whole sphere) are cast, and when every one of them hits a
@@ -363,7 +369,10 @@ fn nearest_surface_points(scene: &Scene, sdf: &Sdf) -> Vec<Option<Vec3>> {
 /// Jump flooding: each pass, every voxel adopts the nearest of the surface
 /// points known to its 26 neighbours at offset `step`, halving `step` down to
 /// 1, then one extra pass at 1 (JFA+1) to mend most of its rare errors.
+/// Voxels of the exact band (those `nearest` holds a point for) keep theirs:
+/// it is the nearest point of every triangle, so no neighbour's is nearer.
 fn jump_flood(sdf: &Sdf, mut nearest: Vec<Option<Vec3>>) -> Vec<Option<Vec3>> {
+    let exact: Vec<bool> = nearest.iter().map(Option::is_some).collect();
     let max_dim = sdf.dims.max_element();
     let mut steps = Vec::new();
     let mut step = max_dim.next_power_of_two() / 2;
@@ -386,8 +395,13 @@ fn jump_flood(sdf: &Sdf, mut nearest: Vec<Option<Vec3>>) -> Vec<Option<Vec3>> {
                 let (y, z) = ((r as i32) % dims.y, (r as i32) / dims.y);
                 for (x, out) in row.iter_mut().enumerate() {
                     let v = IVec3::new(x as i32, y, z);
+                    let i = sdf.index(v.as_uvec3());
+                    if exact[i] {
+                        *out = from[i];
+                        continue;
+                    }
                     let c = sdf.origin + (v.as_uvec3().as_vec3() + 0.5) * sdf.voxel_size;
-                    let mut best = from[sdf.index(v.as_uvec3())];
+                    let mut best = from[i];
                     let mut best_d2 = best.map_or(f32::INFINITY, |q| q.distance_squared(c));
                     for dz in -1..=1 {
                         for dy in -1..=1 {
@@ -454,7 +468,7 @@ fn classify(
             }
             bar.inc(1);
             match agreed_corner_class(sdf, &lattice, i) {
-                Some(class) if sdf.distance[i] > reach => class,
+                Some(class) if sdf.distance[i] > reach || sees_corners(sdf, bvh, i) => class,
                 _ => rays.classify(bvh, i),
             }
         })
@@ -493,6 +507,33 @@ fn agreed_corner_class(sdf: &Sdf, lattice: &[Option<VoxelClass>], i: usize) -> O
         }
     }
     agreed
+}
+
+/// Whether voxel `i`'s centre sees the centres of all the lattice voxels
+/// bracketing it (those [`agreed_corner_class`] reads) along segments that
+/// cross no surface, and lies off every surface: then no surface separates
+/// it from them, as when its distance proves it, and a short segment each
+/// costs less than its own classification rays.
+fn sees_corners(sdf: &Sdf, bvh: &SceneBvh, i: usize) -> bool {
+    let eps = 1e-3 * sdf.voxel_size;
+    if sdf.distance[i] <= eps {
+        return false;
+    }
+    let v = sdf.coords(i);
+    let c = sdf.center(i);
+    let base = v - v % 2;
+    let offsets = |k: u32| if k.is_multiple_of(2) { 0..=0 } else { 0..=2 };
+    for z in offsets(v.z).step_by(2) {
+        for y in offsets(v.y).step_by(2) {
+            for x in offsets(v.x).step_by(2) {
+                let corner = sdf.center(sdf.index(base + UVec3::new(x, y, z)));
+                if bvh.occluded(c, corner, eps) {
+                    return false;
+                }
+            }
+        }
+    }
+    true
 }
 
 /// The per-voxel ray rule of the module docs.

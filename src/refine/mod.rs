@@ -395,6 +395,7 @@ fn sweep(
         corner_viewer,
         legal_move: &legal_move,
         iterations: params.iterations.0,
+        patience: params.patience.0,
         initial_step: r.initial_step,
         min_step: r.min_step,
         beta: r.beta,
@@ -598,5 +599,73 @@ mod tests {
         assert_eq!(with(6, None), 6, "never more than the proposal's");
         assert_eq!(with(32, Some(32)), 32);
         assert_eq!(with(16, Some(24)), 24, "a set value stands");
+    }
+
+    /// Patience only ends the sweeps early: the sweeps a run makes are the
+    /// first sweeps of a more patient run, so a more patient run sweeps at
+    /// least as long and keeps a best set at least as good, and two runs
+    /// that swept as long return the same probes.
+    #[test]
+    fn patience_ends_the_sweeps_early_and_changes_nothing_else() {
+        use crate::config::{CoverageParams, Degrees, Placement, SdfSkeletonParams};
+        use crate::progress::Progress;
+        use crate::scene::testing::{place_in, room_sdf};
+        let (scene, bvh, sdf) = room_sdf(0.25, 2);
+        let coverage = CoverageParams {
+            samples: Count(3000),
+            reference_points: Count(256),
+            max_incidence_deg: Degrees(85.0),
+        };
+        let hidden = Progress::hidden();
+        let reference = CoverageReference::new(&scene, &bvh, &sdf, &coverage, 2, &hidden);
+        let method = Placement::SdfSkeleton(SdfSkeletonParams::default());
+        let placed = place_in(&method, &scene, &bvh, &sdf).unwrap();
+        let input = PlacementInput {
+            scene: &scene,
+            bvh: &bvh,
+            sdf: &sdf,
+            domain: &scene.bounds,
+            seed: 3,
+            progress: &hidden,
+        };
+        let run = |patience: u32| {
+            let params = RefineParams {
+                iterations: Count(40),
+                patience: Count(patience),
+                ..RefineParams::default()
+            };
+            refine(
+                &params,
+                placed.clone(),
+                &input,
+                &reference,
+                &Controls::default(),
+            )
+            .unwrap()
+        };
+        let runs: Vec<Refined> = [1, 2, 3, 40].into_iter().map(run).collect();
+        assert!(
+            runs[0].report.iterations < 40,
+            "a sweep without a new best ends patience 1"
+        );
+        assert!(runs[3].report.iterations > runs[0].report.iterations);
+        for pair in runs.windows(2) {
+            let (a, b) = (&pair[0].report, &pair[1].report);
+            assert!(
+                a.iterations <= b.iterations,
+                "{} > {}",
+                a.iterations,
+                b.iterations
+            );
+            assert!(
+                a.r_refined <= b.r_refined,
+                "{} > {}",
+                a.r_refined,
+                b.r_refined
+            );
+            if a.iterations == b.iterations {
+                assert_eq!(pair[0].probes.positions(), pair[1].probes.positions());
+            }
+        }
     }
 }

@@ -497,7 +497,7 @@ impl<'r> CoverMatrix<'r> {
     ) -> Vec<Bits> {
         let words = subset.len().div_ceil(64);
         let mut cols: Vec<Bits> = vec![vec![0; words]; viewers.len()];
-        let order = morton_order(viewers);
+        let order = crate::sampling::morton_order(viewers);
         let runs: Vec<&[usize]> = order.chunks(VIEWER_RUN).collect();
         let block = (WORDS_IN_FLIGHT / viewers.len().max(1)).max(1);
         bar.set_length((words * runs.len()) as u64);
@@ -539,28 +539,48 @@ impl<'r> CoverMatrix<'r> {
     /// and the mean incidence angle (degrees) of each covered sample's best
     /// view, lower being better and 0 head-on (§3.2 "Probe View
     /// Distortion"; `None` when nothing is covered).
+    ///
+    /// Each sample tries its viewers best view first and stops at the
+    /// first that sees it: that one is its best view, so the answer is
+    /// [`CoverMatrix::summary_of`]'s over all columns, without testing
+    /// every viewer against every sample.
     pub fn summary(&self, viewers: &[Vec3]) -> (usize, Option<f64>) {
-        self.summary_of(viewers, &self.columns(viewers))
+        let best: Vec<Option<f32>> = (0..self.len())
+            .into_par_iter()
+            .map_init(Vec::new, |order: &mut Vec<(f32, usize)>, i| {
+                let s = self.sample(i);
+                order.clear();
+                order.extend(
+                    viewers
+                        .iter()
+                        .enumerate()
+                        .map(|(k, &v)| (view_cos(s, v), k)),
+                );
+                order.sort_unstable_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
+                let mut blocker = Blocker::default();
+                order
+                    .iter()
+                    .find(|&&(_, k)| {
+                        self.reference
+                            .sees_from(self.bvh, viewers[k], s, &mut blocker)
+                    })
+                    .map(|&(c, _)| c)
+            })
+            .collect();
+        mean_incidence(best)
     }
 
     /// [`CoverMatrix::summary`] of the probes at `viewers` whose columns
     /// (as [`CoverMatrix::columns`] gives them) are `cols`.
     pub(super) fn summary_of(&self, viewers: &[Vec3], cols: &[Bits]) -> (usize, Option<f64>) {
-        let (mut sum, mut count) = (0.0f64, 0usize);
-        for (i, &si) in self.coverable.iter().enumerate() {
-            let s = &self.reference.samples[si];
-            let best = cols
-                .iter()
+        mean_incidence((0..self.len()).map(|i| {
+            let s = self.sample(i);
+            cols.iter()
                 .zip(viewers)
                 .filter(|(c, _)| c[i / 64] >> (i % 64) & 1 == 1)
-                .map(|(_, &v)| s.normal.dot((v - s.position).normalize_or_zero()))
-                .fold(f32::NEG_INFINITY, f32::max);
-            if best.is_finite() {
-                sum += best.clamp(-1.0, 1.0).acos().to_degrees() as f64;
-                count += 1;
-            }
-        }
-        (count, (count > 0).then(|| sum / count as f64))
+                .map(|(_, &v)| view_cos(s, v))
+                .reduce(f32::max)
+        }))
     }
 
     /// Fills and prunes (module docs) the probes at `positions` towards
@@ -964,37 +984,24 @@ impl<'r> CoverMatrix<'r> {
     }
 }
 
-/// Indices of `points` in the Morton order of their positions (ties: the
-/// earlier), so that neighbours in the order are neighbours in space.
-fn morton_order(points: &[Vec3]) -> Vec<usize> {
-    let (lo, hi) = points.iter().fold(
-        (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
-        |(lo, hi), &p| (lo.min(p), hi.max(p)),
-    );
-    let cells = ((1u32 << 10) - 1) as f32;
-    let scale = cells / (hi - lo).max_element().max(f32::MIN_POSITIVE);
-    let spread = |v: u32| {
-        let mut x = v as u64 & 0x3ff;
-        x = (x | x << 16) & 0x30000ff;
-        x = (x | x << 8) & 0x300f00f;
-        x = (x | x << 4) & 0x30c30c3;
-        (x | x << 2) & 0x9249249
-    };
-    let mut keys: Vec<(u64, usize)> = points
-        .iter()
-        .enumerate()
-        .map(|(k, &p)| {
-            let c = ((p - lo) * scale).clamp(Vec3::ZERO, Vec3::splat(cells));
-            let c = if c.is_finite() {
-                c.as_uvec3()
-            } else {
-                glam::UVec3::ZERO
-            };
-            (spread(c.x) | spread(c.y) << 1 | spread(c.z) << 2, k)
-        })
-        .collect();
-    keys.sort_unstable();
-    keys.into_iter().map(|(_, k)| k).collect()
+/// Cosine of the angle between `sample`'s normal and its view of `viewer`
+/// (1 head-on).
+fn view_cos(sample: &SurfaceSample, viewer: Vec3) -> f32 {
+    sample
+        .normal
+        .dot((viewer - sample.position).normalize_or_zero())
+}
+
+/// The number of samples with a best view in `best` (each sample's
+/// [`view_cos`], `None` unseen) and the mean incidence angle (degrees) of
+/// those views, summed in sample order.
+fn mean_incidence(best: impl IntoIterator<Item = Option<f32>>) -> (usize, Option<f64>) {
+    let (mut sum, mut count) = (0.0f64, 0usize);
+    for c in best.into_iter().flatten() {
+        sum += c.clamp(-1.0, 1.0).acos().to_degrees() as f64;
+        count += 1;
+    }
+    (count, (count > 0).then(|| sum / count as f64))
 }
 
 /// Greedy picks among candidates whose columns over a subsample of the
