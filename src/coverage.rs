@@ -552,4 +552,36 @@ mod tests {
         assert_eq!(health.probes_outside_domain, 1);
         assert_eq!(health.probes_outside_scene, 0);
     }
+
+    /// A group is passed over only when the sample faces none of its
+    /// viewers: every viewer that passes the facing test of
+    /// [`CoverageReference::sees_from`] lies in a group
+    /// [`ViewerGroups::facing`] yields, and some groups are passed over.
+    #[test]
+    fn viewer_groups_never_hide_a_viewer_a_sample_faces() {
+        let (_, _, _, reference) = setup();
+        let viewers: Vec<Vec3> = (0..700u64)
+            .map(|i| {
+                let u = |k| crate::sampling::unit_f32(hash2(i, k));
+                Vec3::new(4.0 * u(1), 4.0 * u(2), 4.0 * u(3))
+            })
+            .collect();
+        let groups = ViewerGroups::new(&viewers);
+        let mut skipped = 0;
+        for s in reference.samples.iter().step_by(7) {
+            let offered: Vec<usize> = groups
+                .facing(s, reference.min_cos)
+                .flatten()
+                .copied()
+                .collect();
+            skipped += viewers.len() - offered.len();
+            for (k, &v) in viewers.iter().enumerate() {
+                let to = v - s.position;
+                if s.normal.dot(to) >= reference.min_cos * to.length() {
+                    assert!(offered.contains(&k), "viewer {k} at {v} hidden from {s:?}");
+                }
+            }
+        }
+        assert!(skipped > 0, "no group was ever passed over");
+    }
 }

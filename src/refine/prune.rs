@@ -1146,6 +1146,12 @@ mod tests {
         let cov = reference.evaluate(&bvh, &kept, &p);
         assert_eq!(cov.covered_samples, r.covered_final);
         assert_eq!(matrix.summary(&kept).0, r.covered_final);
+        // Best view first gives what every column gives, incidence too.
+        let many: Vec<Vec3> = reference.references.iter().step_by(16).copied().collect();
+        for viewers in [&kept[..], &many[..]] {
+            let cols = matrix.columns(viewers);
+            assert_eq!(matrix.summary(viewers), matrix.summary_of(viewers, &cols));
+        }
         // Without filling or pruning nothing changes.
         let same = matrix.fill_and_prune(
             &positions,
