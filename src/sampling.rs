@@ -115,8 +115,6 @@ impl Sampler {
     }
 }
 
-/// A point of the cube [-1, 1]³ from the hash `h`, for tests that need
-/// reproducible random points.
 /// Indices of `points` in the Morton order of their positions (ties: the
 /// earlier), so that neighbours in the order are neighbours in space.
 pub(crate) fn morton_order(points: &[Vec3]) -> Vec<usize> {
@@ -150,6 +148,8 @@ pub(crate) fn morton_order(points: &[Vec3]) -> Vec<usize> {
     keys.into_iter().map(|(_, k)| k).collect()
 }
 
+/// A point of the cube [-1, 1]³ from the hash `h`, for tests that need
+/// reproducible random points.
 #[cfg(test)]
 pub(crate) fn cube_point(h: u64) -> glam::Vec3 {
     glam::Vec3::new(

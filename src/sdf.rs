@@ -467,8 +467,14 @@ fn classify(
                 return class;
             }
             bar.inc(1);
-            match agreed_corner_class(sdf, &lattice, i) {
-                Some(class) if sdf.distance[i] > reach || sees_corners(sdf, bvh, i) => class,
+            let Some((corners, n)) = lattice_corners(sdf, i) else {
+                return rays.classify(bvh, i);
+            };
+            let corners = &corners[..n];
+            match agreed_corner_class(&lattice, corners) {
+                Some(class) if sdf.distance[i] > reach || sees_corners(sdf, bvh, i, corners) => {
+                    class
+                }
                 _ => rays.classify(bvh, i),
             }
         })
@@ -477,63 +483,65 @@ fn classify(
     classes
 }
 
-/// The class shared by all lattice voxels bracketing voxel `i` (per axis: the
-/// coordinate itself when even, its two odd neighbours' even neighbours
-/// otherwise), or `None` when they disagree or the grid edge cuts the bracket.
-fn agreed_corner_class(sdf: &Sdf, lattice: &[Option<VoxelClass>], i: usize) -> Option<VoxelClass> {
+/// The lattice voxels bracketing voxel `i` (per axis: the coordinate itself
+/// when even, its two odd neighbours' even neighbours otherwise), each
+/// once: the first `n` of the array returned; `None` when the grid edge
+/// cuts the bracket.
+fn lattice_corners(sdf: &Sdf, i: usize) -> Option<([usize; 8], usize)> {
     let v = sdf.coords(i);
-    let bracket = |c: u32, n: u32| -> Option<(u32, u32)> {
+    let bracket = |c: u32, n: u32| -> Option<std::iter::StepBy<std::ops::RangeInclusive<u32>>> {
         if c.is_multiple_of(2) {
-            Some((c, c))
+            Some((c..=c).step_by(2))
         } else if c + 1 < n {
-            Some((c - 1, c + 1))
+            Some((c - 1..=c + 1).step_by(2))
         } else {
             None
         }
     };
-    let (x0, x1) = bracket(v.x, sdf.dims.x)?;
-    let (y0, y1) = bracket(v.y, sdf.dims.y)?;
-    let (z0, z1) = bracket(v.z, sdf.dims.z)?;
-    let mut agreed = None;
-    for z in [z0, z1] {
-        for y in [y0, y1] {
-            for x in [x0, x1] {
-                let class = lattice[sdf.index(UVec3::new(x, y, z))]?;
-                if agreed.is_some_and(|a| a != class) {
-                    return None;
-                }
-                agreed = Some(class);
+    let (xs, ys, zs) = (
+        bracket(v.x, sdf.dims.x)?,
+        bracket(v.y, sdf.dims.y)?,
+        bracket(v.z, sdf.dims.z)?,
+    );
+    let mut out = [0; 8];
+    let mut n = 0;
+    for z in zs {
+        for y in ys.clone() {
+            for x in xs.clone() {
+                out[n] = sdf.index(UVec3::new(x, y, z));
+                n += 1;
             }
         }
+    }
+    Some((out, n))
+}
+
+/// The class shared by all the lattice voxels `corners`, or `None` when
+/// they disagree.
+fn agreed_corner_class(lattice: &[Option<VoxelClass>], corners: &[usize]) -> Option<VoxelClass> {
+    let mut agreed = None;
+    for &j in corners {
+        let class = lattice[j]?;
+        if agreed.is_some_and(|a| a != class) {
+            return None;
+        }
+        agreed = Some(class);
     }
     agreed
 }
 
-/// Whether voxel `i`'s centre sees the centres of all the lattice voxels
-/// bracketing it (those [`agreed_corner_class`] reads) along segments that
-/// cross no surface, and lies off every surface: then no surface separates
-/// it from them, as when its distance proves it, and a short segment each
-/// costs less than its own classification rays.
-fn sees_corners(sdf: &Sdf, bvh: &SceneBvh, i: usize) -> bool {
+/// Whether voxel `i`'s centre sees the centres of the lattice voxels
+/// `corners` along segments that cross no surface, and lies off every
+/// surface: then no surface separates it from them, as when its distance
+/// proves it, and a short segment each costs less than its own
+/// classification rays.
+fn sees_corners(sdf: &Sdf, bvh: &SceneBvh, i: usize, corners: &[usize]) -> bool {
     let eps = 1e-3 * sdf.voxel_size;
-    if sdf.distance[i] <= eps {
-        return false;
-    }
-    let v = sdf.coords(i);
     let c = sdf.center(i);
-    let base = v - v % 2;
-    let offsets = |k: u32| if k.is_multiple_of(2) { 0..=0 } else { 0..=2 };
-    for z in offsets(v.z).step_by(2) {
-        for y in offsets(v.y).step_by(2) {
-            for x in offsets(v.x).step_by(2) {
-                let corner = sdf.center(sdf.index(base + UVec3::new(x, y, z)));
-                if bvh.occluded(c, corner, eps) {
-                    return false;
-                }
-            }
-        }
-    }
-    true
+    sdf.distance[i] > eps
+        && corners
+            .iter()
+            .all(|&j| !bvh.occluded(c, sdf.center(j), eps))
 }
 
 /// The per-voxel ray rule of the module docs.
