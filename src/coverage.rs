@@ -253,14 +253,22 @@ impl CoverageReference {
         progress: &Progress,
     ) -> CoverageReference {
         let mut free: Vec<(u64, usize)> = (0..sdf.len())
+            .into_par_iter()
+            .with_min_len(4096)
             .filter(|&i| {
                 sdf.class[i] == VoxelClass::Free
                     && sdf.distance[i] >= REFERENCE_MIN_CLEARANCE_VOXELS * sdf.voxel_size
             })
             .map(|i| (hash2(seed, i as u64), i))
             .collect();
+        // The least (hash, voxel) pairs in order; the pairs are distinct,
+        // so selecting them before sorting gives what a full sort would.
+        let keep = params.reference_points.0 as usize;
+        if keep < free.len() {
+            free.select_nth_unstable(keep);
+            free.truncate(keep);
+        }
         free.sort_unstable();
-        free.truncate(params.reference_points.0 as usize);
         let mut refs: Vec<Vec3> = free.iter().map(|&(_, i)| sdf.center(i)).collect();
         refs.sort_by(|a, b| {
             a.to_array()

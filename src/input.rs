@@ -125,11 +125,11 @@ pub fn next_line(
             break;
         }
         any = true;
-        let (chunk, done) = match memchr(b'\n', buf) {
+        let (chunk, done) = match memchr::memchr(b'\n', buf) {
             Some(i) => (&buf[..i], Some(i + 1)),
             None => (buf, None),
         };
-        if memchr(0, chunk).is_some() {
+        if memchr::memchr(0, chunk).is_some() {
             return Ok(Err(LineError::Binary));
         }
         if line.len() + chunk.len() > MAX_LINE_BYTES {
@@ -166,10 +166,6 @@ pub fn line_at(path: &Path, offset: u64) -> usize {
     let mut prefix = Vec::new();
     let _ = file.take(offset).read_to_end(&mut prefix);
     1 + prefix.iter().filter(|&&b| b == b'\n').count()
-}
-
-fn memchr(needle: u8, haystack: &[u8]) -> Option<usize> {
-    haystack.iter().position(|&b| b == needle)
 }
 
 /// `bytes` in words, binary units with three significant digits

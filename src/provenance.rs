@@ -105,33 +105,44 @@ impl Provenance {
         config_text: &str,
         overrides: &Overrides,
     ) -> Result<Provenance> {
+        let files = input_files(config, overrides);
+        Provenance::of_files(config, config_path, config_text, overrides, &files)
+    }
+
+    /// [`Provenance::of`] for a caller that has the run's input files,
+    /// [`input_files`]`(config, overrides)`, already (finding them reads
+    /// the whole scene file for its `mtllib` lines).
+    pub fn of_files(
+        config: &Config,
+        config_path: &Path,
+        config_text: &str,
+        overrides: &Overrides,
+        files: &[PathBuf],
+    ) -> Result<Provenance> {
         let mut scene = Fnv::default();
-        for (i, file) in input_files(config, overrides).into_iter().enumerate() {
+        for (i, file) in files.iter().enumerate() {
             let what = match i {
                 0 => "scene file",
-                _ if overrides.probes.as_ref() == Some(&file) => "probe file",
+                _ if overrides.probes.as_ref() == Some(file) => "probe file",
                 _ => "material library",
             };
-            let (mut f, size) = crate::input::open(&file, what, u64::MAX)?;
+            let (mut f, size) = crate::input::open(file, what, u64::MAX)?;
             scene.write(&size.to_le_bytes());
             let mut chunk = vec![0u8; 1 << 16];
             let mut read = 0u64;
             while read < size {
                 let n = std::io::Read::read(&mut f, &mut chunk)
-                    .map_err(|e| Error::user_file(&file, format!("cannot read {what}: {e}")))?;
+                    .map_err(|e| Error::user_file(file, format!("cannot read {what}: {e}")))?;
                 if n == 0 {
                     break;
                 }
                 let n = n.min((size - read) as usize);
                 // A binary scene is refused here, before hashing gigabytes
                 // of it, with the line the loader would name.
-                if let (false, Some(at)) = (
-                    what == "probe file",
-                    chunk[..n].iter().position(|&b| b == 0),
-                ) {
-                    let line = crate::input::line_at(&file, read + at as u64);
+                if let (false, Some(at)) = (what == "probe file", memchr::memchr(0, &chunk[..n])) {
+                    let line = crate::input::line_at(file, read + at as u64);
                     return Err(crate::input::not_text(
-                        &file,
+                        file,
                         line,
                         if i == 0 { "an OBJ" } else { "an MTL" },
                     ));

@@ -238,7 +238,8 @@ impl Job {
             None => Some(config.placement),
         };
         apply(&mut config, &overrides)?;
-        let provenance = Provenance::of(&config, &config_path, &text, &overrides)?;
+        let files = provenance::input_files(&config, &overrides);
+        let provenance = Provenance::of_files(&config, &config_path, &text, &overrides, &files)?;
         if let Some(e) = &earlier {
             if let Some(why) = provenance.mismatch(&e.provenance) {
                 return Err(Error::user_file(
@@ -256,7 +257,7 @@ impl Job {
             (None, None) => config.output.clone(),
         };
         let mut inputs = vec![config_path.clone()];
-        inputs.extend(provenance::input_files(&config, &overrides));
+        inputs.extend(files);
         commit::check_destination(&out_dir, &inputs)?;
         Ok(Job {
             config,

@@ -45,7 +45,9 @@ use crate::progress::Progress;
 use crate::scene::raycast::{Blocker, SceneBvh};
 use glam::Vec3;
 use indicatif::ProgressBar;
+use kiddo::{ImmutableKdTree, SquaredEuclidean};
 use rayon::prelude::*;
+use std::num::NonZero;
 
 /// A set of sample indices as 64-bit words.
 pub(super) type Bits = Vec<u64>;
@@ -573,14 +575,19 @@ impl<'r> CoverMatrix<'r> {
     /// [`CoverMatrix::summary`] of the probes at `viewers` whose columns
     /// (as [`CoverMatrix::columns`] gives them) are `cols`.
     pub(super) fn summary_of(&self, viewers: &[Vec3], cols: &[Bits]) -> (usize, Option<f64>) {
-        mean_incidence((0..self.len()).map(|i| {
-            let s = self.sample(i);
-            cols.iter()
-                .zip(viewers)
-                .filter(|(c, _)| c[i / 64] >> (i % 64) & 1 == 1)
-                .map(|(_, &v)| view_cos(s, v))
-                .reduce(f32::max)
-        }))
+        let best: Vec<Option<f32>> = (0..self.len())
+            .into_par_iter()
+            .with_min_len(256)
+            .map(|i| {
+                let s = self.sample(i);
+                cols.iter()
+                    .zip(viewers)
+                    .filter(|(c, _)| c[i / 64] >> (i % 64) & 1 == 1)
+                    .map(|(_, &v)| view_cos(s, v))
+                    .reduce(f32::max)
+            })
+            .collect();
+        mean_incidence(best)
     }
 
     /// Fills and prunes (module docs) the probes at `positions` towards
@@ -873,6 +880,8 @@ impl<'r> CoverMatrix<'r> {
             .enumerate()
             .flat_map(|(t, c)| c.iter().map(move |&p| (p, t)))
             .collect();
+        let points: Vec<Vec3> = pool.iter().map(|&(p, _)| p).collect();
+        let near_pool = NearestPoints::new(&points, MERGE_CANDIDATES);
         let mut merged = 0;
         let mut tried = std::collections::BTreeSet::new();
         'restart: loop {
@@ -914,20 +923,10 @@ impl<'r> CoverMatrix<'r> {
                         .len()
                         .saturating_sub(covered - target_count.min(covered));
                     let mid = 0.5 * (w.all[i] + w.all[j]);
-                    let mut cands: Vec<(f32, usize)> = pool
-                        .iter()
-                        .enumerate()
-                        .map(|(k, (p, _))| (p.distance_squared(mid), k))
-                        .collect();
-                    let k = MERGE_CANDIDATES.min(cands.len());
-                    if k == 0 {
+                    if pool.is_empty() {
                         return merged;
                     }
-                    cands.select_nth_unstable_by(k - 1, |a, b| {
-                        a.0.total_cmp(&b.0).then(a.1.cmp(&b.1))
-                    });
-                    cands.truncate(k);
-                    cands.sort_by_key(|&(_, c)| c);
+                    let cands = near_pool.nearest(mid);
                     // Only a candidate that sees at least `need` of the
                     // repairable samples can win: one that misses more
                     // than `spare` of them is dropped at that miss, since
@@ -1002,6 +1001,106 @@ fn mean_incidence(best: impl IntoIterator<Item = Option<f32>>) -> (usize, Option
         count += 1;
     }
     (count, (count > 0).then(|| sum / count as f64))
+}
+
+/// The `k` points of a fixed set nearest a query point, found with a k-d
+/// tree but exactly those a full scan would choose: least
+/// `distance_squared` first, ties to the lower index.
+struct NearestPoints<'a> {
+    points: &'a [Vec3],
+    tree: Option<ImmutableKdTree<f32, 3>>,
+    k: usize,
+}
+
+/// Points beyond `k` a tree query fetches, so that the `k` nearest by our
+/// own distance can be told apart from the rest despite the tree's own
+/// rounding of distances.
+const NEAREST_SLACK: usize = 16;
+
+impl<'a> NearestPoints<'a> {
+    fn new(points: &'a [Vec3], k: usize) -> NearestPoints<'a> {
+        let k = k.min(points.len());
+        // A tree pays only when it can leave most points out.
+        let tree = (2 * (k + NEAREST_SLACK) <= points.len())
+            .then(|| {
+                let rows: Vec<[f32; 3]> = points.iter().map(|p| p.to_array()).collect();
+                ImmutableKdTree::<f32, 3>::new_from_slice(&rows).ok()
+            })
+            .flatten();
+        NearestPoints { points, tree, k }
+    }
+
+    /// `(distance², index)` of the `k` points nearest `q` (ties: lower
+    /// index), in index order.
+    fn nearest(&self, q: Vec3) -> Vec<(f32, usize)> {
+        let order = |a: &(f32, usize), b: &(f32, usize)| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1));
+        let mut cands = self
+            .by_tree(q, order)
+            .unwrap_or_else(|| self.scan(q, order));
+        cands.sort_unstable_by_key(|&(_, c)| c);
+        cands
+    }
+
+    /// [`NearestPoints::nearest`] from the tree (unsorted), or `None` when
+    /// there is none or it would fetch most points. Points at exactly the
+    /// `k`-th distance (a query between lattice points has whole shells of
+    /// them) may be left out of a query of `k` and a few more; then one
+    /// twice as large is made.
+    fn by_tree(
+        &self,
+        q: Vec3,
+        order: impl Fn(&(f32, usize), &(f32, usize)) -> std::cmp::Ordering,
+    ) -> Option<Vec<(f32, usize)>> {
+        let tree = self.tree.as_ref()?;
+        let k = self.k;
+        if k == 0 {
+            return None;
+        }
+        let mut n = k + NEAREST_SLACK;
+        while 2 * n <= self.points.len() {
+            let found = tree
+                .query(&q.to_array())
+                .nearest_n::<SquaredEuclidean<f32>>(NonZero::new(n)?)
+                .execute();
+            let farthest = found.iter().map(|r| r.distance).fold(0.0f32, f32::max);
+            let mut cands: Vec<(f32, usize)> = found
+                .iter()
+                .map(|r| {
+                    let i = r.item as usize;
+                    (self.points[i].distance_squared(q), i)
+                })
+                .collect();
+            cands.sort_unstable_by(&order);
+            // Every point left out is at least `farthest` away by the
+            // tree's reckoning; ours differs by rounding only, so the `k`
+            // nearest are all here when the `k`-th is clearly nearer.
+            if cands[k - 1].0 * (1.0 + 1e-4) + f32::MIN_POSITIVE < farthest {
+                cands.truncate(k);
+                return Some(cands);
+            }
+            n *= 2;
+        }
+        None
+    }
+
+    /// [`NearestPoints::nearest`] by a scan of every point (unsorted).
+    fn scan(
+        &self,
+        q: Vec3,
+        order: impl Fn(&(f32, usize), &(f32, usize)) -> std::cmp::Ordering,
+    ) -> Vec<(f32, usize)> {
+        let mut cands: Vec<(f32, usize)> = self
+            .points
+            .iter()
+            .enumerate()
+            .map(|(i, p)| (p.distance_squared(q), i))
+            .collect();
+        if self.k < cands.len() && self.k > 0 {
+            cands.select_nth_unstable_by(self.k - 1, &order);
+        }
+        cands.truncate(self.k);
+        cands
+    }
 }
 
 /// Greedy picks among candidates whose columns over a subsample of the
@@ -1107,6 +1206,50 @@ mod tests {
     use super::*;
     use crate::config::{Count, CoverageParams, Degrees};
     use crate::scene::testing::room_sdf;
+
+    /// The k-d tree's `k` nearest points are the full scan's, ties
+    /// included: on a lattice (many points at exactly equal distances from
+    /// lattice and mid-lattice queries), with duplicated points, and with
+    /// fewer points than the tree needs.
+    #[test]
+    fn nearest_points_are_the_full_scans() {
+        use crate::sampling::{cube_point, hash2};
+        let scan = |points: &[Vec3], q: Vec3, k: usize| -> Vec<(f32, usize)> {
+            let mut all: Vec<(f32, usize)> = points
+                .iter()
+                .enumerate()
+                .map(|(i, p)| (p.distance_squared(q), i))
+                .collect();
+            all.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+            all.truncate(k);
+            all.sort_by_key(|&(_, i)| i);
+            all
+        };
+        let lattice: Vec<Vec3> = (0..1000)
+            .map(|i| Vec3::new((i % 10) as f32, (i / 10 % 10) as f32, (i / 100) as f32) * 0.25)
+            .collect();
+        let mut doubled = lattice.clone();
+        doubled.extend(lattice.iter().step_by(3));
+        let random: Vec<Vec3> = (0..3000).map(|i| 4.0 * cube_point(hash2(9, i))).collect();
+        let mut trees = 0;
+        for points in [&lattice, &doubled, &random, &lattice[..40].to_vec()] {
+            for k in [1, 7, 64, 256] {
+                let near = NearestPoints::new(points, k);
+                trees += usize::from(near.tree.is_some());
+                for j in 0..60u64 {
+                    let q = if j < 30 {
+                        // Lattice points and the midpoints between them.
+                        points[(hash2(j, 1) % points.len() as u64) as usize]
+                            + Vec3::new(0.125, 0.0, 0.125) * (j % 2) as f32
+                    } else {
+                        2.0 * cube_point(hash2(j, 2))
+                    };
+                    assert_eq!(near.nearest(q), scan(points, q, k), "k {k} at {q}");
+                }
+            }
+        }
+        assert!(trees >= 12, "{trees} of 16 used the tree");
+    }
 
     /// The test room's BVH and a small coverage reference over it.
     fn room_reference() -> (SceneBvh, CoverageReference) {

@@ -96,17 +96,15 @@ pub fn render_preview(input: &PreviewInput, view_size: u32) -> RgbImage {
 
     let (lo, hi) = framing_box(input);
     let size = view_size as usize;
-    let stride = width as usize * 3;
-    let mut zbuf = vec![f32::NEG_INFINITY; size * size];
-    let buf = img.as_raw_mut();
-
-    let side = side_view(input);
-    for (view, x0) in [(View::Top, 0), (side, size + gap as usize)] {
-        zbuf.fill(f32::NEG_INFINITY);
+    // The two views are drawn at once, each into its own buffer, then
+    // placed side by side.
+    let draw = |view: View| -> Vec<u8> {
+        let mut buf = vec![0u8; size * size * 3];
+        let mut zbuf = vec![f32::NEG_INFINITY; size * size];
         let mut canvas = Canvas {
-            buf: &mut *buf,
-            stride,
-            x0,
+            buf: &mut buf,
+            stride: size * 3,
+            x0: 0,
             size,
         };
         canvas.clear(BACKGROUND);
@@ -115,6 +113,17 @@ pub fn render_preview(input: &PreviewInput, view_size: u32) -> RgbImage {
         draw_holes(&mut canvas, &zbuf, input.holes, view, &frame, cut);
         draw_bounds(&mut canvas, view, &frame, lo, hi);
         draw_probes(&mut canvas, input.probes, view, &frame);
+        buf
+    };
+    let (top, side) = rayon::join(|| draw(View::Top), || draw(side_view(input)));
+    let stride = width as usize * 3;
+    let row = size * 3;
+    let right = (size + gap as usize) * 3;
+    let buf = img.as_raw_mut();
+    for y in 0..size {
+        let at = y * stride;
+        buf[at..at + row].copy_from_slice(&top[y * row..(y + 1) * row]);
+        buf[at + right..at + right + row].copy_from_slice(&side[y * row..(y + 1) * row]);
     }
     img
 }
