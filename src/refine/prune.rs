@@ -78,6 +78,11 @@ pub const MERGE_NEIGHBOURS: usize = 6;
 /// Candidates nearest a pair's midpoint scored as its replacement.
 pub const MERGE_CANDIDATES: usize = 256;
 
+/// Pairs [`CoverMatrix::merge_pairs`] scores at once, in parallel. The
+/// answer does not depend on it: a batch only costs the scoring of the
+/// pairs after a merge in it, which are scored again after the merge.
+const MERGE_BATCH: usize = 8;
+
 /// Most 64-bit words [`CoverMatrix::select`]'s swap search scores (a
 /// fraction of a second): a budget of a few probes among a hundred gets
 /// hundreds of passes, one of thousands among thousands none.
@@ -872,8 +877,20 @@ impl<'r> CoverMatrix<'r> {
         tiers: &[Vec<Vec3>],
         w: &mut Working,
         pinned: usize,
-        mut covered: usize,
+        covered: usize,
         target_count: usize,
+    ) -> usize {
+        self.merge_pairs_in(tiers, w, pinned, (covered, target_count), MERGE_BATCH)
+    }
+
+    /// [`CoverMatrix::merge_pairs`], scoring `batch` pairs at once.
+    fn merge_pairs_in(
+        &self,
+        tiers: &[Vec<Vec3>],
+        w: &mut Working,
+        pinned: usize,
+        (mut covered, target_count): (usize, usize),
+        batch: usize,
     ) -> usize {
         let pool: Vec<(Vec3, usize)> = tiers
             .iter()
@@ -882,12 +899,19 @@ impl<'r> CoverMatrix<'r> {
             .collect();
         let points: Vec<Vec3> = pool.iter().map(|&(p, _)| p).collect();
         let near_pool = NearestPoints::new(&points, MERGE_CANDIDATES);
+        if pool.is_empty() {
+            return 0;
+        }
         let mut merged = 0;
         let mut tried = std::collections::BTreeSet::new();
         'restart: loop {
             let live: Vec<usize> = (0..w.all.len())
                 .filter(|&k| w.alive[k] && k >= pinned)
                 .collect();
+            // The pairs not tried yet, in the order of the scan (each live
+            // probe with its nearest live ones, nearest first), each once.
+            let mut pairs: Vec<(usize, usize)> = Vec::new();
+            let mut listed = std::collections::BTreeSet::new();
             for &i in &live {
                 let mut near: Vec<(f32, usize)> = live
                     .iter()
@@ -896,64 +920,26 @@ impl<'r> CoverMatrix<'r> {
                     .collect();
                 near.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
                 for &(_, j) in near.iter().take(MERGE_NEIGHBOURS) {
-                    if !tried.insert((i.min(j), i.max(j))) {
-                        continue;
+                    let key = (i.min(j), i.max(j));
+                    if !tried.contains(&key) && listed.insert(key) {
+                        pairs.push((i, j));
                     }
-                    // Samples covered now that would not be without i and
-                    // j, those of them one replacement can restore, and how
-                    // many of them it must restore to keep the target.
-                    let (cols, count) = (&w.cols, &w.count);
-                    let mine = |s: usize| {
-                        ((cols[i][s / 64] >> (s % 64) & 1) + (cols[j][s / 64] >> (s % 64) & 1))
-                            as u32
-                    };
-                    // Only samples i or j sees can depend on them.
-                    let only: Vec<usize> = ones_either(&cols[i], &cols[j])
-                        .filter(|&s| {
-                            let n = self.need[s];
-                            n > 0 && count[s] >= n && count[s] - mine(s) < n
-                        })
-                        .collect();
-                    let repairable: Vec<usize> = only
-                        .iter()
-                        .copied()
-                        .filter(|&s| count[s] - mine(s) + 1 >= self.need[s])
-                        .collect();
-                    let need = only
-                        .len()
-                        .saturating_sub(covered - target_count.min(covered));
-                    let mid = 0.5 * (w.all[i] + w.all[j]);
-                    if pool.is_empty() {
-                        return merged;
-                    }
-                    let cands = near_pool.nearest(mid);
-                    // Only a candidate that sees at least `need` of the
-                    // repairable samples can win: one that misses more
-                    // than `spare` of them is dropped at that miss, since
-                    // its score can no longer reach `need`.
-                    let spare = repairable.len().saturating_sub(need);
-                    let scores: Vec<Option<u32>> = cands
-                        .par_iter()
-                        .map(|&(_, c)| {
-                            let mut missed = 0;
-                            for &s in &repairable {
-                                if !self.sees_sample(pool[c].0, s) {
-                                    missed += 1;
-                                    if missed > spare {
-                                        return None;
-                                    }
-                                }
-                            }
-                            Some((repairable.len() - missed) as u32)
-                        })
-                        .collect();
-                    let best = cands
-                        .iter()
-                        .zip(&scores)
-                        .filter_map(|(c, g)| g.map(|g| (c, g)))
-                        .filter(|&(_, g)| g as usize >= need)
-                        .min_by_key(|&((_, c), g)| (pool[*c].1, std::cmp::Reverse(g), *c));
-                    let Some((&(_, c), _)) = best else { continue };
+                }
+            }
+            // Pairs are scored a batch at a time, in parallel; the first
+            // of a batch, in scan order, that merges is taken, and those
+            // after it are tried again after the merge, as a scan that
+            // stops at the merge would.
+            for batch in pairs.chunks(batch.max(1)) {
+                let found: Vec<Option<usize>> = batch
+                    .par_iter()
+                    .map(|&(i, j)| {
+                        self.replacement(&pool, &near_pool, w, (i, j), covered, target_count)
+                    })
+                    .collect();
+                for (&(i, j), c) in batch.iter().zip(found) {
+                    tried.insert((i.min(j), i.max(j)));
+                    let Some(c) = c else { continue };
                     w.kill(i);
                     w.kill(j);
                     let col = self.columns(&[pool[c].0]).remove(0);
@@ -965,6 +951,72 @@ impl<'r> CoverMatrix<'r> {
             }
             return merged;
         }
+    }
+
+    /// The candidate of `pool` (its index) that replaces the live probes
+    /// `i` and `j` of `w` in [`CoverMatrix::merge_pairs`], or `None`: of
+    /// the [`MERGE_CANDIDATES`] nearest their midpoint, one that sees
+    /// enough of the samples only `i` and `j` cover to keep `covered` at
+    /// `target_count` (the nearest tier first, then the most seen; ties:
+    /// the earlier candidate).
+    fn replacement(
+        &self,
+        pool: &[(Vec3, usize)],
+        near_pool: &NearestPoints,
+        w: &Working,
+        (i, j): (usize, usize),
+        covered: usize,
+        target_count: usize,
+    ) -> Option<usize> {
+        // Samples covered now that would not be without i and j, those of
+        // them one replacement can restore, and how many of them it must
+        // restore to keep the target.
+        let (cols, count) = (&w.cols, &w.count);
+        let mine = |s: usize| {
+            ((cols[i][s / 64] >> (s % 64) & 1) + (cols[j][s / 64] >> (s % 64) & 1)) as u32
+        };
+        // Only samples i or j sees can depend on them.
+        let only: Vec<usize> = ones_either(&cols[i], &cols[j])
+            .filter(|&s| {
+                let n = self.need[s];
+                n > 0 && count[s] >= n && count[s] - mine(s) < n
+            })
+            .collect();
+        let repairable: Vec<usize> = only
+            .iter()
+            .copied()
+            .filter(|&s| count[s] - mine(s) + 1 >= self.need[s])
+            .collect();
+        let need = only
+            .len()
+            .saturating_sub(covered - target_count.min(covered));
+        let cands = near_pool.nearest(0.5 * (w.all[i] + w.all[j]));
+        // Only a candidate that sees at least `need` of the repairable
+        // samples can win: one that misses more than `spare` of them is
+        // dropped at that miss, since its score can no longer reach `need`.
+        let spare = repairable.len().saturating_sub(need);
+        let scores: Vec<Option<u32>> = cands
+            .par_iter()
+            .map(|&(_, c)| {
+                let mut missed = 0;
+                for &s in &repairable {
+                    if !self.sees_sample(pool[c].0, s) {
+                        missed += 1;
+                        if missed > spare {
+                            return None;
+                        }
+                    }
+                }
+                Some((repairable.len() - missed) as u32)
+            })
+            .collect();
+        cands
+            .iter()
+            .zip(&scores)
+            .filter_map(|(c, g)| g.map(|g| (c, g)))
+            .filter(|&(_, g)| g as usize >= need)
+            .min_by_key(|&((_, c), g)| (pool[*c].1, std::cmp::Reverse(g), *c))
+            .map(|(&(_, c), _)| c)
     }
 
     /// Coverable sample `i` (index into the coverable samples).
@@ -1261,6 +1313,43 @@ mod tests {
         };
         let reference = CoverageReference::new(&scene, &bvh, &sdf, &params, 2, &Progress::hidden());
         (bvh, reference)
+    }
+
+    /// Scoring pairs in batches changes nothing: the merges, the probes
+    /// they add and the coverage are those of scoring one pair at a time.
+    #[test]
+    fn merges_scored_in_batches_are_those_scored_one_by_one() {
+        let (bvh, reference) = room_reference();
+        let matrix = CoverMatrix::new(&reference, &bvh);
+        // A crowded lattice of probes, many pairs of which one can replace.
+        let positions: Vec<Vec3> = (0..18)
+            .map(|i| {
+                Vec3::new(
+                    1.0 + (i % 3) as f32,
+                    1.0 + (i / 3 % 2) as f32,
+                    1.0 + (i / 6) as f32,
+                )
+            })
+            .collect();
+        let tiers = [reference.references.clone()];
+        let run = |batch: usize| {
+            let cols = matrix.columns(&positions);
+            let mut w = Working::new(
+                positions.clone(),
+                cols,
+                vec![0; positions.len()],
+                matrix.len(),
+            );
+            let covered = matrix.satisfied(&w.count);
+            let target = (0.999 * covered as f64) as usize;
+            let merged = matrix.merge_pairs_in(&tiers, &mut w, 2, (covered, target), batch);
+            (merged, w.all, w.alive, w.count)
+        };
+        let one = run(1);
+        assert!(one.0 >= 2, "{} merges", one.0);
+        for batch in [2, 3, 8, 64] {
+            assert_eq!(run(batch), one, "batch {batch}");
+        }
     }
 
     #[test]
