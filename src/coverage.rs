@@ -261,14 +261,7 @@ impl CoverageReference {
             })
             .map(|i| (hash2(seed, i as u64), i))
             .collect();
-        // The least (hash, voxel) pairs in order; the pairs are distinct,
-        // so selecting them before sorting gives what a full sort would.
-        let keep = params.reference_points.0 as usize;
-        if keep < free.len() {
-            free.select_nth_unstable(keep);
-            free.truncate(keep);
-        }
-        free.sort_unstable();
+        crate::sampling::keep_least(&mut free, params.reference_points.0 as usize);
         let mut refs: Vec<Vec3> = free.iter().map(|&(_, i)| sdf.center(i)).collect();
         refs.sort_by(|a, b| {
             a.to_array()

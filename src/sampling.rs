@@ -148,6 +148,18 @@ pub(crate) fn morton_order(points: &[Vec3]) -> Vec<usize> {
     keys.into_iter().map(|(_, k)| k).collect()
 }
 
+/// `items` cut to its `keep` least, in order: what sorting all of them
+/// and keeping the first `keep` gives when no two items are equal (a
+/// seeded hash paired with a distinct index, say), without sorting the
+/// rest: the least are selected first, in linear time.
+pub(crate) fn keep_least<T: Ord>(items: &mut Vec<T>, keep: usize) {
+    if keep < items.len() {
+        items.select_nth_unstable(keep);
+        items.truncate(keep);
+    }
+    items.sort_unstable();
+}
+
 /// A point of the cube [-1, 1]³ from the hash `h`, for tests that need
 /// reproducible random points.
 #[cfg(test)]
@@ -163,6 +175,19 @@ pub(crate) fn cube_point(h: u64) -> glam::Vec3 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn keep_least_is_a_full_sort_cut_short() {
+        for (n, keep) in [(1000, 10), (1000, 0), (50, 50), (50, 80), (0, 3)] {
+            let items: Vec<(u64, usize)> = (0..n).map(|i| (hash2(5, i as u64) % 97, i)).collect();
+            let mut sorted = items.clone();
+            sorted.sort();
+            sorted.truncate(keep);
+            let mut kept = items;
+            keep_least(&mut kept, keep);
+            assert_eq!(kept, sorted, "{n} items, keep {keep}");
+        }
+    }
 
     #[test]
     fn sampler_streams_are_reproducible_and_distinct() {

@@ -578,15 +578,8 @@ fn fill_candidates(
             voxels[t as usize].push((hash2(hash2(input.seed, 0xF111), v as u64), v));
         }
     }
-    let keep = params.fill_candidates.0 as usize;
     for (tier, mut band) in tiers.iter_mut().zip(voxels) {
-        // The `keep` least (hash, voxel) pairs in order: pairs are
-        // distinct, so selecting them first gives what a full sort would.
-        if keep < band.len() {
-            band.select_nth_unstable(keep);
-            band.truncate(keep);
-        }
-        band.sort_unstable();
+        crate::sampling::keep_least(&mut band, params.fill_candidates.0 as usize);
         tier.extend(band.iter().map(|&(_, v)| input.sdf.center(v)));
     }
     tiers

@@ -892,16 +892,17 @@ impl<'r> CoverMatrix<'r> {
         (mut covered, target_count): (usize, usize),
         batch: usize,
     ) -> usize {
-        let pool: Vec<(Vec3, usize)> = tiers
+        // The candidates of every tier, and the tier of each.
+        let points: Vec<Vec3> = tiers.iter().flatten().copied().collect();
+        let tier: Vec<usize> = tiers
             .iter()
             .enumerate()
-            .flat_map(|(t, c)| c.iter().map(move |&p| (p, t)))
+            .flat_map(|(t, c)| std::iter::repeat_n(t, c.len()))
             .collect();
-        let points: Vec<Vec3> = pool.iter().map(|&(p, _)| p).collect();
-        let near_pool = NearestPoints::new(&points, MERGE_CANDIDATES);
-        if pool.is_empty() {
+        if points.is_empty() {
             return 0;
         }
+        let pool = NearestPoints::new(&points, MERGE_CANDIDATES);
         let mut merged = 0;
         let mut tried = std::collections::BTreeSet::new();
         'restart: loop {
@@ -933,17 +934,15 @@ impl<'r> CoverMatrix<'r> {
             for batch in pairs.chunks(batch.max(1)) {
                 let found: Vec<Option<usize>> = batch
                     .par_iter()
-                    .map(|&(i, j)| {
-                        self.replacement(&pool, &near_pool, w, (i, j), covered, target_count)
-                    })
+                    .map(|&(i, j)| self.replacement(&pool, &tier, w, (i, j), covered, target_count))
                     .collect();
                 for (&(i, j), c) in batch.iter().zip(found) {
                     tried.insert((i.min(j), i.max(j)));
                     let Some(c) = c else { continue };
                     w.kill(i);
                     w.kill(j);
-                    let col = self.columns(&[pool[c].0]).remove(0);
-                    w.push(pool[c].0, col, pool[c].1);
+                    let col = self.columns(&[points[c]]).remove(0);
+                    w.push(points[c], col, tier[c]);
                     covered = self.satisfied(&w.count);
                     merged += 1;
                     continue 'restart;
@@ -953,16 +952,17 @@ impl<'r> CoverMatrix<'r> {
         }
     }
 
-    /// The candidate of `pool` (its index) that replaces the live probes
-    /// `i` and `j` of `w` in [`CoverMatrix::merge_pairs`], or `None`: of
-    /// the [`MERGE_CANDIDATES`] nearest their midpoint, one that sees
+    /// The candidate of `pool` (its index; `tier` holds each one's tier)
+    /// that replaces the live probes `i` and `j` of `w` in
+    /// [`CoverMatrix::merge_pairs`], or `None`: of the
+    /// [`MERGE_CANDIDATES`] nearest their midpoint, one that sees
     /// enough of the samples only `i` and `j` cover to keep `covered` at
     /// `target_count` (the nearest tier first, then the most seen; ties:
     /// the earlier candidate).
     fn replacement(
         &self,
-        pool: &[(Vec3, usize)],
-        near_pool: &NearestPoints,
+        pool: &NearestPoints,
+        tier: &[usize],
         w: &Working,
         (i, j): (usize, usize),
         covered: usize,
@@ -990,7 +990,7 @@ impl<'r> CoverMatrix<'r> {
         let need = only
             .len()
             .saturating_sub(covered - target_count.min(covered));
-        let cands = near_pool.nearest(0.5 * (w.all[i] + w.all[j]));
+        let cands = pool.nearest(0.5 * (w.all[i] + w.all[j]));
         // Only a candidate that sees at least `need` of the repairable
         // samples can win: one that misses more than `spare` of them is
         // dropped at that miss, since its score can no longer reach `need`.
@@ -1000,7 +1000,7 @@ impl<'r> CoverMatrix<'r> {
             .map(|&(_, c)| {
                 let mut missed = 0;
                 for &s in &repairable {
-                    if !self.sees_sample(pool[c].0, s) {
+                    if !self.sees_sample(pool.points[c], s) {
                         missed += 1;
                         if missed > spare {
                             return None;
@@ -1015,7 +1015,7 @@ impl<'r> CoverMatrix<'r> {
             .zip(&scores)
             .filter_map(|(c, g)| g.map(|g| (c, g)))
             .filter(|&(_, g)| g as usize >= need)
-            .min_by_key(|&((_, c), g)| (pool[*c].1, std::cmp::Reverse(g), *c))
+            .min_by_key(|&((_, c), g)| (tier[*c], std::cmp::Reverse(g), *c))
             .map(|(&(_, c), _)| c)
     }
 
@@ -1261,8 +1261,8 @@ mod tests {
 
     /// The k-d tree's `k` nearest points are the full scan's, ties
     /// included: on a lattice (many points at exactly equal distances from
-    /// lattice and mid-lattice queries), with duplicated points, and with
-    /// fewer points than the tree needs.
+    /// lattice and mid-lattice queries), with duplicated points, far from
+    /// the origin, and with fewer points than the tree needs.
     #[test]
     fn nearest_points_are_the_full_scans() {
         use crate::sampling::{cube_point, hash2};
@@ -1283,8 +1283,13 @@ mod tests {
         let mut doubled = lattice.clone();
         doubled.extend(lattice.iter().step_by(3));
         let random: Vec<Vec3> = (0..3000).map(|i| 4.0 * cube_point(hash2(9, i))).collect();
+        // Far from the origin, where coordinates keep few fractional bits.
+        let far: Vec<Vec3> = lattice
+            .iter()
+            .map(|&p| p + Vec3::new(1e5, -3e4, 7e4))
+            .collect();
         let mut trees = 0;
-        for points in [&lattice, &doubled, &random, &lattice[..40].to_vec()] {
+        for points in [&lattice, &doubled, &random, &far, &lattice[..40].to_vec()] {
             for k in [1, 7, 64, 256] {
                 let near = NearestPoints::new(points, k);
                 trees += usize::from(near.tree.is_some());
@@ -1294,13 +1299,13 @@ mod tests {
                         points[(hash2(j, 1) % points.len() as u64) as usize]
                             + Vec3::new(0.125, 0.0, 0.125) * (j % 2) as f32
                     } else {
-                        2.0 * cube_point(hash2(j, 2))
+                        points[0] + 2.0 * cube_point(hash2(j, 2))
                     };
                     assert_eq!(near.nearest(q), scan(points, q, k), "k {k} at {q}");
                 }
             }
         }
-        assert!(trees >= 12, "{trees} of 16 used the tree");
+        assert!(trees >= 16, "{trees} of 20 used the tree");
     }
 
     /// The test room's BVH and a small coverage reference over it.

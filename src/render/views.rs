@@ -93,8 +93,7 @@ pub fn choose_views(
         .filter(|&v| sdf.class[v] == VoxelClass::Free && sdf.distance[v] >= 2.0 * sdf.voxel_size)
         .map(|v| (hash2(hash2(seed, 0x71E3), v as u64), v))
         .collect();
-    voxels.sort_unstable();
-    voxels.truncate(CANDIDATES);
+    crate::sampling::keep_least(&mut voxels, CANDIDATES);
     let cone = (0.5 * fov_degrees).to_radians().cos();
     let scored: Vec<Option<(Vec3, Vec3, usize)>> = voxels
         .par_iter()
