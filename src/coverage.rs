@@ -323,13 +323,17 @@ impl CoverageReference {
         sample: &SurfaceSample,
         blocker: &mut Blocker,
     ) -> bool {
+        self.faces(viewer, sample) && !bvh.occluded_from(sample.position, viewer, self.eps, blocker)
+    }
+
+    /// Whether `viewer` lies off `sample` and in front of it, within the
+    /// incidence limit: the part of [`CoverageReference::sees`] that casts
+    /// nothing.
+    #[inline]
+    fn faces(&self, viewer: Vec3, sample: &SurfaceSample) -> bool {
         let to_viewer = viewer - sample.position;
         let len = to_viewer.length();
-        if len <= self.eps {
-            return false;
-        }
-        sample.normal.dot(to_viewer) >= self.min_cos * len
-            && !bvh.occluded_from(sample.position, viewer, self.eps, blocker)
+        len > self.eps && sample.normal.dot(to_viewer) >= self.min_cos * len
     }
 
     /// For each sample, whether any of `viewers` sees it: nearest viewers
@@ -352,6 +356,7 @@ impl CoverageReference {
             .par_chunks(256)
             .flat_map_iter(|chunk| {
                 let mut tried = vec![false; viewers.len()];
+                let mut blocker = Blocker::default();
                 let out: Vec<bool> = chunk
                     .iter()
                     .map(|s| {
@@ -366,7 +371,6 @@ impl CoverageReference {
                             Err(_) => Vec::new(),
                         };
                         let mut seen = false;
-                        let mut blocker = Blocker::default();
                         for &v in &near {
                             tried[v] = true;
                             if self.sees_from(bvh, viewers[v], s, &mut blocker) {
@@ -391,6 +395,21 @@ impl CoverageReference {
                 out
             })
             .collect()
+    }
+
+    /// [`CoverageReference::sees_from`] with a second memory, `near_viewer`,
+    /// shared by segments to `viewer` ([`SceneBvh::occluded_between`]).
+    #[inline]
+    pub fn sees_between(
+        &self,
+        bvh: &SceneBvh,
+        viewer: Vec3,
+        sample: &SurfaceSample,
+        near_sample: &mut Blocker,
+        near_viewer: &mut Blocker,
+    ) -> bool {
+        self.faces(viewer, sample)
+            && !bvh.occluded_between(sample.position, viewer, self.eps, near_sample, near_viewer)
     }
 
     /// Coverage of the probes at `probes` (module docs).

@@ -126,7 +126,13 @@ impl Sdf {
 
     /// World-space centre of voxel `i`.
     pub fn center(&self, i: usize) -> Vec3 {
-        self.origin + (self.coords(i).as_vec3() + 0.5) * self.voxel_size
+        self.center_of(self.coords(i))
+    }
+
+    /// World-space centre of voxel `v`: [`Sdf::center`] of its index,
+    /// without the divisions that find its coordinates.
+    pub fn center_of(&self, v: UVec3) -> Vec3 {
+        self.origin + (v.as_vec3() + 0.5) * self.voxel_size
     }
 
     /// The voxel containing `p`, or `None` outside the grid.

@@ -205,16 +205,12 @@ pub fn merge(options: &MergeOptions) -> Result<Outcome> {
         let samples = tile.core_samples(&grid, entry.index);
         let seen: Vec<Vec<u32>> = samples
             .par_iter()
-            .map(|&i| {
+            .map_init(Blocker::default, |blocker, &i| {
                 let s = &tile.reference.samples[i];
-                let mut blocker = Blocker::default();
                 // Every probe that sees the sample, in index order.
                 let mut list = relevant
                     .iter()
-                    .filter(|&&(_, p)| {
-                        tile.reference
-                            .sees_from(&tile.prepared.bvh, p, s, &mut blocker)
-                    })
+                    .filter(|&&(_, p)| tile.reference.sees_from(&tile.prepared.bvh, p, s, blocker))
                     .map(|&(k, _)| k as u32)
                     .collect::<Vec<u32>>();
                 // Grown by doubling: hand back the spare half, which over

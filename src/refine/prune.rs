@@ -517,14 +517,18 @@ impl<'r> CoverMatrix<'r> {
                 .map(|&(w, run)| {
                     let mut bits = vec![0u64; run.len()];
                     let samples = &subset[w * 64..(w * 64 + 64).min(subset.len())];
+                    let mut near_sample = Blocker::default();
+                    let mut near_viewer = vec![Blocker::default(); run.len()];
                     for (bit, &i) in samples.iter().enumerate() {
                         let s = self.sample(i);
-                        let mut blocker = Blocker::default();
-                        for (slot, &v) in bits.iter_mut().zip(run) {
-                            if self
-                                .reference
-                                .sees_from(self.bvh, viewers[v], s, &mut blocker)
-                            {
+                        for ((slot, &v), near) in bits.iter_mut().zip(run).zip(&mut near_viewer) {
+                            if self.reference.sees_between(
+                                self.bvh,
+                                viewers[v],
+                                s,
+                                &mut near_sample,
+                                near,
+                            ) {
                                 *slot |= 1 << bit;
                             }
                         }
@@ -554,25 +558,24 @@ impl<'r> CoverMatrix<'r> {
     pub fn summary(&self, viewers: &[Vec3]) -> (usize, Option<f64>) {
         let best: Vec<Option<f32>> = (0..self.len())
             .into_par_iter()
-            .map_init(Vec::new, |order: &mut Vec<(f32, usize)>, i| {
-                let s = self.sample(i);
-                order.clear();
-                order.extend(
-                    viewers
+            .map_init(
+                || (Vec::new(), Blocker::default()),
+                |(order, blocker): &mut (Vec<(f32, usize)>, Blocker), i| {
+                    let s = self.sample(i);
+                    order.clear();
+                    order.extend(
+                        viewers
+                            .iter()
+                            .enumerate()
+                            .map(|(k, &v)| (view_cos(s, v), k)),
+                    );
+                    order.sort_unstable_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
+                    order
                         .iter()
-                        .enumerate()
-                        .map(|(k, &v)| (view_cos(s, v), k)),
-                );
-                order.sort_unstable_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
-                let mut blocker = Blocker::default();
-                order
-                    .iter()
-                    .find(|&&(_, k)| {
-                        self.reference
-                            .sees_from(self.bvh, viewers[k], s, &mut blocker)
-                    })
-                    .map(|&(c, _)| c)
-            })
+                        .find(|&&(_, k)| self.reference.sees_from(self.bvh, viewers[k], s, blocker))
+                        .map(|&(c, _)| c)
+                },
+            )
             .collect();
         mean_incidence(best)
     }

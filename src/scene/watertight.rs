@@ -330,16 +330,24 @@ impl TriangleBlock {
     /// hold a triangle of zeros (callers leave them out of `lanes`).
     pub fn new(tris: &[WatertightTriangle]) -> TriangleBlock {
         assert!(tris.len() <= 4, "{} triangles in a block", tris.len());
-        let mut rows = [[0.0; 4]; 12];
+        let mut block = TriangleBlock {
+            rows: [[0.0; 4]; 12],
+        };
         for (i, t) in tris.iter().enumerate() {
-            for k in 0..3 {
-                for v in 0..3 {
-                    rows[3 * v + k][i] = t.axes[k][v];
-                }
-                rows[9 + k][i] = t.normal[k];
-            }
+            block.set(i, t);
         }
-        TriangleBlock { rows }
+        block
+    }
+
+    /// Puts `tri` in lane `i`, in place of the triangle there.
+    #[inline]
+    pub fn set(&mut self, i: usize, tri: &WatertightTriangle) {
+        for k in 0..3 {
+            for v in 0..3 {
+                self.rows[3 * v + k][i] = tri.axes[k][v];
+            }
+            self.rows[9 + k][i] = tri.normal[k];
+        }
     }
 
     /// The triangle of lane `i`, exactly as it was given.

@@ -579,4 +579,50 @@ mod tests {
     fn a_leaf_off_a_block_boundary_is_refused() {
         leaf_ref(2, 1);
     }
+
+    #[test]
+    fn the_tree_does_not_depend_on_the_thread_count() {
+        // obvhs builds in parallel (its `parallel` feature): boxes of a
+        // seeded soup, a tenth of them repeated (equal Morton codes and
+        // equal reinsertion gains, where an unstable sort could order
+        // them either way), built in pools of 1, 2 and 3 threads.
+        use crate::sampling::{cube_point, hash2};
+        use obvhs::triangle::Triangle;
+        let tris: Vec<Triangle> = (0..20_000u64)
+            .map(|i| {
+                let h = hash2(77, if i % 10 == 0 { i / 10 } else { i });
+                let c = cube_point(h);
+                let e = |k: u64| (cube_point(hash2(h, k)) - 0.5) * 0.02;
+                Triangle {
+                    v0: (c + e(1)).into(),
+                    v1: (c + e(2)).into(),
+                    v2: (c + e(3)).into(),
+                }
+            })
+            .collect();
+        // Both presets SceneBvh uses (FAST_BUILD_TRIANGLES).
+        for preset in [BvhBuildParams::medium_build(), BvhBuildParams::fast_build()] {
+            let build = |threads: usize| {
+                let pool = rayon::ThreadPoolBuilder::new()
+                    .num_threads(threads)
+                    .build()
+                    .unwrap();
+                let bvh = pool.install(|| WideBvh::build(&tris, preset));
+                (
+                    bvh.order.clone(),
+                    format!("{:?}", bvh.nodes),
+                    bvh.root,
+                    bvh.stack,
+                )
+            };
+            let one = build(1);
+            assert!(one.0.len() >= tris.len());
+            for threads in [2, 3] {
+                assert!(
+                    build(threads) == one,
+                    "the tree built on {threads} threads differs"
+                );
+            }
+        }
+    }
 }

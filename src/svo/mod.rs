@@ -347,11 +347,7 @@ pub fn bake(params: &SvoParams, probes: &ProbeSet, input: &PlacementInput) -> Re
         origin: input.domain.min,
         leaf_size,
     };
-    let builder = Builder {
-        ranker: &ranker,
-        dims,
-        collapse_quality: params.collapse_quality.0,
-    };
+    let builder = Builder::new(&ranker, dims, params.collapse_quality.0);
     let all: Vec<u32> = (0..positions.len() as u32).collect();
     let (root, tally) = builder.build(depth, UVec3::ZERO, &all, &mut rank::Scratch::default());
     let (nodes, payload) = octree::encode(&root, params.max_probes.0 as usize)?;

@@ -18,6 +18,7 @@ use crate::sdf::VoxelClass;
 use glam::{UVec3, Vec3};
 use rayon::prelude::*;
 use std::collections::{HashMap, VecDeque};
+use std::sync::Mutex;
 
 /// Marks a leaf word; the other words are inner nodes.
 pub const LEAF_BIT: u32 = 1 << 31;
@@ -76,9 +77,24 @@ pub struct Builder<'a> {
     /// Smallest share of the best score the first probe of a collapsed
     /// region keeps at every leaf.
     pub collapse_quality: f32,
+    /// One [`Scratch`] per thread of rayon's pool, after one for any other
+    /// thread ([`Builder::new`]).
+    scratch: Vec<Mutex<Scratch>>,
 }
 
-impl Builder<'_> {
+impl<'a> Builder<'a> {
+    /// The builder of the tree over `dims` leaves, for the current rayon pool.
+    pub fn new(ranker: &'a LeafRanker<'a>, dims: UVec3, collapse_quality: f32) -> Builder<'a> {
+        Builder {
+            ranker,
+            dims,
+            collapse_quality,
+            scratch: (0..=rayon::current_num_threads())
+                .map(|_| Mutex::new(Scratch::default()))
+                .collect(),
+        }
+    }
+
     /// The subtree whose cube is `cell` at `level` (2^level leaves along an
     /// edge), considering only `candidates`; `scratch` serves the serial
     /// part of the descent.
@@ -114,10 +130,15 @@ impl Builder<'_> {
             let o = UVec3::new(c & 1, (c >> 1) & 1, c >> 2);
             (cell << 1) + o
         };
-        let parts: Vec<(Built, Tally)> = if level >= PARALLEL_LEVEL {
+        let parts: Vec<(Built, Tally)> = if level > PARALLEL_LEVEL {
             (0..8u32)
                 .into_par_iter()
                 .map(|c| self.build(level - 1, child(c), &kept, &mut Scratch::default()))
+                .collect()
+        } else if level == PARALLEL_LEVEL {
+            (0..8u32)
+                .into_par_iter()
+                .map(|c| self.build_serial(level - 1, child(c), &kept))
                 .collect()
         } else {
             (0..8)
@@ -134,6 +155,22 @@ impl Builder<'_> {
             .try_into()
             .unwrap_or_else(|_| unreachable!("eight children"));
         (collapse(children, self.collapse_quality), tally)
+    }
+
+    /// [`Builder::build`] of a subtree built on one thread, with that
+    /// thread's [`Scratch`]: its blocker memories
+    /// ([`crate::scene::raycast::Blocker`]) carry over from the last
+    /// subtree the thread built, usually the one beside it, rather than
+    /// starting empty every 64 leaves. The answers do not depend on what
+    /// a memory holds, so neither does the tree. (The serial descent never
+    /// calls into rayon, so a thread cannot find its own scratch in use;
+    /// were it so, a fresh one would serve.)
+    fn build_serial(&self, level: u32, cell: UVec3, candidates: &[u32]) -> (Built, Tally) {
+        let slot = rayon::current_thread_index().map_or(0, |i| i + 1);
+        match self.scratch.get(slot).map(|m| m.try_lock()) {
+            Some(Ok(mut scratch)) => self.build(level, cell, candidates, &mut scratch),
+            _ => self.build(level, cell, candidates, &mut Scratch::default()),
+        }
     }
 
     /// The leaf at `cell` (inside the grid).

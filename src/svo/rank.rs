@@ -140,25 +140,59 @@ impl Ranked {
 /// every surface (exact within the SDF's band, [`Sdf::exact_reach`]) is
 /// unblocked without casting it.
 pub fn is_free(sdf: &Sdf, bvh: &SceneBvh, p: Vec3) -> bool {
-    is_free_from(sdf, bvh, p, &mut Blocker::default())
+    is_free_from(sdf, bvh, p, &mut FreeMemory::default())
+}
+
+/// What [`is_free_from`] keeps between the points of a family near each
+/// other: the triangles that last hid them from the free voxels
+/// beside them ([`SceneBvh::occluded_from`]), and the last voxel's
+/// [`free_neighbours`] (a leaf's sample points usually share a voxel).
+#[derive(Debug, Default)]
+struct FreeMemory {
+    blocker: Blocker,
+    /// A voxel index and its free neighbours.
+    voxel: Option<(usize, FreeNeighbours)>,
+}
+
+/// Voxels [`is_free`] may join a point to ([`free_neighbours`]): the
+/// first `n` indices, and their centres.
+#[derive(Debug, Clone, Copy)]
+struct FreeNeighbours {
+    index: [usize; 27],
+    centre: [Vec3; 27],
+    n: usize,
 }
 
 /// [`is_free`] for one of many points near each other, with their
-/// `blocker` ([`SceneBvh::occluded_from`]): the same answer, found faster
-/// when one wall hides them all from the free voxels beside them.
-fn is_free_from(sdf: &Sdf, bvh: &SceneBvh, p: Vec3, blocker: &mut Blocker) -> bool {
-    let v = sdf.nearest_voxel(p).as_ivec3();
-    let i = sdf.index(v.as_uvec3());
+/// `memory` ([`FreeMemory`]): the same answer, found faster when a few
+/// walls hide them all from the free voxels beside them, and when they
+/// share a voxel.
+fn is_free_from(sdf: &Sdf, bvh: &SceneBvh, p: Vec3, memory: &mut FreeMemory) -> bool {
+    let u = sdf.nearest_voxel(p);
+    let i = sdf.index(u);
     match sdf.class[i] {
         VoxelClass::Outside => return false,
-        VoxelClass::Free if sdf.distance[i] > p.distance(sdf.center(i)) => return true,
+        VoxelClass::Free if sdf.distance[i] > p.distance(sdf.center_of(u)) => return true,
         _ => {}
     }
     // The nearest eligible centres, nearest first (ties: the lower index).
-    let mut near = [(f32::INFINITY, usize::MAX); FREE_NEIGHBOURS_TRIED];
-    let (neighbours, n) = free_neighbours(sdf, v);
-    for &j in &neighbours[..n] {
-        let mut item = (p.distance_squared(sdf.center(j)), j);
+    let mut near = [(f32::INFINITY, usize::MAX, Vec3::ZERO); FREE_NEIGHBOURS_TRIED];
+    let neighbours = match &memory.voxel {
+        Some((known, neighbours)) if *known == i => neighbours,
+        _ => {
+            &memory
+                .voxel
+                .insert((i, free_neighbours(sdf, u.as_ivec3())))
+                .1
+        }
+    };
+    for (&j, &c) in neighbours
+        .index
+        .iter()
+        .zip(&neighbours.centre)
+        .take(neighbours.n)
+    {
+        let mut item = (p.distance_squared(c), j, c);
         for slot in near.iter_mut() {
             if item.0 < slot.0 || (item.0 == slot.0 && item.1 < slot.1) {
                 std::mem::swap(slot, &mut item);
@@ -177,10 +211,10 @@ fn is_free_from(sdf: &Sdf, bvh: &SceneBvh, p: Vec3, blocker: &mut Blocker) -> bo
     // along the diagonal seam of an axis-aligned quad, which the watertight
     // ray/triangle test does not let it slip through.
     near.iter()
-        .take_while(|&&(_, j)| j != usize::MAX)
-        .any(|&(d2, j)| {
+        .take_while(|&&(_, j, _)| j != usize::MAX)
+        .any(|&(d2, j, c)| {
             sdf.distance[j].min(exact) > d2.sqrt() + slack
-                || !bvh.occluded_from(p, sdf.center(j), eps, blocker)
+                || !bvh.occluded_from(p, c, eps, &mut memory.blocker)
         })
 }
 
@@ -189,10 +223,13 @@ fn is_free_from(sdf: &Sdf, bvh: &SceneBvh, p: Vec3, blocker: &mut Blocker) -> bo
 /// centres [`is_free`] may join a point to: free, and clear of the
 /// surfaces by [`FREE_NEIGHBOUR_CLEARANCE`] voxels, since a centre lying
 /// on a surface would join the point to the wrong side.
-fn free_neighbours(sdf: &Sdf, v: glam::IVec3) -> ([usize; 27], usize) {
+fn free_neighbours(sdf: &Sdf, v: glam::IVec3) -> FreeNeighbours {
     let margin = FREE_NEIGHBOUR_CLEARANCE * sdf.voxel_size;
-    let mut out = [0; 27];
-    let mut n = 0;
+    let mut out = FreeNeighbours {
+        index: [0; 27],
+        centre: [Vec3::ZERO; 27],
+        n: 0,
+    };
     for dz in -1..=1 {
         for dy in -1..=1 {
             for dx in -1..=1 {
@@ -202,13 +239,14 @@ fn free_neighbours(sdf: &Sdf, v: glam::IVec3) -> ([usize; 27], usize) {
                 }
                 let j = sdf.index(w.as_uvec3());
                 if sdf.class[j] == VoxelClass::Free && sdf.distance[j] > margin {
-                    out[n] = j;
-                    n += 1;
+                    out.index[out.n] = j;
+                    out.centre[out.n] = sdf.center_of(w.as_uvec3());
+                    out.n += 1;
                 }
             }
         }
     }
-    (out, n)
+    out
 }
 
 /// How a leaf got its list.
@@ -244,12 +282,11 @@ pub struct Scratch {
     samples: Vec<Vec3>,
     candidates: Vec<(f32, u32)>,
     best: Vec<(f32, u32)>,
-    /// Per probe, the triangle that last hid it from a sample of this
+    /// Per probe, the triangles that last hid it from a sample of this
     /// worker's leaves ([`LeafRanker::visible_within`]).
     blockers: Vec<Blocker>,
-    /// The triangle that last hid a sample point from the free voxels
-    /// beside it ([`is_free_from`]).
-    free_blocker: Blocker,
+    /// The free-space tests' memory ([`is_free_from`]).
+    free_memory: FreeMemory,
 }
 
 /// Ranks the probes of any leaf of the grid.
@@ -269,8 +306,8 @@ pub struct LeafRanker<'a> {
 impl LeafRanker<'_> {
     /// The sample points of the leaf at `cell` into `out`; empty when the
     /// leaf holds no free space worth storing (solid or outside the scene).
-    /// `blocker` serves the free-space tests of the worker's leaves.
-    fn samples(&self, cell: UVec3, out: &mut Vec<Vec3>, blocker: &mut Blocker) {
+    /// `memory` serves the free-space tests of the worker's leaves.
+    fn samples(&self, cell: UVec3, out: &mut Vec<Vec3>, memory: &mut FreeMemory) {
         out.clear();
         let c = self.origin + (cell.as_vec3() + 0.5) * self.leaf_size;
         let sdf = self.sdf;
@@ -280,7 +317,7 @@ impl LeafRanker<'_> {
             }
             return;
         }
-        if is_free_from(sdf, self.bvh, c, blocker) {
+        if is_free_from(sdf, self.bvh, c, memory) {
             out.push(c);
         }
         // The octant centres, then, if none of them is free either, points
@@ -293,7 +330,7 @@ impl LeafRanker<'_> {
                     (corner >> 2) as f32 - 0.5,
                 );
                 let p = c + reach * o * self.leaf_size;
-                if is_free_from(sdf, self.bvh, p, blocker) {
+                if is_free_from(sdf, self.bvh, p, memory) {
                     out.push(p);
                 }
             }
@@ -309,7 +346,7 @@ impl LeafRanker<'_> {
     /// A worker visits leaves in octree order, next to each other, so a
     /// wall that hides the probe from one sample usually hides it from the
     /// next, in this leaf or the last: each segment first tries the
-    /// triangle that last hid this probe (`blocker`, [`Blocker`]), which
+    /// triangles that last hid this probe (`blocker`, [`Blocker`]), which
     /// never changes an answer, only skips a traversal.
     fn visible_within(
         &self,
@@ -349,10 +386,10 @@ impl LeafRanker<'_> {
             candidates: bounded,
             best,
             blockers,
-            free_blocker,
+            free_memory,
         } = scratch;
         blockers.resize(self.influence.len(), Blocker::default());
-        self.samples(cell, samples, free_blocker);
+        self.samples(cell, samples, free_memory);
         if samples.is_empty() {
             return None;
         }
@@ -540,8 +577,8 @@ mod tests {
             }
             _ => {}
         }
-        let (neighbours, n) = free_neighbours(sdf, v);
-        let mut near: Vec<(f32, usize)> = neighbours[..n]
+        let neighbours = free_neighbours(sdf, v);
+        let mut near: Vec<(f32, usize)> = neighbours.index[..neighbours.n]
             .iter()
             .map(|&j| (p.distance_squared(sdf.center(j)), j))
             .collect();
@@ -586,6 +623,52 @@ mod tests {
                 "{proven} of {tried} settled by distance"
             );
         }
+    }
+
+    #[test]
+    fn one_memory_over_many_points_gives_each_its_own_answer() {
+        // Points near the surfaces taken two or three to a voxel, then
+        // again in another order, all through one memory (its voxel's
+        // neighbours and its blockers carried from point to point): each
+        // answer is the rays' own.
+        let voxel = 0.1;
+        let (_, bvh, sdf) = crate::scene::testing::room_sdf(voxel, 3);
+        let near: Vec<usize> = (0..sdf.len())
+            .filter(|&i| sdf.distance[i].abs() < voxel)
+            .collect();
+        let sdf_ref = &sdf;
+        let points: Vec<Vec3> = near
+            .iter()
+            .flat_map(|&i| {
+                (0..3u64).map(move |k| {
+                    let h = crate::sampling::hash2(5, (i as u64) << 2 | k);
+                    sdf_ref.center(i) + crate::sampling::cube_point(h) * (0.5 * voxel)
+                })
+            })
+            .collect();
+        let mut memory = FreeMemory::default();
+        let (mut free, mut kept) = (0, 0);
+        for (n, &p) in points
+            .iter()
+            .chain(points.iter().rev().step_by(2))
+            .enumerate()
+        {
+            let before = memory.voxel.as_ref().map(|v| v.0);
+            let want = is_free_by_rays(&sdf, &bvh, p).0;
+            assert_eq!(
+                is_free_from(&sdf, &bvh, p, &mut memory),
+                want,
+                "point {n}: {p}"
+            );
+            free += want as usize;
+            kept += (before.is_some() && memory.voxel.as_ref().map(|v| v.0) == before) as usize;
+        }
+        let total = points.len() + points.len().div_ceil(2);
+        assert!(free > total / 8 && free < total, "{free} of {total} free");
+        assert!(
+            kept > total / 4,
+            "a voxel's neighbours reused {kept} times of {total}"
+        );
     }
 
     #[test]
