@@ -372,21 +372,9 @@ impl SceneBvh {
         let dir = positive_zeros(d / len);
         let ray = Ray::new(a, dir, eps, len - eps);
         let wray = WatertightRay::new(a, dir);
-        // Blocked exactly as the traversal decides it: a triangle's
-        // distance within [tmin, tmax] and short of tmax.
+        // The remembered triangles first, by the traversal's own test.
         let remembered = |m: &Blocker| -> bool {
-            if m.lanes == 0 {
-                return false;
-            }
-            let (mut hit, dist) = wray.distances4(&m.block, m.lanes);
-            while hit != 0 {
-                let i = hit.trailing_zeros() as usize;
-                hit &= hit - 1;
-                if in_range(dist[i], ray.tmin, ray.tmax) < ray.tmax {
-                    return true;
-                }
-            }
-            false
+            m.lanes != 0 && blocking_lane(&wray, &m.block, m.lanes, &ray).is_some()
         };
         if remembered(blocker) || other.as_deref().is_some_and(remembered) {
             return true;
@@ -395,14 +383,9 @@ impl SceneBvh {
         let touch = |slots: Range<usize>| self.prefetch(slots);
         let blocked = self.bvh.any(&BoxRay::new(&ray), ray.tmax, touch, |slots| {
             for (block, lanes) in blocks_of(slots) {
-                let (mut hit, dist) = wray.distances4(&self.blocks[block], lanes);
-                while hit != 0 {
-                    let i = hit.trailing_zeros() as usize;
-                    hit &= hit - 1;
-                    if in_range(dist[i], ray.tmin, ray.tmax) < ray.tmax {
-                        last = Some((LEAF_ALIGN * block + i) as u32);
-                        return true;
-                    }
+                if let Some(i) = blocking_lane(&wray, &self.blocks[block], lanes, &ray) {
+                    last = Some((LEAF_ALIGN * block + i) as u32);
+                    return true;
                 }
             }
             false
@@ -417,6 +400,27 @@ impl SceneBvh {
         }
         blocked
     }
+}
+
+/// The first of `lanes` of `block` whose triangle blocks the segment of
+/// `ray` (its distance within `[tmin, tmax]` and short of `tmax`): the
+/// test of a leaf's blocks in the traversal, and of a [`Blocker`]'s.
+#[inline(always)]
+fn blocking_lane(
+    wray: &WatertightRay,
+    block: &TriangleBlock,
+    lanes: u32,
+    ray: &Ray,
+) -> Option<usize> {
+    let (mut hit, dist) = wray.distances4(block, lanes);
+    while hit != 0 {
+        let i = hit.trailing_zeros() as usize;
+        hit &= hit - 1;
+        if in_range(dist[i], ray.tmin, ray.tmax) < ray.tmax {
+            return Some(i);
+        }
+    }
+    None
 }
 
 /// The blocks of a leaf's slots (which start at a multiple of
