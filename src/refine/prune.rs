@@ -496,6 +496,13 @@ impl<'r> CoverMatrix<'r> {
     /// over the scene).
     /// Words go in blocks of at most [`WORDS_IN_FLIGHT`] words over all
     /// viewers, so the results in flight stay a bounded copy of the columns.
+    /// A worker's memories of blockers ([`SceneBvh::occluded_between`]: one
+    /// for the sample, one per place in the run) carry over from task to
+    /// task rather than starting empty every 64 samples: a column of one
+    /// new probe (a fill pick, a merge, a polish move) is 640 tasks on
+    /// Dabrovic Sponza, and the walls around the probe hide it from the
+    /// next word's samples too. The answers do not depend on what a memory
+    /// holds; on Sponza refinement's traversals fell from 3.10M to 2.94M.
     pub(super) fn columns_of(
         &self,
         viewers: &[Vec3],
@@ -514,28 +521,31 @@ impl<'r> CoverMatrix<'r> {
                 .collect();
             let done: Vec<Vec<u64>> = tasks
                 .par_iter()
-                .map(|&(w, run)| {
-                    let mut bits = vec![0u64; run.len()];
-                    let samples = &subset[w * 64..(w * 64 + 64).min(subset.len())];
-                    let mut near_sample = Blocker::default();
-                    let mut near_viewer = vec![Blocker::default(); run.len()];
-                    for (bit, &i) in samples.iter().enumerate() {
-                        let s = self.sample(i);
-                        for ((slot, &v), near) in bits.iter_mut().zip(run).zip(&mut near_viewer) {
-                            if self.reference.sees_between(
-                                self.bvh,
-                                viewers[v],
-                                s,
-                                &mut near_sample,
-                                near,
-                            ) {
-                                *slot |= 1 << bit;
+                .map_init(
+                    || (Blocker::default(), vec![Blocker::default(); VIEWER_RUN]),
+                    |(near_sample, near_viewer), &(w, run)| {
+                        let mut bits = vec![0u64; run.len()];
+                        let samples = &subset[w * 64..(w * 64 + 64).min(subset.len())];
+                        for (bit, &i) in samples.iter().enumerate() {
+                            let s = self.sample(i);
+                            for ((slot, &v), near) in
+                                bits.iter_mut().zip(run).zip(near_viewer.iter_mut())
+                            {
+                                if self.reference.sees_between(
+                                    self.bvh,
+                                    viewers[v],
+                                    s,
+                                    near_sample,
+                                    near,
+                                ) {
+                                    *slot |= 1 << bit;
+                                }
                             }
                         }
-                    }
-                    bar.inc(1);
-                    bits
-                })
+                        bar.inc(1);
+                        bits
+                    },
+                )
                 .collect();
             for (&(w, run), bits) in tasks.iter().zip(&done) {
                 for (&v, &b) in run.iter().zip(bits) {
