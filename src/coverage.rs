@@ -84,6 +84,16 @@ pub fn evaluation_segments(params: &CoverageParams, probes: usize) -> f64 {
 /// Nearest references tried first for each sample, before all others.
 const NEAREST_FIRST: usize = 32;
 
+/// A sample within this share of the [`NEAREST_FIRST`]-th neighbour's
+/// distance from the last point whose nearest viewers were found tries
+/// those viewers first rather than asking the tree again: consecutive
+/// samples lie on the same or neighbouring triangles
+/// ([`sample_surface`]), so the lists hardly differ. Which viewers a
+/// sample tries first changes only how soon it finds one that sees it,
+/// never whether one does: it tries every other viewer that faces it
+/// after them.
+const NEAR_REUSE: f32 = 0.25;
+
 /// Viewers per group of neighbours whose facing test a sample makes once
 /// for the whole group ([`ViewerGroups`]).
 const GROUP: usize = 32;
@@ -357,19 +367,29 @@ impl CoverageReference {
             .flat_map_iter(|chunk| {
                 let mut tried = vec![false; viewers.len()];
                 let mut blocker = Blocker::default();
+                // The viewers nearest the last point the tree was asked
+                // about, and how near a sample must be to that point to
+                // take them as its own first tries (see `NEAR_REUSE`).
+                let mut near: Vec<usize> = Vec::with_capacity(k.get());
+                let mut anchor: Option<(Vec3, f32)> = None;
                 let out: Vec<bool> = chunk
                     .iter()
                     .map(|s| {
-                        let near: Vec<usize> = match &tree {
-                            Ok(tree) => tree
-                                .query(&s.position.to_array())
-                                .nearest_n::<SquaredEuclidean<f32>>(k)
-                                .execute()
-                                .iter()
-                                .map(|r| r.item as usize)
-                                .collect(),
-                            Err(_) => Vec::new(),
-                        };
+                        let reuse =
+                            anchor.is_some_and(|(q, r2)| s.position.distance_squared(q) <= r2);
+                        if !reuse {
+                            near.clear();
+                            anchor = None;
+                            if let Ok(tree) = &tree {
+                                let found = tree
+                                    .query(&s.position.to_array())
+                                    .nearest_n::<SquaredEuclidean<f32>>(k)
+                                    .execute();
+                                near.extend(found.iter().map(|r| r.item as usize));
+                                let far = found.iter().map(|r| r.distance).fold(0.0f32, f32::max);
+                                anchor = Some((s.position, NEAR_REUSE * NEAR_REUSE * far));
+                            }
+                        }
                         let mut seen = false;
                         for &v in &near {
                             tried[v] = true;

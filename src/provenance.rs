@@ -245,7 +245,14 @@ pub fn material_libraries(obj: &Path) -> Vec<PathBuf> {
     let mut out: Vec<PathBuf> = Vec::new();
     let mut line = Vec::new();
     // A line too long or binary ends the scan; the loader reports it.
+    let mtllib = memchr::memmem::Finder::new(b"mtllib");
     while let Ok(Ok(true)) = crate::input::next_line(&mut reader, &mut line) {
+        // Most lines name no library: only those holding the word are
+        // decoded (a scene's millions of vertex lines were most of the
+        // time before its load).
+        if mtllib.find(&line).is_none() {
+            continue;
+        }
         let line = String::from_utf8_lossy(&line);
         let Some(rest) = line.trim_start().strip_prefix("mtllib") else {
             continue;
@@ -266,6 +273,29 @@ pub fn material_libraries(obj: &Path) -> Vec<PathBuf> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn material_libraries_are_the_mtllib_lines_that_name_existing_files() {
+        let dir = tempfile::tempdir().unwrap();
+        for name in ["a.mtl", "b.mtl", "c.mtl", "d.mtl", "e.mtl"] {
+            std::fs::write(dir.path().join(name), "newmtl m\n").unwrap();
+        }
+        let mut obj = Vec::new();
+        obj.extend_from_slice(b"v 0 0 0\n\xff\xfe not UTF-8 mtllibx\n");
+        // Named after `#`, by a longer word, or not first: not libraries.
+        obj.extend_from_slice(b"usemtl mtllib\nmtllibs d.mtl\n# mtllib d.mtl\n");
+        obj.extend_from_slice(b"  mtllib b.mtl a.mtl # e.mtl\r\n");
+        // Unicode whitespace before the keyword, a missing file, a repeat.
+        obj.extend_from_slice("\u{3000}mtllib\tc.mtl missing.mtl b.mtl\n".as_bytes());
+        obj.extend_from_slice(b"\xffmtllib e.mtl\nf 1 1 1\n");
+        let path = dir.path().join("scene.obj");
+        std::fs::write(&path, obj).unwrap();
+        let names: Vec<String> = material_libraries(&path)
+            .iter()
+            .map(|p| p.file_name().unwrap().to_string_lossy().into_owned())
+            .collect();
+        assert_eq!(names, ["b.mtl", "a.mtl", "c.mtl"]);
+    }
 
     #[test]
     fn fnv_matches_its_published_vectors() {

@@ -459,6 +459,9 @@ fn jump_flood(sdf: &Sdf, mut nearest: Vec<Option<Vec3>>) -> Vec<Option<Vec3>> {
 /// free without casting the rest (module docs).
 const FIRST_STAGE_RAYS: usize = 8;
 
+/// Voxels per tick of the classification's progress bar.
+const PROGRESS_STEP: usize = 4096;
+
 /// Classifies every voxel (module docs): first the voxels with even
 /// coordinates by rays, then each other voxel by inheriting the class its
 /// lattice corners agree on when no surface can lie between them, by rays
@@ -471,16 +474,22 @@ fn classify(
     progress: &Progress,
 ) -> Vec<VoxelClass> {
     let rays = RayClassifier::new(sdf, params, seed);
-    let bar = progress.bar("sdf: classify voxels", sdf.len() as u64);
+    // The bar counts each pass over the voxels, a step at a time: a tick
+    // per voxel read the clock and bounced the bar's counter between the
+    // cores hundreds of thousands of times.
+    let bar = progress.bar("sdf: classify voxels", 2 * sdf.len() as u64);
+    let tick = |i: usize| {
+        if i.is_multiple_of(PROGRESS_STEP) {
+            bar.inc(PROGRESS_STEP.min(sdf.len() - i) as u64);
+        }
+    };
     let lattice: Vec<Option<VoxelClass>> = (0..sdf.len())
         .into_par_iter()
         .with_min_len(256)
         .map(|i| {
+            tick(i);
             let on_lattice = sdf.coords(i).to_array().iter().all(|c| c % 2 == 0);
-            on_lattice.then(|| {
-                bar.inc(1);
-                rays.classify(bvh, i)
-            })
+            on_lattice.then(|| rays.classify(bvh, i))
         })
         .collect();
     // A centre farther than this from every surface sees all its lattice
@@ -490,10 +499,10 @@ fn classify(
         .into_par_iter()
         .with_min_len(256)
         .map(|i| {
+            tick(i);
             if let Some(class) = lattice[i] {
                 return class;
             }
-            bar.inc(1);
             let Some((corners, n)) = lattice_corners(sdf, i) else {
                 return rays.classify(bvh, i);
             };
