@@ -27,7 +27,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         return Err("usage: budget_line OURS/report.json GRID/report.json".into());
     };
     let (ours, grid) = (read(ours_path)?, read(grid_path)?);
-    let budget = number(&ours["controls"]["max_probes"], ours_path, "controls.max_probes")?;
+    let budget = number(
+        &ours["controls"]["max_probes"],
+        ours_path,
+        "controls.max_probes",
+    )?;
     let needed = number(
         &ours["controls"]["probes_before_budget"],
         ours_path,

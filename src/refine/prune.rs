@@ -922,24 +922,7 @@ impl<'r> CoverMatrix<'r> {
             let live: Vec<usize> = (0..w.all.len())
                 .filter(|&k| w.alive[k] && k >= pinned)
                 .collect();
-            // The pairs not tried yet, in the order of the scan (each live
-            // probe with its nearest live ones, nearest first), each once.
-            let mut pairs: Vec<(usize, usize)> = Vec::new();
-            let mut listed = std::collections::BTreeSet::new();
-            for &i in &live {
-                let mut near: Vec<(f32, usize)> = live
-                    .iter()
-                    .filter(|&&j| j != i)
-                    .map(|&j| (w.all[i].distance_squared(w.all[j]), j))
-                    .collect();
-                near.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
-                for &(_, j) in near.iter().take(MERGE_NEIGHBOURS) {
-                    let key = (i.min(j), i.max(j));
-                    if !tried.contains(&key) && listed.insert(key) {
-                        pairs.push((i, j));
-                    }
-                }
-            }
+            let pairs = neighbour_pairs(&w.all, &live, &tried);
             // Pairs are scored a batch at a time, in parallel; the first
             // of a batch, in scan order, that merges is taken, and those
             // after it are tried again after the merge, as a scan that
@@ -1266,6 +1249,35 @@ pub(super) fn views(matrix: &CoverMatrix, viewers: &[Vec3]) -> Vec<u32> {
     count
 }
 
+/// The pairs [`CoverMatrix::merge_pairs`] tries, of the probes at `all`
+/// whose indices are `live`: each live probe with its
+/// [`MERGE_NEIGHBOURS`] nearest live ones (ties: the lower index), in
+/// the order of that scan, nearest first, each pair once and none of
+/// those already `tried` (keyed lower index first).
+fn neighbour_pairs(
+    all: &[Vec3],
+    live: &[usize],
+    tried: &std::collections::BTreeSet<(usize, usize)>,
+) -> Vec<(usize, usize)> {
+    let mut pairs: Vec<(usize, usize)> = Vec::new();
+    let mut listed = std::collections::BTreeSet::new();
+    for &i in live {
+        let mut near: Vec<(f32, usize)> = live
+            .iter()
+            .filter(|&&j| j != i)
+            .map(|&j| (all[i].distance_squared(all[j]), j))
+            .collect();
+        near.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        for &(_, j) in near.iter().take(MERGE_NEIGHBOURS) {
+            let key = (i.min(j), i.max(j));
+            if !tried.contains(&key) && listed.insert(key) {
+                pairs.push((i, j));
+            }
+        }
+    }
+    pairs
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -1331,6 +1343,58 @@ mod tests {
         };
         let reference = CoverageReference::new(&scene, &bvh, &sdf, &params, 2, &Progress::hidden());
         (bvh, reference)
+    }
+
+    /// A probe is paired with its six nearest probes and no more: here
+    /// its nearest seven are each one probe of a tight cluster (whose own
+    /// nearest are all its cluster mates), so a pair with the sixth comes
+    /// only from the probe's own list, and a pair with the seventh would
+    /// come only from a longer one.
+    #[test]
+    fn merge_pairs_a_probe_with_its_six_nearest() {
+        let mut all = vec![Vec3::ZERO];
+        let mut heads = Vec::new();
+        // Seven directions far apart, heads at distances 10.00, 10.01, …, 10.06.
+        let dirs = [
+            Vec3::X,
+            -Vec3::X,
+            Vec3::Y,
+            -Vec3::Y,
+            Vec3::Z,
+            -Vec3::Z,
+            Vec3::new(1.0, 1.0, 1.0).normalize(),
+        ];
+        for (k, d) in dirs.iter().enumerate() {
+            let head = d * (10.0 + 0.01 * k as f32);
+            heads.push(all.len());
+            all.push(head);
+            // Seven mates about half a unit beyond the head, on a ring
+            // around its direction: nearer it than probe 0, farther from
+            // probe 0 than every head.
+            let (u, v) = d.any_orthonormal_pair();
+            for m in 0..7 {
+                let a = m as f32 * std::f32::consts::TAU / 7.0;
+                all.push(head + *d * 0.5 + 0.1 * (a.cos() * u + a.sin() * v));
+            }
+        }
+        let live: Vec<usize> = (0..all.len()).collect();
+        let none = std::collections::BTreeSet::new();
+        let pairs = neighbour_pairs(&all, &live, &none);
+        let paired = |a: usize, b: usize| pairs.contains(&(a, b)) || pairs.contains(&(b, a));
+        for (k, &h) in heads.iter().enumerate() {
+            assert_eq!(paired(0, h), k < 6, "probe 0 with head {k}");
+        }
+        // Each pair once; pairs already tried are left out.
+        let keys: std::collections::BTreeSet<(usize, usize)> =
+            pairs.iter().map(|&(i, j)| (i.min(j), i.max(j))).collect();
+        assert_eq!(keys.len(), pairs.len(), "a pair listed twice");
+        let tried: std::collections::BTreeSet<(usize, usize)> =
+            keys.iter().copied().take(10).collect();
+        let rest = neighbour_pairs(&all, &live, &tried);
+        assert_eq!(rest.len(), pairs.len() - 10);
+        assert!(rest
+            .iter()
+            .all(|&(i, j)| !tried.contains(&(i.min(j), i.max(j)))));
     }
 
     /// Scoring pairs in batches changes nothing: the merges, the probes
