@@ -344,6 +344,10 @@ fn margin_density(text: &str, tile: &tiles::Tile, counts: UVec3) -> Result<Strin
             ));
         }
     }
+    if entries.is_empty() {
+        // One tile owns the whole world: nothing beyond it is anyone else's.
+        return Ok("[]".into());
+    }
     Ok(format!(
         "[\n        {},\n    ]",
         entries.join(",\n        ")
@@ -357,10 +361,20 @@ const BYTES_PER_VOXEL: f64 = 200.0;
 /// Bytes a tile's run takes whatever its size.
 const BASE_BYTES: f64 = 256.0 * 1024.0 * 1024.0;
 
-/// Makes `dir` ready for a split: created when missing; an earlier split's
-/// index is removed first, so a split cut short cannot pass for a whole
-/// one; a directory holding other things is refused.
+/// Makes `dir` ready for a split: created when missing. An earlier
+/// split there is replaced, not mixed with the new one: its index goes
+/// first (so a split cut short cannot pass for a whole one), then its
+/// tiles with their outputs, its merged world, its logs and scripts, so
+/// no tile, placement or world of the old split is left to pass for the
+/// new one's. A directory holding other things, or a path that is not a
+/// directory, is refused.
 fn prepare_dir(dir: &Path) -> Result<()> {
+    if dir.exists() && !dir.is_dir() {
+        return Err(Error::user_file(
+            dir,
+            "--out: is not a directory; give an empty or new directory",
+        ));
+    }
     if dir.exists() {
         let index = dir.join("split.json");
         let empty = std::fs::read_dir(dir)
@@ -374,10 +388,52 @@ fn prepare_dir(dir: &Path) -> Result<()> {
             ));
         }
         if index.is_file() {
+            let old = std::fs::read(&index).map_err(|e| Error::io(&index, e))?;
             std::fs::remove_file(&index).map_err(|e| Error::io(&index, e))?;
+            for entry in earlier_split(&old) {
+                let path = dir.join(&entry);
+                let gone = if path.is_dir() {
+                    std::fs::remove_dir_all(&path)
+                } else {
+                    std::fs::remove_file(&path)
+                };
+                match gone {
+                    Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
+                        return Err(Error::io(&path, e))
+                    }
+                    _ => {}
+                }
+            }
         }
     }
     std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))
+}
+
+/// What an earlier split wrote into its directory, from its `split.json`
+/// (`index`): the scripts, the logs, the default merged world, and each
+/// tile's directory. Only names a split writes are returned (a tile's
+/// must read `tile-` and digits), so an index edited by hand cannot point
+/// the removal elsewhere; an index without a readable tile list yields
+/// the fixed names alone.
+fn earlier_split(index: &[u8]) -> Vec<String> {
+    #[derive(Deserialize)]
+    struct Tiles {
+        tile: Vec<Named>,
+    }
+    #[derive(Deserialize)]
+    struct Named {
+        name: String,
+    }
+    let mut names: Vec<String> = ["tile.sh", "submit.sh", "logs", "world"]
+        .map(String::from)
+        .to_vec();
+    if let Ok(old) = serde_json::from_slice::<Tiles>(index) {
+        names.extend(old.tile.into_iter().map(|t| t.name).filter(|n| {
+            n.strip_prefix("tile-")
+                .is_some_and(|d| !d.is_empty() && d.bytes().all(|b| b.is_ascii_digit()))
+        }));
+    }
+    names
 }
 
 fn write_file(path: &Path, text: &str) -> Result<()> {
@@ -609,6 +665,28 @@ fn trim_end(text: &str, start: usize, end: usize) -> usize {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn an_earlier_split_names_only_what_a_split_writes() {
+        let fixed = ["tile.sh", "submit.sh", "logs", "world"];
+        assert_eq!(earlier_split(b"not json"), fixed);
+        assert_eq!(earlier_split(br#"{"tile": 3}"#), fixed);
+        let tiles: Vec<_> = [
+            "tile-000",
+            "tile-0013",
+            "../elsewhere",
+            "tile-",
+            "tile-1/../..",
+            "tiles",
+        ]
+        .iter()
+        .map(|n| serde_json::json!({ "name": n, "index": 0 }))
+        .collect();
+        let index = serde_json::json!({ "format": "probeplace.split", "tile": tiles });
+        let names = earlier_split(&serde_json::to_vec(&index).unwrap());
+        assert_eq!(names[..4], fixed);
+        assert_eq!(names[4..], ["tile-000", "tile-0013"]);
+    }
 
     #[test]
     fn fields_are_replaced_in_place_and_added_when_missing() {

@@ -213,6 +213,49 @@ fn a_failed_or_foreign_tile_stops_the_merge_and_a_rerun_mends_it() {
 }
 
 #[test]
+fn a_split_over_an_earlier_one_replaces_it_whole() {
+    let config = test_quality("configs/cornell.ron", &[]);
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("split");
+    split(config.arg(), "2x1x1", &dir);
+    run_tile(&dir, 0, &[]);
+    run_tile(&dir, 1, &[]);
+    let (code, err) = merge(&dir);
+    assert_eq!(code, Some(0), "{err}");
+    assert!(dir.join("world/report.json").is_file());
+    // One tile now: the old second tile, both placements and the merged
+    // world are stale, and none of them may stay to pass for the new
+    // split's.
+    split(config.arg(), "1x1x1", &dir);
+    assert!(dir.join("tile-000/config.ron").is_file());
+    for stale in ["tile-001", "tile-000/out", "world"] {
+        assert!(!dir.join(stale).exists(), "{stale} left over");
+    }
+    let (code, err) = merge(&dir);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(
+        err.starts_with("error: tile-000: no finished placement"),
+        "{err}"
+    );
+    // A path that is not a directory is refused, naming it.
+    let file = tmp.path().join("a-file");
+    std::fs::write(&file, "x").unwrap();
+    let o = probeplace(&[
+        "split",
+        config.arg(),
+        "--tiles",
+        "2x1x1",
+        "--out",
+        file.to_str().unwrap(),
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+    assert!(err.contains("a-file: --out: is not a directory"), "{err}");
+    assert_eq!(std::fs::read(&file).unwrap(), b"x");
+}
+
+#[test]
 fn split_refuses_what_it_cannot_split() {
     let tmp = tempfile::tempdir().unwrap();
     let config = test_quality("configs/cornell.ron", &[("max_probes", "12")]);
