@@ -162,13 +162,19 @@ pub fn merge(options: &MergeOptions) -> Result<Outcome> {
     }
     let progress = &options.progress;
 
+    // Each pass prepares its tiles one at a time; the last tile of a pass
+    // is the first of the next (the join runs backwards), and is carried
+    // over rather than prepared again: two preparations fewer, and never
+    // more than one tile in memory.
+    let mut carried: Option<(u32, Tile)> = None;
+
     // Pass 1 (offer): the positions each core offers besides the tiles' probes.
     let mut offered = vec![0usize; index.tile.len()];
     for (entry, tiers) in index.tile.iter().zip(&tiers_of) {
         let Some(tiers) = tiers else {
             continue;
         };
-        let tile = Tile::prepare(dir, entry, progress)?;
+        let tile = Tile::take_or_prepare(&mut carried, dir, entry, progress)?;
         // The tile's own probes by the same measure: those its filling
         // added from a lower tier stand nearer a surface than the first.
         for p in probes
@@ -188,14 +194,15 @@ pub fn merge(options: &MergeOptions) -> Result<Outcome> {
                 tier,
             });
         }
+        carried = Some((entry.index, tile));
     }
 
     // Pass 2 (join): per core, the settled samples and the candidates that see
-    // each unsettled one.
-    let mut tallies = Vec::new();
-    let mut lists: Vec<Vec<u32>> = Vec::new();
-    for entry in &index.tile {
-        let tile = Tile::prepare(dir, entry, progress)?;
+    // each unsettled one. Backwards, then put in tile order.
+    let mut joined: Vec<Option<(TileTally, Vec<Vec<u32>>)>> =
+        (0..index.tile.len()).map(|_| None).collect();
+    for (slot, entry) in joined.iter_mut().zip(&index.tile).rev() {
+        let tile = Tile::take_or_prepare(&mut carried, dir, entry, progress)?;
         let relevant: Vec<(usize, glam::Vec3)> = probes
             .iter()
             .enumerate()
@@ -226,15 +233,23 @@ pub fn merge(options: &MergeOptions) -> Result<Outcome> {
             coverable_samples: samples.len(),
             ..TileTally::default()
         };
+        let mut kept_lists = Vec::new();
         for l in seen {
             if l.is_empty() {
                 tally.unseen += 1;
             } else {
                 tally.seen += 1;
-                lists.push(l);
+                kept_lists.push(l);
             }
         }
+        *slot = Some((tally, kept_lists));
+        carried = Some((entry.index, tile));
+    }
+    let mut tallies = Vec::new();
+    let mut lists: Vec<Vec<u32>> = Vec::new();
+    for (tally, l) in joined.into_iter().flatten() {
         tallies.push(tally);
+        lists.extend(l);
     }
     let coverable_all: usize = tallies.iter().map(|t| t.coverable_samples).sum();
     let world_config = Config::from_text(&index.world.config_text, &index.config)?;
@@ -258,7 +273,7 @@ pub fn merge(options: &MergeOptions) -> Result<Outcome> {
     let mut world_tiles = Vec::new();
     let mut health = (0usize, 0usize);
     for entry in &index.tile {
-        let tile = Tile::prepare(dir, entry, progress)?;
+        let tile = Tile::take_or_prepare(&mut carried, dir, entry, progress)?;
         let scene = &tile.prepared.scene;
         let inside: Vec<usize> = (0..final_probes.len())
             .filter(|&g| entry.domain.contains(final_probes[g].position))
@@ -539,6 +554,23 @@ struct Tile {
 }
 
 impl Tile {
+    /// The tile `carried` holds when it is `entry`'s (taken out of it),
+    /// or `entry` prepared; `carried` is emptied either way, so that the
+    /// tile it held is dropped before another is prepared.
+    fn take_or_prepare(
+        carried: &mut Option<(u32, Tile)>,
+        dir: &Path,
+        entry: &TileEntry,
+        progress: &Progress,
+    ) -> Result<Tile> {
+        if let Some((index, tile)) = carried.take() {
+            if index == entry.index {
+                return Ok(tile);
+            }
+        }
+        Tile::prepare(dir, entry, progress)
+    }
+
     fn prepare(dir: &Path, entry: &TileEntry, progress: &Progress) -> Result<Tile> {
         let path = dir.join(&entry.config);
         let text = crate::input::read_text(&path, "config", crate::config::MAX_CONFIG_BYTES)?;
