@@ -95,19 +95,28 @@ fn run() -> Result<(), Error> {
     let out_dir = output.parent().unwrap_or(Path::new("."));
     let default_output = output == Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/results.md");
     let mut all: Vec<(PathBuf, String)> = vec![(output.clone(), files.markdown)];
-    // The README's headline is the same summary, between its markers.
-    if default_output && !files.summary.is_empty() {
+    // The README's headline is the same summary, and the generality
+    // sentence, each between its markers.
+    if default_output {
         let readme = Path::new(env!("CARGO_MANIFEST_DIR")).join("README.md");
-        let text = std::fs::read_to_string(&readme)?;
-        all.push((
-            readme.clone(),
-            splice(&text, &files.summary).ok_or_else(|| {
+        let mut text = std::fs::read_to_string(&readme)?;
+        for (markers, block) in README_BLOCKS
+            .iter()
+            .zip([&files.summary, &files.generality])
+        {
+            if block.is_empty() {
+                continue;
+            }
+            text = splice(&text, *markers, block).ok_or_else(|| {
                 format!(
-                    "{}: no `{README_BEGIN}` … `{README_END}` block to fill",
-                    readme.display()
+                    "{}: no `{}` … `{}` block to fill",
+                    readme.display(),
+                    markers.0,
+                    markers.1
                 )
-            })?,
-        ));
+            })?;
+        }
+        all.push((readme, text));
     }
     for (name, svg) in files.plots {
         all.push((out_dir.join(name), svg));
@@ -353,20 +362,31 @@ impl Table {
 struct Files {
     markdown: String,
     plots: Vec<(String, String)>,
-    /// The comparisons at a glance, also README.md's generated block.
+    /// The comparisons at a glance, also README.md's first generated block.
     summary: String,
+    /// README.md's sentence on the generality table, its second block.
+    generality: String,
 }
 
-/// The markers of README.md's generated block.
-const README_BEGIN: &str = "<!-- results:compare begin (examples/results.rs writes this block) -->";
-const README_END: &str = "<!-- results:compare end -->";
+/// The markers of README.md's generated blocks: the comparisons, and the
+/// sentence on the generality table.
+const README_BLOCKS: [(&str, &str); 2] = [
+    (
+        "<!-- results:compare begin (examples/results.rs writes this block) -->",
+        "<!-- results:compare end -->",
+    ),
+    (
+        "<!-- results:generality begin (examples/results.rs writes this block) -->",
+        "<!-- results:generality end -->",
+    ),
+];
 
-/// `text` with the block between [`README_BEGIN`] and [`README_END`]
-/// replaced by `block`; `None` without both markers.
-fn splice(text: &str, block: &str) -> Option<String> {
-    let start = text.find(README_BEGIN)? + README_BEGIN.len();
-    let end = start + text[start..].find(README_END)?;
-    Some(format!("{}\n{block}{}", &text[..start], &text[end..]))
+/// `text` with the block between the markers `(begin, end)` replaced by
+/// `block`; `None` without both markers.
+fn splice(text: &str, (begin, end): (&str, &str), block: &str) -> Option<String> {
+    let start = text.find(begin)? + begin.len();
+    let stop = start + text[start..].find(end)?;
+    Some(format!("{}\n{block}{}", &text[..start], &text[stop..]))
 }
 
 /// Our default method.
@@ -420,6 +440,7 @@ fn compare_summary(compares: &[Value]) -> String {
     .collect();
     let mut t = Table::new(&columns);
     let (mut scenes, mut grid_wins, mut strong) = (0, 0, 0);
+    let mut readings: Vec<String> = Vec::new();
     for c in compares {
         let comparisons = at(c, "comparisons")
             .and_then(Value::as_array)
@@ -477,6 +498,7 @@ fn compare_summary(compares: &[Value]) -> String {
         let views = at(c, "cameras")
             .and_then(Value::as_array)
             .map_or(0, Vec::len);
+        readings.push(scene_reading(c, x, &ratios));
         for (x, r) in ratios {
             t.rows.push(
                 vec![
@@ -526,7 +548,69 @@ fn compare_summary(compares: &[Value]) -> String {
          point estimate of its filtered MSE is at most 0.8× that of every competitor \
          (relocated, greedy, adaptive) in **{strong} of {scenes}**, intervals aside.\n"
     );
+    let _ = writeln!(
+        md,
+        "Per scene, each rival's verdict read from its two intervals (better or worse: \
+         the interval lies wholly above or below 1; a metric named alone is the only one \
+         whose interval does):\n"
+    );
+    for r in &readings {
+        let _ = writeln!(md, "- {r}");
+    }
+    md.push('\n');
     md
+}
+
+/// A metric's verdict from its interval: `Some(true)` when it lies wholly
+/// above 1 (ours better), `Some(false)` wholly below, `None` otherwise.
+fn metric_verdict(i: Option<&Value>) -> Option<bool> {
+    let (lo, hi) = (i.and_then(|i| num(i, "lo"))?, i.and_then(|i| num(i, "hi"))?);
+    (lo > 1.0 || hi < 1.0).then_some(lo > 1.0)
+}
+
+/// The verdict on one rival, in words, from both metrics' intervals.
+fn rival_words(r: &Value) -> String {
+    let named = |v: Option<bool>| match v {
+        Some(true) => "better",
+        Some(false) => "worse",
+        None => "",
+    };
+    let mse = metric_verdict(at(r, "mse_glossy_filtered"));
+    let flip = metric_verdict(at(r, "flip"));
+    match (mse, flip) {
+        (None, None) => "no clear difference".into(),
+        (a, b) if a == b => format!("ours {}", named(a)),
+        (Some(a), None) => format!("ours {} by filtered MSE only", named(Some(a))),
+        (None, Some(b)) => format!("ours {} by ꟻLIP only", named(Some(b))),
+        (a, b) => format!("ours {} by filtered MSE, {} by ꟻLIP", named(a), named(b)),
+    }
+}
+
+/// One line of the per-scene reading: our count, then each rival of
+/// `ratios` (each set against the run of ours nearest its count) with its
+/// verdict, in the table's order.
+fn scene_reading(c: &Value, ours: &Value, ratios: &[(&Value, &Value)]) -> String {
+    let mut parts: Vec<String> = Vec::new();
+    for (x, r) in ratios {
+        let family = text(r, "family");
+        let who = match (family.as_str(), text(r, "tracer").as_str()) {
+            ("grid", "bilevel+grid") => "the grid as engines trace it".to_string(),
+            ("grid", _) => "the grid on our tracer".to_string(),
+            (f, _) => f.to_string(),
+        };
+        let count = if num(x, "probes") == num(ours, "probes") {
+            String::new()
+        } else {
+            format!(" (ours at {})", int(num(x, "probes")))
+        };
+        parts.push(format!("against {who}{count}, {}", rival_words(r)));
+    }
+    format!(
+        "**`{}`**, ours {} probes: {}.",
+        config_name(c),
+        int(num(ours, "probes")),
+        parts.join("; ")
+    )
 }
 
 fn render(inputs: &mut Inputs) -> Files {
@@ -583,8 +667,9 @@ fn render(inputs: &mut Inputs) -> Files {
     for c in &inputs.compares {
         compare_section(&mut md, c, &mut plots);
     }
+    let mut generality = String::new();
     if !inputs.generality.is_empty() {
-        generality_section(&mut md, &mut inputs.generality);
+        generality = generality_section(&mut md, &mut inputs.generality);
     }
     // One trailing newline.
     while md.ends_with("\n\n") {
@@ -594,6 +679,7 @@ fn render(inputs: &mut Inputs) -> Files {
         markdown: md,
         plots,
         summary,
+        generality,
     }
 }
 
@@ -1493,7 +1579,9 @@ fn xml(s: &str) -> String {
 
 // ---------------------------------------------------------------- generality
 
-fn generality_section(md: &mut String, rows: &mut [Value]) {
+/// Writes the generality table into `md`; returns README.md's sentence
+/// on it.
+fn generality_section(md: &mut String, rows: &mut [Value]) -> String {
     rows.sort_by(|a, b| {
         natural(&text(a, "scene"), &text(b, "scene"))
             .then_with(|| text(a, "method").cmp(&text(b, "method")))
@@ -1593,6 +1681,24 @@ fn generality_section(md: &mut String, rows: &mut [Value]) {
     md.push_str(&t.markdown());
     md.push('\n');
     let n = rows.len();
+    let scenes = rows
+        .iter()
+        .map(|r| text(r, "scene"))
+        .collect::<std::collections::BTreeSet<_>>()
+        .len();
+    let methods = rows
+        .iter()
+        .map(|r| text(r, "method"))
+        .collect::<std::collections::BTreeSet<_>>()
+        .len();
+    let readme = format!(
+        "On placement alone, the stock config (nothing but the scene) needs fewer probes \
+         than the smallest uniform grid reaching the same coverage, or no grid of the sweep \
+         (up to 16 cells along the longest axis) reaches it, on **{} of the {n} rows** of \
+         the generality table ({scenes} scenes, generated and every config, by {methods} \
+         methods; [docs/results.md](docs/results.md), \"Any scene\").\n",
+        n - beaten.len()
+    );
     let _ = writeln!(
         md,
         "- Fewer probes than the smallest grid reaching the same coverage (or no grid \
@@ -1622,4 +1728,5 @@ fn generality_section(md: &mut String, rows: &mut [Value]) {
             warned.join(", ")
         }
     );
+    readme
 }
