@@ -140,8 +140,15 @@ pub fn merge(options: &MergeOptions) -> Result<Outcome> {
     let mut probes: Vec<WorldProbe> = Vec::new();
     let mut placed = vec![0usize; index.tile.len()];
     let mut tiers_of = Vec::new();
+    // A tile whose box no triangle touches has nothing to place, no
+    // surface to demand views of and no SVO; `tile.sh` skips it.
+    let empty = |t: u32| index.tile[t as usize].triangles == 0;
     for entry in &index.tile {
-        let (positions, tiers) = tile_probes(dir, &index, entry)?;
+        let (positions, tiers) = if empty(entry.index) {
+            (Vec::new(), None)
+        } else {
+            tile_probes(dir, &index, entry)?
+        };
         tiers_of.push(tiers);
         for position in positions {
             placed[entry.index as usize] += 1;
@@ -202,6 +209,14 @@ pub fn merge(options: &MergeOptions) -> Result<Outcome> {
     let mut joined: Vec<Option<(TileTally, Vec<Vec<u32>>)>> =
         (0..index.tile.len()).map(|_| None).collect();
     for (slot, entry) in joined.iter_mut().zip(&index.tile).rev() {
+        if empty(entry.index) {
+            let tally = TileTally {
+                name: entry.name.clone(),
+                ..TileTally::default()
+            };
+            *slot = Some((tally, Vec::new()));
+            continue;
+        }
         let tile = Tile::take_or_prepare(&mut carried, dir, entry, progress)?;
         let relevant: Vec<(usize, glam::Vec3)> = probes
             .iter()
@@ -273,6 +288,28 @@ pub fn merge(options: &MergeOptions) -> Result<Outcome> {
     let mut world_tiles = Vec::new();
     let mut health = (0usize, 0usize);
     for entry in &index.tile {
+        let owned: Vec<usize> = (0..final_probes.len())
+            .filter(|&g| final_probes[g].owner == entry.index)
+            .collect();
+        let first = owned.first().copied().unwrap_or(
+            final_probes
+                .iter()
+                .position(|p| p.owner > entry.index)
+                .unwrap_or(final_probes.len()),
+        );
+        let mut world_tile = json!({
+            "name": entry.name,
+            "index": entry.index,
+            "cell": entry.cell,
+            "core": entry.core,
+            "domain": entry.domain,
+            "probes": { "first": first, "count": owned.len() },
+            "svo": Value::Null,
+        });
+        if empty(entry.index) {
+            world_tiles.push(world_tile);
+            continue;
+        }
         let tile = Tile::take_or_prepare(&mut carried, dir, entry, progress)?;
         let scene = &tile.prepared.scene;
         let inside: Vec<usize> = (0..final_probes.len())
@@ -293,10 +330,13 @@ pub fn merge(options: &MergeOptions) -> Result<Outcome> {
         let file = format!("{}.svo.bin", entry.name);
         set.add(file.clone(), svo.to_bytes());
         let sdf = &tile.prepared.sdf;
-        let owned: Vec<usize> = (0..final_probes.len())
-            .filter(|&g| final_probes[g].owner == entry.index)
-            .collect();
-        for &g in &owned {
+        // The probes its core holds, and those it placed in the core of a
+        // tile without triangles, which has no SDF of its own to ask.
+        let described = (0..final_probes.len()).filter(|&g| {
+            let p = &final_probes[g];
+            p.owner == entry.index || (empty(p.owner) && p.source == entry.index)
+        });
+        for g in described {
             let p = scene.to_local(final_probes[g].position);
             let voxel = sdf.voxel_at(p);
             let class = voxel.map(|v| sdf.class[v]);
@@ -314,7 +354,7 @@ pub fn merge(options: &MergeOptions) -> Result<Outcome> {
                     .to_array(),
                 clearance: voxel.map_or(f32::NAN, |v| sdf.distance[v]),
                 voxel_class: class,
-                tile: entry.name.clone(),
+                tile: index.tile[final_probes[g].owner as usize].name.clone(),
                 placed_by: if final_probes[g].offered {
                     "merge".to_string()
                 } else {
@@ -322,21 +362,8 @@ pub fn merge(options: &MergeOptions) -> Result<Outcome> {
                 },
             });
         }
-        let first = owned.first().copied().unwrap_or(
-            final_probes
-                .iter()
-                .position(|p| p.owner > entry.index)
-                .unwrap_or(final_probes.len()),
-        );
-        world_tiles.push(json!({
-            "name": entry.name,
-            "index": entry.index,
-            "cell": entry.cell,
-            "core": entry.core,
-            "domain": entry.domain,
-            "probes": { "first": first, "count": owned.len() },
-            "svo": file,
-        }));
+        world_tile["svo"] = json!(file);
+        world_tiles.push(world_tile);
     }
     let records: Vec<MergedProbe> = records.into_iter().flatten().collect();
     if options.single {

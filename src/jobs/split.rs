@@ -249,7 +249,7 @@ pub fn split(options: &SplitOptions) -> Result<Outcome> {
         .ok()
         .and_then(|p| p.canonicalize().ok())
         .unwrap_or_else(|| PathBuf::from("probeplace"));
-    write_file(&dir.join("tile.sh"), &tile_script(&exe, &names))?;
+    write_file(&dir.join("tile.sh"), &tile_script(&exe, &index.tile))?;
     write_file(&dir.join("submit.sh"), &submit_script(&index, options.cpus))?;
     for script in ["tile.sh", "submit.sh"] {
         set_executable(&dir.join(script))?;
@@ -454,12 +454,24 @@ fn point(p: [f64; 3]) -> String {
 /// `tile.sh INDEX` places tile INDEX; `tile.sh merge` merges. Slurm runs
 /// it as `$SLURM_ARRAY_TASK_ID`, a Kubernetes Indexed Job as
 /// `$JOB_COMPLETION_INDEX`. Without cgroups nothing holds a task to its
-/// CPUs, so the task's rayon pool is sized to what it asked for.
-fn tile_script(exe: &Path, names: &[String]) -> String {
-    let cases: String = names
+/// CPUs, so the task's rayon pool is sized to what it asked for. A tile
+/// whose box no triangle touches succeeds at once: `place` would refuse
+/// its empty scene, and a failed array task would cancel the merge.
+fn tile_script(exe: &Path, tiles: &[TileEntry]) -> String {
+    let cases: String = tiles
         .iter()
-        .enumerate()
-        .map(|(i, n)| format!("    {i}) tile={n} ;;\n"))
+        .map(|t| {
+            let (i, n) = (t.index, &t.name);
+            if t.triangles == 0 {
+                // Nothing to place; the array task succeeds, so the merge
+                // (which skips the tile) still runs.
+                format!(
+                    "    {i}) echo \"tile.sh: {n} holds no triangles: nothing to place\" >&2; exit 0 ;;\n"
+                )
+            } else {
+                format!("    {i}) tile={n} ;;\n")
+            }
+        })
         .collect();
     format!(
         r#"#!/bin/sh

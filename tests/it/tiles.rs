@@ -213,6 +213,59 @@ fn a_failed_or_foreign_tile_stops_the_merge_and_a_rerun_mends_it() {
 }
 
 #[test]
+fn a_tile_without_triangles_is_skipped_and_the_world_still_merges() {
+    // A domain reaching well past the box (as an open world's reaches
+    // past its buildings): the last of three tiles along x holds no
+    // triangle at all.
+    let config = test_quality(
+        "configs/cornell.ron",
+        &[(
+            "domain",
+            "Box((min: (-0.5, -0.1, -0.5), max: (2.5, 0.7, 1.2)))",
+        )],
+    );
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("split");
+    split(config.arg(), "3x1x1", &dir);
+    let index = read_json(&dir.join("split.json"));
+    let triangles: Vec<u64> = index["tile"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|t| t["triangles"].as_u64().unwrap())
+        .collect();
+    assert_eq!(triangles[2], 0, "{triangles:?}");
+    assert!(triangles[0] > 0);
+    // Its array task succeeds at once, so that Slurm still runs the merge.
+    let o = Command::new("sh")
+        .arg(dir.join("tile.sh"))
+        .arg("2")
+        .output()
+        .unwrap();
+    assert!(o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("tile-002 holds no triangles"));
+    assert!(!dir.join("tile-002/out").exists());
+    run_tile(&dir, 0, &[]);
+    run_tile(&dir, 1, &[]);
+    let (code, err) = merge(&dir);
+    assert_eq!(code, Some(0), "{err}");
+    let world = read_json(&dir.join("world/world.json"));
+    let tiles = world["tiles"].as_array().unwrap();
+    assert_eq!(tiles[2]["svo"], Value::Null);
+    assert_eq!(tiles[2]["probes"]["count"], 0);
+    assert!(dir
+        .join("world")
+        .join(tiles[0]["svo"].as_str().unwrap())
+        .is_file());
+    let report = read_json(&dir.join("world/report.json"));
+    assert!(report["coverage"].as_f64().unwrap() >= 0.999, "{report}");
+    assert_eq!(report["probes_in_solid"], 0);
+    let per_tile = &report["merge"]["per_tile"][2];
+    assert_eq!(per_tile["coverable_samples"], 0);
+    assert_eq!(per_tile["probes_placed"], 0);
+}
+
+#[test]
 fn a_split_over_an_earlier_one_replaces_it_whole() {
     let config = test_quality("configs/cornell.ron", &[]);
     let tmp = tempfile::tempdir().unwrap();
