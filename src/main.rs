@@ -142,7 +142,7 @@ enum Command {
         #[arg(long)]
         out: PathBuf,
         /// How far each tile reaches beyond its own cell, in world units (default: a quarter of the longest tile edge, at least 8 voxels).
-        #[arg(long)]
+        #[arg(long, allow_negative_numbers = true)]
         margin: Option<f64>,
         /// CPUs each tile job asks the scheduler for.
         #[arg(long, default_value_t = 2)]

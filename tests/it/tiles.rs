@@ -331,4 +331,25 @@ fn split_refuses_what_it_cannot_split() {
         assert_eq!(o.status.code(), Some(2));
         assert!(String::from_utf8_lossy(&o.stderr).starts_with("error: --tiles: "));
     }
+    let plain = test_quality("configs/cornell.ron", &[]);
+    for margin in ["-1", "NaN"] {
+        let out = tmp.path().join("m");
+        let o = probeplace(&[
+            "split",
+            plain.arg(),
+            "--tiles",
+            "2x1x1",
+            "--margin",
+            margin,
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{err}");
+        assert_eq!(
+            err.trim_end(),
+            format!("error: --margin: {margin} is not a length of at least 0")
+        );
+        assert!(!out.exists());
+    }
 }
