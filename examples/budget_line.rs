@@ -8,12 +8,10 @@
 //! grid:4x1x2 --no-refine` (GRID).
 
 use serde_json::Value;
-use std::path::Path;
 
-fn read(path: &str) -> Result<Value, Box<dyn std::error::Error>> {
-    let text = std::fs::read_to_string(Path::new(path)).map_err(|e| format!("{path}: {e}"))?;
-    Ok(serde_json::from_str(&text).map_err(|e| format!("{path}: {e}"))?)
-}
+#[path = "common/json.rs"]
+mod json;
+use json::read;
 
 /// `v` as a number, or an error naming the file and field.
 fn number(v: &Value, path: &str, field: &str) -> Result<f64, Box<dyn std::error::Error>> {

@@ -5,12 +5,9 @@
 //! fetches per ray and GPU time (`gpu_ms`, timestamp queries; none for the
 //! CPU twin), and each variant's wall time (`render.timings_ms`).
 
-use std::path::Path;
-
-fn read(path: &str) -> Result<serde_json::Value, Box<dyn std::error::Error>> {
-    let text = std::fs::read_to_string(Path::new(path)).map_err(|e| format!("{path}: {e}"))?;
-    Ok(serde_json::from_str(&text).map_err(|e| format!("{path}: {e}"))?)
-}
+#[path = "common/json.rs"]
+mod json;
+use json::read;
 
 /// A `gpu_ms` figure, or a dash where the run had no GPU.
 fn gpu_ms(v: &serde_json::Value) -> String {

@@ -3,12 +3,9 @@
 //! SPLIT/world/report.json [NAME ONE WORLD ...]` prints one Markdown row per
 //! scene (docs/tiles.md, "How close to one machine", has the commands).
 
-use std::path::Path;
-
-fn read(path: &str) -> Result<serde_json::Value, Box<dyn std::error::Error>> {
-    let text = std::fs::read_to_string(Path::new(path)).map_err(|e| format!("{path}: {e}"))?;
-    Ok(serde_json::from_str(&text).map_err(|e| format!("{path}: {e}"))?)
-}
+#[path = "common/json.rs"]
+mod json;
+use json::read;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
