@@ -52,6 +52,20 @@ fn merge(dir: &Path) -> (Option<i32>, String) {
     )
 }
 
+/// Our Cornell box at test quality with `fields` set, split into `tiles`
+/// in a new temporary directory: the config (kept alive with its file),
+/// the directory's owner and the split directory.
+fn split_cornell(
+    fields: &[(&str, &str)],
+    tiles: &str,
+) -> (Overlay, tempfile::TempDir, std::path::PathBuf) {
+    let config = test_quality("configs/cornell.ron", fields);
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("split");
+    split(config.arg(), tiles, &dir);
+    (config, tmp, dir)
+}
+
 /// Whether a Slurm cluster answers; under CI (`CI` set) it must, since
 /// `.ci/run` starts one.
 fn slurm(test: &str) -> bool {
@@ -167,10 +181,7 @@ fn a_generated_building_split_and_merged_stays_near_one_machine() {
 fn a_failed_or_foreign_tile_stops_the_merge_and_a_rerun_mends_it() {
     // The faults do not depend on the scene: the smallest one keeps the
     // four placements and two merges quick.
-    let config = test_quality("configs/cornell.ron", &[]);
-    let tmp = tempfile::tempdir().unwrap();
-    let dir = tmp.path().join("split");
-    split(config.arg(), "2x1x1", &dir);
+    let (_config, _tmp, dir) = split_cornell(&[], "2x1x1");
     run_tile(&dir, 0, &[]);
     // Tile 1 never ran: the merge names it and writes nothing.
     let (code, err) = merge(&dir);
@@ -217,16 +228,13 @@ fn a_tile_without_triangles_is_skipped_and_the_world_still_merges() {
     // A domain reaching well past the box (as an open world's reaches
     // past its buildings): the last of three tiles along x holds no
     // triangle at all.
-    let config = test_quality(
-        "configs/cornell.ron",
+    let (_config, _tmp, dir) = split_cornell(
         &[(
             "domain",
             "Box((min: (-0.5, -0.1, -0.5), max: (2.5, 0.7, 1.2)))",
         )],
+        "3x1x1",
     );
-    let tmp = tempfile::tempdir().unwrap();
-    let dir = tmp.path().join("split");
-    split(config.arg(), "3x1x1", &dir);
     let index = read_json(&dir.join("split.json"));
     let triangles: Vec<u64> = index["tile"]
         .as_array()
@@ -267,10 +275,7 @@ fn a_tile_without_triangles_is_skipped_and_the_world_still_merges() {
 
 #[test]
 fn a_split_over_an_earlier_one_replaces_it_whole() {
-    let config = test_quality("configs/cornell.ron", &[]);
-    let tmp = tempfile::tempdir().unwrap();
-    let dir = tmp.path().join("split");
-    split(config.arg(), "2x1x1", &dir);
+    let (config, _tmp, dir) = split_cornell(&[], "2x1x1");
     run_tile(&dir, 0, &[]);
     run_tile(&dir, 1, &[]);
     let (code, err) = merge(&dir);
@@ -290,38 +295,26 @@ fn a_split_over_an_earlier_one_replaces_it_whole() {
         err.starts_with("error: tile-000: no finished placement"),
         "{err}"
     );
-    // A path that is not a directory is refused, naming it.
-    let file = tmp.path().join("a-file");
-    std::fs::write(&file, "x").unwrap();
-    let o = probeplace(&[
-        "split",
-        config.arg(),
-        "--tiles",
-        "2x1x1",
-        "--out",
-        file.to_str().unwrap(),
-    ]);
-    let err = String::from_utf8_lossy(&o.stderr);
+}
+
+/// `split` of `config` into 2×1×1 tiles at `out` with `extra` arguments,
+/// which must be refused with one line and exit status 2: the line.
+fn split_refusal(config: &Overlay, extra: &[&str], out: &Path) -> String {
+    let mut args = vec!["split", config.arg(), "--tiles", "2x1x1"];
+    args.extend(extra);
+    args.extend(["--out", out.to_str().unwrap()]);
+    let o = probeplace(&args);
+    let err = String::from_utf8_lossy(&o.stderr).into_owned();
     assert_eq!(o.status.code(), Some(2), "{err}");
     assert_eq!(err.trim_end().lines().count(), 1, "{err}");
-    assert!(err.contains("a-file: --out: is not a directory"), "{err}");
-    assert_eq!(std::fs::read(&file).unwrap(), b"x");
+    err
 }
 
 #[test]
 fn split_refuses_what_it_cannot_split() {
     let tmp = tempfile::tempdir().unwrap();
     let config = test_quality("configs/cornell.ron", &[("max_probes", "12")]);
-    let o = probeplace(&[
-        "split",
-        config.arg(),
-        "--tiles",
-        "2x1x1",
-        "--out",
-        tmp.path().join("s").to_str().unwrap(),
-    ]);
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(o.status.code(), Some(2), "{err}");
+    let err = split_refusal(&config, &[], &tmp.path().join("s"));
     assert!(
         err.contains("max_probes: a count for the whole world"),
         "{err}"
@@ -334,22 +327,17 @@ fn split_refuses_what_it_cannot_split() {
     let plain = test_quality("configs/cornell.ron", &[]);
     for margin in ["-1", "NaN"] {
         let out = tmp.path().join("m");
-        let o = probeplace(&[
-            "split",
-            plain.arg(),
-            "--tiles",
-            "2x1x1",
-            "--margin",
-            margin,
-            "--out",
-            out.to_str().unwrap(),
-        ]);
-        let err = String::from_utf8_lossy(&o.stderr);
-        assert_eq!(o.status.code(), Some(2), "{err}");
+        let err = split_refusal(&plain, &["--margin", margin], &out);
         assert_eq!(
             err.trim_end(),
             format!("error: --margin: {margin} is not a length of at least 0")
         );
         assert!(!out.exists());
     }
+    // A path that is not a directory is refused, naming it, and kept.
+    let file = tmp.path().join("a-file");
+    std::fs::write(&file, "x").unwrap();
+    let err = split_refusal(&plain, &[], &file);
+    assert!(err.contains("a-file: --out: is not a directory"), "{err}");
+    assert_eq!(std::fs::read(&file).unwrap(), b"x");
 }
