@@ -1282,7 +1282,7 @@ fn interval(i: Option<&Value>) -> String {
         return DASH.into();
     };
     let t = format!("{v:.2}× [{lo:.2}, {hi:.2}]");
-    if lo > 1.0 || hi < 1.0 {
+    if metric_verdict(i).is_some() {
         format!("**{t}**")
     } else {
         t

@@ -142,7 +142,7 @@ pub fn merge(options: &MergeOptions) -> Result<Outcome> {
     let mut tiers_of = Vec::new();
     // A tile whose box no triangle touches has nothing to place, no
     // surface to demand views of and no SVO; `tile.sh` skips it.
-    let empty = |t: u32| index.tile[t as usize].triangles == 0;
+    let empty = |t: u32| index.tile[t as usize].is_empty();
     for entry in &index.tile {
         let (positions, tiers) = if empty(entry.index) {
             (Vec::new(), None)

@@ -91,6 +91,14 @@ pub struct TileEntry {
     pub memory_mib: u64,
 }
 
+impl TileEntry {
+    /// Whether no triangle touches the tile's box: nothing to place there
+    /// (`tile.sh` succeeds at once, `merge` skips it; docs/tiles.md).
+    pub fn is_empty(&self) -> bool {
+        self.triangles == 0
+    }
+}
+
 impl SplitIndex {
     /// The tile grid the index describes.
     pub fn grid(&self) -> TileGrid {
@@ -462,7 +470,7 @@ fn tile_script(exe: &Path, tiles: &[TileEntry]) -> String {
         .iter()
         .map(|t| {
             let (i, n) = (t.index, &t.name);
-            if t.triangles == 0 {
+            if t.is_empty() {
                 // Nothing to place; the array task succeeds, so the merge
                 // (which skips the tile) still runs.
                 format!(
