@@ -580,37 +580,48 @@ fn sees_corners(sdf: &Sdf, bvh: &SceneBvh, i: usize, corners: &[usize]) -> bool 
             .all(|&j| !bvh.occluded(c, sdf.center(j), eps))
 }
 
-/// The per-voxel ray rule of the module docs.
-struct RayClassifier<'a> {
-    sdf: &'a Sdf,
-    seed: u64,
+/// The ray rule of the module docs at any point, on the grid or off it:
+/// the one rule behind every verdict of solid, free and outside, shared by
+/// the SDF (per voxel centre) and the coverage measure, which judges its
+/// reference points and the final probes with its own rays rather than by
+/// the SDF's voxels ([`crate::coverage`]).
+pub struct RayRule {
     directions: Vec<Vec3>,
     solid_limit: f32,
     outside_limit: f32,
-    /// Hits closer than this are the surface the centre lies on: skipped.
+    /// Hits closer than this are the surface the point lies on: skipped.
     tmin: f32,
     /// Coplanar front/back pairs within this distance count as back faces.
     tie: f32,
 }
 
-impl<'a> RayClassifier<'a> {
-    fn new(sdf: &'a Sdf, params: &SdfParams, seed: u64) -> Self {
-        let n = params.rays_per_voxel.0;
-        RayClassifier {
-            sdf,
-            seed,
-            directions: interleaved(fibonacci_sphere(n), FIRST_STAGE_RAYS),
-            solid_limit: params.solid_backface_fraction.0 * n as f32,
-            outside_limit: params.outside_escape_fraction.0 * n as f32,
-            tmin: 1e-4 * sdf.voxel_size,
-            tie: 1e-3 * sdf.voxel_size,
+impl RayRule {
+    /// `rays` rays, solid above `solid_fraction` of back-face hits, outside
+    /// above `outside_fraction` of escapes; `voxel_size` scales the
+    /// tolerances.
+    pub fn new(rays: u32, solid_fraction: f32, outside_fraction: f32, voxel_size: f32) -> RayRule {
+        RayRule {
+            directions: interleaved(fibonacci_sphere(rays), FIRST_STAGE_RAYS),
+            solid_limit: solid_fraction * rays as f32,
+            outside_limit: outside_fraction * rays as f32,
+            tmin: 1e-4 * voxel_size,
+            tie: 1e-3 * voxel_size,
         }
     }
 
-    /// Classifies voxel `i` by casting rays from its centre.
-    fn classify(&self, bvh: &SceneBvh, i: usize) -> VoxelClass {
-        let c = self.sdf.center(i);
-        let rot = random_rotation(hash2(self.seed, i as u64));
+    /// The SDF's rule for `params`.
+    pub fn of(params: &SdfParams, voxel_size: f32) -> RayRule {
+        RayRule::new(
+            params.rays_per_voxel.0,
+            params.solid_backface_fraction.0,
+            params.outside_escape_fraction.0,
+            voxel_size,
+        )
+    }
+
+    /// Classifies the point `c` by casting the rule's rays, turned by
+    /// `rot`, from it.
+    pub fn classify(&self, bvh: &SceneBvh, c: Vec3, rot: glam::Mat3) -> VoxelClass {
         let n = self.directions.len();
         let (mut back, mut escaped) = (0u32, 0u32);
         for (k, d) in self.directions.iter().enumerate() {
@@ -641,6 +652,30 @@ impl<'a> RayClassifier<'a> {
         } else {
             VoxelClass::Free
         }
+    }
+}
+
+/// The per-voxel ray rule of the module docs: [`RayRule`] at each voxel
+/// centre, turned by a rotation seeded per voxel.
+struct RayClassifier<'a> {
+    sdf: &'a Sdf,
+    seed: u64,
+    rule: RayRule,
+}
+
+impl<'a> RayClassifier<'a> {
+    fn new(sdf: &'a Sdf, params: &SdfParams, seed: u64) -> Self {
+        RayClassifier {
+            sdf,
+            seed,
+            rule: RayRule::of(params, sdf.voxel_size),
+        }
+    }
+
+    /// Classifies voxel `i` by casting rays from its centre.
+    fn classify(&self, bvh: &SceneBvh, i: usize) -> VoxelClass {
+        let rot = random_rotation(hash2(self.seed, i as u64));
+        self.rule.classify(bvh, self.sdf.center(i), rot)
     }
 }
 

@@ -24,6 +24,7 @@
 pub mod atlas;
 pub mod fitness;
 pub mod gibbs;
+pub mod holdout;
 pub mod polish;
 pub mod prune;
 pub mod topup;

@@ -245,10 +245,13 @@ pub struct FillRound {
 
 /// What filling added.
 #[derive(Debug, Clone, Default, PartialEq)]
-struct Filled {
-    added: Vec<Vec3>,
-    tiers: Vec<usize>,
-    rounds: Vec<FillRound>,
+pub(super) struct Filled {
+    /// Positions added, in order.
+    pub(super) added: Vec<Vec3>,
+    /// The candidate tier of each.
+    pub(super) tiers: Vec<usize>,
+    /// The rounds of filling.
+    pub(super) rounds: Vec<FillRound>,
 }
 
 /// Result of [`CoverMatrix::fill_and_prune`].
@@ -315,6 +318,14 @@ impl<'r> CoverMatrix<'r> {
             .zip(&self.need)
             .filter(|&(&c, &n)| n > 0 && c >= n)
             .count()
+    }
+
+    /// Per coverable sample, 1 where `seen` (one flag per sample of the
+    /// reference) says some probe sees it, else 0: the view counts of a
+    /// probe set known only by whether it sees each sample, enough for
+    /// [`CoverMatrix::fill`] when every need is 1.
+    pub(super) fn counts_of_seen(&self, seen: &[bool]) -> Vec<u32> {
+        self.coverable.iter().map(|&i| seen[i] as u32).collect()
     }
 
     /// Whether sample `i` still needs a view, by `count`.
@@ -768,7 +779,7 @@ impl<'r> CoverMatrix<'r> {
     /// them sees any remaining hole, every hole having been scored. So
     /// filling never stops on a subsample: it stops when the target holds
     /// or no candidate sees a remaining hole.
-    fn fill(
+    pub(super) fn fill(
         &self,
         tiers: &[Vec<Vec3>],
         target_count: usize,
