@@ -110,7 +110,10 @@ pub fn stands_free(bvh: &SceneBvh, voxel_size: f32, p: Vec3) -> bool {
     thread_local! {
         static RULE: std::cell::RefCell<Option<(f32, RayRule)>> = const { std::cell::RefCell::new(None) };
     }
-    let key = p.to_array().iter().fold(0x5EED_F4EEu64, |h, c| hash2(h, c.to_bits() as u64));
+    let key = p
+        .to_array()
+        .iter()
+        .fold(0x5EED_F4EEu64, |h, c| hash2(h, c.to_bits() as u64));
     let rot = crate::sampling::random_rotation(key);
     RULE.with(|cell| {
         let mut cell = cell.borrow_mut();
@@ -605,7 +608,8 @@ impl CoverageReference {
                         if found < need {
                             'groups: for group in groups.facing(s, self.min_cos) {
                                 for &v in group {
-                                    if !tried[v] && self.sees_from(bvh, viewers[v], s, &mut blocker) {
+                                    if !tried[v] && self.sees_from(bvh, viewers[v], s, &mut blocker)
+                                    {
                                         found += 1;
                                         if found >= need {
                                             break 'groups;

@@ -248,8 +248,14 @@ mod tests {
             reference_points: Count(512),
             max_incidence_deg: Degrees(85.0),
         };
-        let training =
-            CoverageReference::by_rays(&scene, &bvh, &sdf, &params(150), Stream::Train.seed(5), &hidden);
+        let training = CoverageReference::by_rays(
+            &scene,
+            &bvh,
+            &sdf,
+            &params(150),
+            Stream::Train.seed(5),
+            &hidden,
+        );
         let held_out = CoverageReference::by_rays(
             &scene,
             &bvh,
@@ -260,7 +266,8 @@ mod tests {
         );
         let input = input_of(&scene, &bvh, &sdf, &hidden);
         let clearance = sdf.voxel_size;
-        let tier_of = |p: Vec3| super::super::may_stand(&sdf, &scene.bounds, clearance, p).then_some(0);
+        let tier_of =
+            |p: Vec3| super::super::may_stand(&sdf, &scene.bounds, clearance, p).then_some(0);
         let tiers = vec![training
             .references
             .iter()
@@ -304,7 +311,11 @@ mod tests {
             0,
         );
         assert!(held.dropped.is_empty());
-        assert!(!held.added.is_empty() && held.rounds.len() >= 2, "{:?}", held.rounds);
+        assert!(
+            !held.added.is_empty() && held.rounds.len() >= 2,
+            "{:?}",
+            held.rounds
+        );
         let last = held.rounds.last().unwrap();
         assert!(last.coverage - last.ci95 >= target, "{:?}", held.rounds);
         let mut after = fitted.clone();
