@@ -214,26 +214,7 @@ mod tests {
     use super::*;
     use crate::config::{Count, CoverageParams, Degrees};
     use crate::progress::Progress;
-    use crate::scene::testing::room_sdf;
-    use crate::scene::{raycast::SceneBvh, Scene};
-    use crate::sdf::Sdf;
-
-    /// The placement input over the whole test room, seed 5.
-    fn input_of<'a>(
-        scene: &'a Scene,
-        bvh: &'a SceneBvh,
-        sdf: &'a Sdf,
-        progress: &'a Progress,
-    ) -> PlacementInput<'a> {
-        PlacementInput {
-            scene,
-            bvh,
-            sdf,
-            domain: &scene.bounds,
-            seed: 5,
-            progress,
-        }
-    }
+    use crate::scene::testing::{input_over, room_sdf};
 
     /// Filling that fits only its training samples stops short on samples
     /// it never saw; the rounds reach the target there. The room's coverage
@@ -264,7 +245,7 @@ mod tests {
             Stream::Validation.seed(5),
             &hidden,
         );
-        let input = input_of(&scene, &bvh, &sdf, &hidden);
+        let input = input_over(&scene, &bvh, &sdf, 5, &hidden);
         let clearance = sdf.voxel_size;
         let tier_of =
             |p: Vec3| super::super::may_stand(&sdf, &scene.bounds, clearance, p).then_some(0);
@@ -337,7 +318,7 @@ mod tests {
         let (scene, bvh, sdf) = room_sdf(0.25, 2);
         let hidden = Progress::hidden();
         let training = crate::coverage::test_room().3;
-        let input = input_of(&scene, &bvh, &sdf, &hidden);
+        let input = input_over(&scene, &bvh, &sdf, 5, &hidden);
         let inside_box = Vec3::new(1.5, 0.5, 1.5);
         let open = Vec3::new(3.0, 2.0, 3.0);
         let none = |_: Vec3| None;

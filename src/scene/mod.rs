@@ -433,6 +433,24 @@ pub mod testing {
         (bvh, sdf)
     }
 
+    /// The placement input over `scene`'s bounds with `seed`.
+    pub fn input_over<'a>(
+        scene: &'a Scene,
+        bvh: &'a SceneBvh,
+        sdf: &'a Sdf,
+        seed: u64,
+        progress: &'a Progress,
+    ) -> PlacementInput<'a> {
+        PlacementInput {
+            scene,
+            bvh,
+            sdf,
+            domain: &scene.bounds,
+            seed,
+            progress,
+        }
+    }
+
     /// Runs placement `method` over `scene`'s bounds with seed 5.
     pub fn place_in(
         method: &Placement,
@@ -440,17 +458,7 @@ pub mod testing {
         bvh: &SceneBvh,
         sdf: &Sdf,
     ) -> crate::Result<ProbeSet> {
-        crate::placement::place(
-            method,
-            &PlacementInput {
-                scene,
-                bvh,
-                sdf,
-                domain: &scene.bounds,
-                seed: 5,
-                progress: &Progress::hidden(),
-            },
-        )
+        crate::placement::place(method, &input_over(scene, bvh, sdf, 5, &Progress::hidden()))
     }
 
     /// A closed room (single-sided walls facing inward) with a solid box inside

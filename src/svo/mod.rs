@@ -471,14 +471,7 @@ mod tests {
         sdf: &'a Sdf,
         progress: &'a Progress,
     ) -> PlacementInput<'a> {
-        PlacementInput {
-            scene,
-            bvh,
-            sdf,
-            domain: &scene.bounds,
-            seed: 3,
-            progress,
-        }
+        crate::scene::testing::input_over(scene, bvh, sdf, 3, progress)
     }
 
     fn bake_room(params: &SvoParams) -> (Baked, Scene, SceneBvh, Sdf, ProbeSet) {
