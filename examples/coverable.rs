@@ -38,6 +38,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 &prepared.scene,
                 &prepared.bvh,
                 &prepared.sdf,
+                &prepared.domain,
                 &params,
                 Stream::Validation.seed(config.seed),
                 &hidden,

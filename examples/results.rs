@@ -95,15 +95,11 @@ fn run() -> Result<(), Error> {
     let out_dir = output.parent().unwrap_or(Path::new("."));
     let default_output = output == Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/results.md");
     let mut all: Vec<(PathBuf, String)> = vec![(output.clone(), files.markdown)];
-    // The README's headline is the same summary, and the generality
-    // sentence, each between its markers.
+    // The README's generality sentence, between its markers.
     if default_output {
         let readme = Path::new(env!("CARGO_MANIFEST_DIR")).join("README.md");
         let mut text = std::fs::read_to_string(&readme)?;
-        for (markers, block) in README_BLOCKS
-            .iter()
-            .zip([&files.summary, &files.generality])
-        {
+        for (markers, block) in README_BLOCKS.iter().zip([&files.generality]) {
             if block.is_empty() {
                 continue;
             }
@@ -362,24 +358,16 @@ impl Table {
 struct Files {
     markdown: String,
     plots: Vec<(String, String)>,
-    /// The comparisons at a glance, also README.md's first generated block.
-    summary: String,
-    /// README.md's sentence on the generality table, its second block.
+    /// README.md's sentence on the generality table, its generated block.
     generality: String,
 }
 
-/// The markers of README.md's generated blocks: the comparisons, and the
-/// sentence on the generality table.
-const README_BLOCKS: [(&str, &str); 2] = [
-    (
-        "<!-- results:compare begin (examples/results.rs writes this block) -->",
-        "<!-- results:compare end -->",
-    ),
-    (
-        "<!-- results:generality begin (examples/results.rs writes this block) -->",
-        "<!-- results:generality end -->",
-    ),
-];
+/// The markers of README.md's generated block: the sentence on the
+/// generality table (the comparisons live in docs/results.md alone).
+const README_BLOCKS: [(&str, &str); 1] = [(
+    "<!-- results:generality begin (examples/results.rs writes this block) -->",
+    "<!-- results:generality end -->",
+)];
 
 /// `text` with the block between the markers `(begin, end)` replaced by
 /// `block`; `None` without both markers.
@@ -678,7 +666,6 @@ fn render(inputs: &mut Inputs) -> Files {
     Files {
         markdown: md,
         plots,
-        summary,
         generality,
     }
 }

@@ -99,14 +99,17 @@ pub const PROBE_RAYS: u32 = 128;
 /// is what makes a probe free under any seed's judgement.
 pub const PROBE_SOLID_FRACTION: f32 = 0.125;
 
-/// Whether a probe at `p` stands in free space, judged by its own rays
-/// and not by any SDF: [`PROBE_RAYS`] rays on a spherical Fibonacci set,
-/// turned by a rotation hashed from the position alone (so every seed, and
-/// every run, judges a position alike), solid when more than
-/// [`PROBE_SOLID_FRACTION`] of them first hit a back face: the SDF's rule
-/// ([`crate::sdf::RayRule`]) with a margin. Escapes (open sky) do not make
-/// a point solid. `voxel_size` scales the hit tolerances.
-pub fn stands_free(bvh: &SceneBvh, voxel_size: f32, p: Vec3) -> bool {
+/// The class of the point `p` by rays of its own, not by any SDF:
+/// [`PROBE_RAYS`] rays on a spherical Fibonacci set, turned by a rotation
+/// hashed from the position alone (so every seed, and every run, judges a
+/// position alike); solid when more than [`PROBE_SOLID_FRACTION`] of them
+/// first hit a back face, else outside the scene when more than half
+/// escape (the SDF's default), else free: the SDF's rule
+/// ([`RayRule`]) with a margin on solid. `voxel_size` scales the hit
+/// tolerances. Where a probe may stand ([`stands_free`]) and where the
+/// coverage measure's reference points may ([`free_points`]) are both
+/// this verdict, so every reference point is a position a probe may take.
+pub fn judge_point(bvh: &SceneBvh, voxel_size: f32, p: Vec3) -> VoxelClass {
     thread_local! {
         static RULE: std::cell::RefCell<Option<(f32, RayRule)>> = const { std::cell::RefCell::new(None) };
     }
@@ -118,14 +121,23 @@ pub fn stands_free(bvh: &SceneBvh, voxel_size: f32, p: Vec3) -> bool {
     RULE.with(|cell| {
         let mut cell = cell.borrow_mut();
         if cell.as_ref().is_none_or(|(v, _)| *v != voxel_size) {
+            let outside = crate::config::SdfParams::default()
+                .outside_escape_fraction
+                .0;
             *cell = Some((
                 voxel_size,
-                RayRule::new(PROBE_RAYS, PROBE_SOLID_FRACTION, 1.0, voxel_size),
+                RayRule::new(PROBE_RAYS, PROBE_SOLID_FRACTION, outside, voxel_size),
             ));
         }
         let (_, rule) = cell.as_ref().expect("set above");
-        rule.classify(bvh, p, rot) != VoxelClass::Solid
+        rule.classify(bvh, p, rot)
     })
+}
+
+/// Whether a probe at `p` stands in free space by [`judge_point`]: not
+/// solid (open sky does not make a point solid).
+pub fn stands_free(bvh: &SceneBvh, voxel_size: f32, p: Vec3) -> bool {
+    judge_point(bvh, voxel_size, p) != VoxelClass::Solid
 }
 
 /// Reference points that must see a sample for it to count as coverable.
@@ -141,70 +153,100 @@ pub fn stands_free(bvh: &SceneBvh, voxel_size: f32, p: Vec3) -> bool {
 /// saw") has the counts.
 pub const MIN_REFERENCE_VIEWS: usize = 2;
 
-/// Most candidate points [`free_points`] proposes per reference point it
-/// wants, in a domain where few of them are free.
-const PROPOSALS_PER_REFERENCE: usize = 32;
+/// Reference points keep this share of the lattice spacing from every
+/// surface (at least [`REFERENCE_MIN_CLEARANCE_VOXELS`]): a length of the
+/// lattice, not of the voxel, so an automatic voxel size (which follows
+/// the seed) moves no reference point in or out. A lattice point nearer a
+/// surface than that stands in a gap narrower than half the spacing, which
+/// a lattice of this density does not resolve anyway.
+pub const LATTICE_CLEARANCE: f32 = 0.25;
 
-/// Up to `count` points free of solid, and at least
-/// [`REFERENCE_MIN_CLEARANCE_VOXELS`] from every surface, spread evenly
-/// over the SDF's box: the coverage measure's reference points, where a
-/// probe could legally stand.
-///
-/// Freeness is the measure's own verdict, not the SDF's voxels: each
-/// candidate is judged by the SDF's ray rule at its own position
-/// ([`RayRule`], default thresholds, 32 rays turned by a rotation of the
-/// stream), free when neither solid nor outside the scene. The SDF lends
-/// only its unsigned distance (geometry, the same under any seed) for the
-/// clearance. So an SDF that misreads a region (a seed whose rays fall the
-/// other way, a two-sided sheet read as solid) removes no surface from the
-/// coverable denominator. Candidates follow an R3 low-discrepancy sequence
-/// (Roberts 2018) from a seeded offset, in order, until `count` are free or
-/// [`PROPOSALS_PER_REFERENCE`] times `count` were tried; the result is
-/// deterministic for `seed` whatever the thread count.
-pub fn free_points(bvh: &SceneBvh, sdf: &Sdf, count: usize, seed: u64) -> Vec<Vec3> {
-    // The R3 sequence: fractional parts of k·(1/g, 1/g², 1/g³), g the
-    // plastic constant's analogue in three dimensions.
-    const G: f64 = 1.220_744_084_605_759_5;
-    let alpha = [1.0 / G, 1.0 / (G * G), 1.0 / (G * G * G)];
-    let start = [
-        unit_f32(hash2(seed, 1)) as f64,
-        unit_f32(hash2(seed, 2)) as f64,
-        unit_f32(hash2(seed, 3)) as f64,
-    ];
-    let extent = sdf.dims.as_vec3() * sdf.voxel_size;
-    let clearance = REFERENCE_MIN_CLEARANCE_VOXELS * sdf.voxel_size;
-    let defaults = crate::config::SdfParams::default();
-    let rule = RayRule::new(
-        32,
-        defaults.solid_backface_fraction.0,
-        defaults.outside_escape_fraction.0,
-        sdf.voxel_size,
-    );
-    let judge = |k: usize| -> Option<Vec3> {
-        let u = |a: usize| (start[a] + alpha[a] * k as f64).fract() as f32;
-        let p = sdf.origin + Vec3::new(u(0), u(1), u(2)) * extent;
-        let v = sdf.voxel_at(p)?;
-        if sdf.distance[v].abs() - (p - sdf.center(v)).length() < clearance {
-            return None;
+/// The distance from `p` to the nearest surface: the least distance to
+/// the nearest surface points the SDF found for the voxels around `p`
+/// (its own and its 26 neighbours'; [`Sdf::nearest`]): never below the
+/// true distance, and above it by a fraction of a voxel at most where the
+/// nearest surface is flat. Unlike a voxel's distance
+/// less the offset from its centre, it does not swing with where `p`
+/// falls in its voxel.
+pub(crate) fn surface_distance(sdf: &Sdf, p: Vec3) -> f32 {
+    let c = sdf.nearest_voxel(p).as_ivec3();
+    let max = sdf.dims.as_ivec3() - 1;
+    let mut best = f32::INFINITY;
+    for dz in -1..=1 {
+        for dy in -1..=1 {
+            for dx in -1..=1 {
+                let u = c + glam::IVec3::new(dx, dy, dz);
+                if u.cmplt(glam::IVec3::ZERO).any() || u.cmpgt(max).any() {
+                    continue;
+                }
+                if let Some(q) = sdf.nearest[sdf.index(u.as_uvec3())] {
+                    best = best.min(p.distance(q));
+                }
+            }
         }
-        let rot = crate::sampling::random_rotation(hash2(seed ^ 0xF2EE, k as u64));
-        (rule.classify(bvh, p, rot) == VoxelClass::Free).then_some(p)
-    };
-    let limit = count.saturating_mul(PROPOSALS_PER_REFERENCE);
-    let batch = (2 * count).max(1024);
-    let mut out = Vec::with_capacity(count);
-    let mut next = 0;
-    while out.len() < count && next < limit {
-        let end = (next + batch).min(limit);
-        let found: Vec<Vec3> = (next..end)
+    }
+    best
+}
+
+/// Most lattice points [`free_points`] judges: its densest lattice
+/// (about 1 GB of nothing, 2 s of rays, at the limit).
+const MAX_LATTICE_POINTS: usize = 1 << 22;
+
+/// The coverage measure's reference points: the centres of a regular
+/// lattice over the `domain` box where a probe could legally stand, at least
+/// [`REFERENCE_MIN_CLEARANCE_VOXELS`] from every surface and free by
+/// [`judge_point`] (neither solid nor outside the scene, the same verdict a
+/// probe must pass, [`stands_free`]).
+///
+/// Freeness is the measure's own verdict, not the SDF's voxels. The SDF
+/// lends only its unsigned distance (geometry, the same under any seed) for
+/// the clearance. So an SDF that misreads a region (a seed whose rays fall
+/// the other way, a two-sided sheet read as solid) removes no surface from
+/// the coverable denominator.
+///
+/// The lattice depends on the domain and `count` alone, not on any seed,
+/// stream or voxel size (an automatic voxel size follows the seed): which surfaces are coverable is then one fact about the scene,
+/// the same for training, every check round, the validation stream and any
+/// other seed's re-measure, which differ only by their surface samples.
+/// Random reference points made it a draw: a small room or a pocket under
+/// an overhang held two of one stream's 4096 points and none of the next's,
+/// and the coverage of one placement moved by over 1% between seeds
+/// (BENCHMARKS.md, "Coverage on samples the placer never saw"). The lattice
+/// starts with about `count` points over the box and doubles its density
+/// while fewer than half of `count` are free, down to a voxel's spacing.
+pub fn free_points(bvh: &SceneBvh, sdf: &Sdf, domain: &Bounds, count: usize) -> Vec<Vec3> {
+    let extent = domain.size();
+    let volume = extent.x as f64 * extent.y as f64 * extent.z as f64;
+    let mut spacing = ((volume / count.max(1) as f64).cbrt() as f32).max(sdf.voxel_size);
+    loop {
+        let clearance =
+            (LATTICE_CLEARANCE * spacing).max(REFERENCE_MIN_CLEARANCE_VOXELS * sdf.voxel_size);
+        let n = (extent / spacing).ceil().max(glam::Vec3::ONE).as_uvec3();
+        let total = n.x as usize * n.y as usize * n.z as usize;
+        let step = extent / n.as_vec3();
+        let judge = |k: usize| -> Option<Vec3> {
+            let (i, j, l) = (
+                k % n.x as usize,
+                (k / n.x as usize) % n.y as usize,
+                k / (n.x as usize * n.y as usize),
+            );
+            let p = domain.min + (Vec3::new(i as f32, j as f32, l as f32) + 0.5) * step;
+            if surface_distance(sdf, p) < clearance {
+                return None;
+            }
+            (judge_point(bvh, sdf.voxel_size, p) == VoxelClass::Free).then_some(p)
+        };
+        let found: Vec<Vec3> = (0..total)
             .into_par_iter()
             .with_min_len(64)
             .filter_map(judge)
             .collect();
-        out.extend(found.into_iter().take(count - out.len()));
-        next = end;
+        let finer = spacing / 2f32.cbrt();
+        if 2 * found.len() >= count || finer < sdf.voxel_size || 2 * total > MAX_LATTICE_POINTS {
+            return found;
+        }
+        spacing = finer;
     }
-    out
 }
 
 /// Share of sample-reference pairs the reference's visibility search
@@ -378,8 +420,11 @@ pub(crate) fn ratio_ci95(covered: usize, coverable: usize) -> (f64, f64) {
 /// Where probes stand relative to the SDF and the domain.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
 pub struct ProbeHealth {
-    /// Probes in solid voxels (inside objects or walls).
+    /// Probes in solid space by [`stands_free`] (inside objects or walls),
+    /// a verdict that does not depend on the run's seed or SDF.
     pub probes_in_solid: usize,
+    /// Probes in voxels the run's SDF classifies solid.
+    pub probes_in_solid_sdf: usize,
     /// Probes in voxels classified outside the scene.
     pub probes_outside_scene: usize,
     /// Probes outside the domain box.
@@ -453,11 +498,12 @@ impl CoverageReference {
         scene: &Scene,
         bvh: &SceneBvh,
         sdf: &Sdf,
+        domain: &Bounds,
         params: &CoverageParams,
         seed: u64,
         progress: &Progress,
     ) -> CoverageReference {
-        let refs = free_points(bvh, sdf, params.reference_points.0 as usize, seed);
+        let refs = free_points(bvh, sdf, domain, params.reference_points.0 as usize);
         CoverageReference::build(
             scene,
             bvh,
@@ -689,10 +735,17 @@ impl CoverageReference {
     }
 }
 
-/// Counts probes in solid space, outside the scene, and outside the domain.
-pub fn probe_health(sdf: &Sdf, domain: &Bounds, probes: &[Vec3]) -> ProbeHealth {
+/// Counts probes in solid space (by [`stands_free`], the same verdict
+/// under any seed), in voxels the run's SDF calls solid or outside the
+/// scene, and outside the domain.
+pub fn probe_health(bvh: &SceneBvh, sdf: &Sdf, domain: &Bounds, probes: &[Vec3]) -> ProbeHealth {
+    let free: Vec<bool> = probes
+        .par_iter()
+        .map(|&p| stands_free(bvh, sdf.voxel_size, p))
+        .collect();
     let mut h = ProbeHealth {
-        probes_in_solid: 0,
+        probes_in_solid: free.iter().filter(|&&f| !f).count(),
+        probes_in_solid_sdf: 0,
         probes_outside_scene: 0,
         probes_outside_domain: 0,
     };
@@ -701,7 +754,7 @@ pub fn probe_health(sdf: &Sdf, domain: &Bounds, probes: &[Vec3]) -> ProbeHealth 
             h.probes_outside_domain += 1;
         }
         match sdf.voxel_at(p).map(|v| sdf.class[v]) {
-            Some(VoxelClass::Solid) => h.probes_in_solid += 1,
+            Some(VoxelClass::Solid) => h.probes_in_solid_sdf += 1,
             Some(VoxelClass::Outside) => h.probes_outside_scene += 1,
             _ => {}
         }
@@ -790,6 +843,7 @@ mod tests {
         assert!(one.ci95 > 0.0 && one.ci95 < 0.02, "{}", one.ci95);
         assert_eq!(holes.len(), two.coverable_samples - two.covered_samples);
         let health = probe_health(
+            &bvh,
             &sdf,
             &Bounds {
                 min: Vec3::ZERO,
@@ -802,6 +856,7 @@ mod tests {
             ],
         );
         assert_eq!(health.probes_in_solid, 1);
+        assert_eq!(health.probes_in_solid_sdf, 1);
         assert!(!stands_free(&bvh, sdf.voxel_size, Vec3::new(1.5, 0.5, 1.5)));
         assert!(stands_free(&bvh, sdf.voxel_size, Vec3::new(3.0, 2.0, 3.0)));
         assert_eq!(health.probes_outside_domain, 1);

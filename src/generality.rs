@@ -38,10 +38,19 @@ pub struct GeneralityRow {
     pub voxel_source: &'static str,
     /// Probes placed.
     pub probes: usize,
-    /// Coverage reached.
+    /// Coverage reached, on the run's validation stream (samples the
+    /// placer never saw).
     pub coverage: f64,
-    /// Probes in solid voxels.
+    /// Half-width of its 95% interval.
+    pub coverage_ci95: f64,
+    /// Coverage on the samples the placer fitted (a training score).
+    pub coverage_train: Option<f64>,
+    /// Probes in solid by their own rays.
     pub probes_in_solid: usize,
+    /// The same probes measured again by another seed
+    /// ([`REMEASURE_SEED`]): its validation stream and its SDF, as
+    /// `place CONFIG --probes OUT/probes.json --seed S` does.
+    pub remeasure: Remeasure,
     /// Probes filling placed below the placement's clearance.
     pub probes_below_clearance: usize,
     /// Mean incidence (degrees) of each covered sample's best view.
@@ -58,6 +67,58 @@ pub struct GeneralityRow {
     pub grid_probe_limit: Option<usize>,
     /// Wall time of the `place` run (ms).
     pub place_ms: f64,
+}
+
+/// The seed of the re-measure: none of the configs' or the suite's.
+pub const REMEASURE_SEED: u64 = 101;
+
+/// A placement's figures by another seed's measure.
+#[derive(Debug, Clone, Copy, Default, Serialize)]
+pub struct Remeasure {
+    /// The seed.
+    pub seed: u64,
+    /// Coverage by that seed's validation stream.
+    pub coverage: f64,
+    /// Half-width of its 95% interval.
+    pub coverage_ci95: f64,
+    /// Probes in solid by their own rays.
+    pub probes_in_solid: usize,
+    /// Probes in voxels that seed's SDF classifies solid.
+    pub probes_in_solid_sdf: usize,
+}
+
+/// Scores the probes of `probes_json` (a run of `config_path`, whose
+/// config is `config`) with `seed`: its SDF and validation stream.
+pub fn remeasure(
+    config: Config,
+    config_path: &Path,
+    probes_json: &Path,
+    seed: u64,
+) -> Result<Remeasure> {
+    let out = std::env::temp_dir().join(format!(
+        "probeplace-remeasure-{}-{seed}",
+        std::process::id()
+    ));
+    let options = RunOptions {
+        config: Some(config_path.to_path_buf()),
+        loaded: Some(config),
+        out: Some(out),
+        overrides: crate::provenance::Overrides {
+            seed: Some(seed),
+            probes: Some(probes_json.to_path_buf()),
+            ..Default::default()
+        },
+        ..Default::default()
+    };
+    let run = jobs::place::compute(&options)?;
+    let r = &run.report;
+    Ok(Remeasure {
+        seed,
+        coverage: r.coverage,
+        coverage_ci95: r.coverage_ci95,
+        probes_in_solid: r.probes_in_solid,
+        probes_in_solid_sdf: r.probes_in_solid_sdf,
+    })
 }
 
 impl GeneralityRow {
@@ -107,7 +168,9 @@ pub fn run(
         let n = (g.cells.0 .0 * g.cells.1 .0 * g.cells.2 .0) as usize;
         (g.dims_text(), n, c)
     });
-    let row = GeneralityRow {
+    let probes_json = out.join("probes.json");
+    let config = run.config().clone();
+    let mut row = GeneralityRow {
         scene: name.to_string(),
         method: r.method.clone(),
         triangles: r.scene.triangles,
@@ -115,7 +178,10 @@ pub fn run(
         voxel_source: r.resolution.map_or("config", |x| x.source),
         probes: r.probe_count,
         coverage: r.coverage,
+        coverage_ci95: r.coverage_ci95,
+        coverage_train: r.coverage_train,
         probes_in_solid: r.probes_in_solid,
+        remeasure: Remeasure::default(),
         probes_below_clearance: r.probes_below_clearance,
         best_view_incidence_deg: r.best_view_incidence_deg,
         warnings: r.warnings.clone(),
@@ -124,13 +190,14 @@ pub fn run(
         place_ms,
     };
     run.commit()?;
+    row.remeasure = remeasure(config, config_path, &probes_json, REMEASURE_SEED)?;
     Ok(row)
 }
 
 /// The rows as a Markdown table (what the generality test prints).
 pub fn markdown_table(rows: &[GeneralityRow]) -> String {
     let mut out = String::from(
-        "| scene | method | triangles | voxel | probes | coverage | in solid | below clearance | smallest grid reaching it |\n|---|---|---:|---:|---:|---:|---:|---:|---|\n",
+        "| scene | method | triangles | voxel | probes | coverage (validation) | training | seed 101 | in solid (rays; seed 101's SDF) | below clearance | smallest grid reaching it |\n|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---|\n",
     );
     for r in rows {
         let grid = match &r.smallest_grid {
@@ -141,7 +208,7 @@ pub fn markdown_table(rows: &[GeneralityRow]) -> String {
             },
         };
         out.push_str(&format!(
-            "| {} | {} | {} | {:.4} ({}) | {} | {:.2}% | {} | {} | {} |\n",
+            "| {} | {} | {} | {:.4} ({}) | {} | {:.2}% ± {:.2}% | {} | {:.2}% | {}; {} | {} | {} |\n",
             r.scene,
             r.method,
             r.triangles,
@@ -149,7 +216,12 @@ pub fn markdown_table(rows: &[GeneralityRow]) -> String {
             r.voxel_source,
             r.probes,
             100.0 * r.coverage,
+            100.0 * r.coverage_ci95,
+            r.coverage_train
+                .map_or("–".to_string(), |c| format!("{:.2}%", 100.0 * c)),
+            100.0 * r.remeasure.coverage,
             r.probes_in_solid,
+            r.remeasure.probes_in_solid_sdf,
             r.probes_below_clearance,
             grid
         ));

@@ -115,12 +115,13 @@ pub fn compare(options: &RunOptions) -> Result<Outcome> {
         crate::render::material::all_glossy(&mut prepared.scene.materials, alpha.0);
     }
     let mut warnings = prepared.scene.warnings.clone();
-    let coverage = CoverageReference::new(
+    let coverage = CoverageReference::by_rays(
         &prepared.scene,
         &prepared.bvh,
         &prepared.sdf,
+        &prepared.domain,
         &job.config.coverage,
-        job.config.seed,
+        crate::coverage::Stream::Validation.seed(job.config.seed),
         &job.progress,
     );
     let mut cameras: Vec<(CameraParams, bool)> = cameras.into_iter().map(|c| (c, false)).collect();
@@ -691,7 +692,7 @@ impl Bench<'_> {
         let (cov, holes) = self
             .coverage
             .evaluate_with_holes(bvh, &positions, &self.progress);
-        let health = crate::coverage::probe_health(sdf, domain, &positions);
+        let health = crate::coverage::probe_health(bvh, sdf, domain, &positions);
         let views_png = report::encode_png(
             &report::placement_views(scene, domain, &positions, &holes, VIEW_SIZE),
             "placement views",

@@ -420,8 +420,13 @@ pub(crate) fn push_warnings(report: &mut Value, warnings: &[String]) {
 /// and the render found when they ran.
 fn summary(r: &Value) -> Vec<String> {
     let f = |v: &Value| v.as_f64().unwrap_or(f64::NAN);
+    // The validation figure first; the training score, when one was
+    // fitted, beside it.
+    let train = r["coverage_train"]
+        .as_f64()
+        .map_or(String::new(), |t| format!(" (training {:.2}%)", 100.0 * t));
     let mut line = format!(
-        "{}: {} probes, coverage {:.2}% ± {:.2}%, {} in solid, {} near surfaces; voxel {:.4} ({})",
+        "{}: {} probes, coverage {:.2}% ± {:.2}% on unseen samples{train}, {} in solid, {} near surfaces; voxel {:.4} ({})",
         r["method"].as_str().unwrap_or("?"),
         r["probe_count"],
         100.0 * f(&r["coverage"]),

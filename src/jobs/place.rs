@@ -129,12 +129,13 @@ fn compute_placed(job: &mut Job, prepared: &Prepared) -> Result<(CoverageReferen
     let config = &job.config;
     let progress = job.progress;
     let reference = job.watch.time("coverage_reference", || {
-        CoverageReference::new(
+        CoverageReference::by_rays(
             &prepared.scene,
             &prepared.bvh,
             &prepared.sdf,
+            &prepared.domain,
             &config.coverage,
-            config.seed,
+            crate::coverage::Stream::Validation.seed(config.seed),
             &progress,
         )
     });

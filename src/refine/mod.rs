@@ -10,6 +10,7 @@
 //! | fill holes and prune superfluous probes, by the coverage measure | [`prune`] | §1 "fewest probes" |
 //! | polish: move each probe to sharpen the views it serves | [`polish`] | McGuire 2017 §4; §3.3 eqs. 1–2 |
 //! | top-up: spend a `min_probes` budget where views sharpen most | [`topup`] | §5.2 equal count; McGuire 2017 §4 |
+//! | hold: drop probes in solid by their own rays; fresh rounds of samples, their holes filled | [`holdout`] | §2, §3.2 "full coverage" |
 //!
 //! The stage is [`refine`]: a placement's [`ProbeSet`] in, a refined one out,
 //! with a [`RefineReport`] and the before/after atlas picture (Fig. 5).
@@ -76,11 +77,13 @@ pub struct RefineReport {
     pub r_refined: f64,
     /// `R` of the final probes.
     pub r_final: f64,
-    /// Coverage (the coverage stage's measure) of the input probes.
+    /// Coverage of the input probes on the training samples
+    /// ([`crate::coverage::Stream::Train`]: what filling and pruning fit).
     pub coverage_initial: f64,
-    /// Coverage after the sweeps, before filling and pruning.
+    /// Training coverage after the sweeps, before filling and pruning.
     pub coverage_refined: f64,
-    /// Coverage of the final probes.
+    /// Training coverage of the final probes: a training score
+    /// (`report.json`'s `coverage_train`).
     pub coverage_final: f64,
     /// Share of the atlas area the input probes see.
     pub atlas_coverage_initial: f64,
@@ -113,6 +116,13 @@ pub struct RefineReport {
     /// Probes the run had before the `min_probes` top-up added to them
     /// (`null` when it did not).
     pub probes_before_minimum: Option<usize>,
+    /// The fresh rounds of samples the final probes were checked on and
+    /// filled from ([`holdout`]), in order; empty without filling or under
+    /// a `max_probes` budget.
+    pub check_rounds: Vec<holdout::CheckRound>,
+    /// Probes dropped for standing in solid by their own rays
+    /// ([`crate::coverage::stands_free`]).
+    pub probes_dropped_in_solid: usize,
     /// Parameters as used, defaults resolved (lengths in world units).
     pub params: BTreeMap<&'static str, f64>,
 }
@@ -342,6 +352,21 @@ pub fn refine(
         rules,
         input.progress,
     );
+    let mut fp = fp;
+    let rounds = hold(
+        &holdout::HoldInput {
+            input,
+            params: &reference.params,
+            tiers: &tiers,
+            tier_of: &|p| reference_tier(&r, input, controls, p),
+            target: params.coverage_target.0 as f64,
+            need: &|i, p| controls.need(i, p),
+            fill: params.fill && controls.max_probes.is_none(),
+        },
+        &matrix,
+        (&refined, probes.fixed),
+        &mut fp,
+    );
     let final_probes = kept_probes(&probes, &refined, &fp);
     let final_positions: Vec<Vec3> = final_probes.iter().map(|p| p.position).collect();
     let final_state = AtlasState::new(params.fitness, &atlas, views_of(&final_positions));
@@ -357,6 +382,7 @@ pub fn refine(
         final_state: &final_state,
         fp: &fp,
         atlas_texels: atlas.len(),
+        rounds,
     };
     let report = refine_report(params, &r, &matrix, &outcome);
     let atlas_image = atlas_panels(&atlas, &atlas_initial, &final_state);
@@ -416,6 +442,61 @@ fn sweep(
     gibbs::optimize(&sweeps, state, &mut positions, input.progress)
 }
 
+/// Runs [`holdout::hold`] on the probes `fp` kept (of the input positions
+/// `refined`, the first `pinned` of them fixed) and folds what it did into
+/// `fp`: the dropped probes out of `kept`, the added ones appended to
+/// `added` and `kept`, their training columns (by `matrix`) computed, and
+/// `covered_final` counted again. Returns the rounds and how many probes
+/// were dropped.
+fn hold(
+    h: &holdout::HoldInput,
+    matrix: &CoverMatrix,
+    (refined, pinned): (&[Vec3], usize),
+    fp: &mut FillPrune,
+) -> (Vec<holdout::CheckRound>, usize) {
+    let all = |k: usize| {
+        if k < refined.len() {
+            refined[k]
+        } else {
+            fp.added[k - refined.len()]
+        }
+    };
+    let positions: Vec<Vec3> = fp.kept.iter().map(|&k| all(k)).collect();
+    let fixed = fp.kept.iter().filter(|&&k| k < pinned).count();
+    let held = holdout::hold(h, &positions, fixed);
+    if held.dropped.is_empty() && held.added.is_empty() {
+        return (held.rounds, 0);
+    }
+    let keep: Vec<bool> = (0..positions.len())
+        .map(|k| !held.dropped.contains(&k))
+        .collect();
+    fn retain<T>(v: &mut Vec<T>, keep: &[bool]) {
+        let mut i = 0;
+        v.retain(|_| {
+            i += 1;
+            keep[i - 1]
+        });
+    }
+    retain(&mut fp.kept, &keep);
+    retain(&mut fp.kept_tiers, &keep);
+    retain(&mut fp.kept_cols, &keep);
+    let added: Vec<Vec3> = held.added.iter().map(|&(p, _)| p).collect();
+    for ((p, t), col) in held.added.iter().zip(matrix.columns(&added)) {
+        fp.added.push(*p);
+        fp.kept.push(refined.len() + fp.added.len() - 1);
+        fp.kept_tiers.push(*t);
+        fp.kept_cols.push(col);
+    }
+    let mut count = vec![0u32; matrix.len()];
+    for c in &fp.kept_cols {
+        for i in prune::ones(c) {
+            count[i] += 1;
+        }
+    }
+    fp.covered_final = matrix.satisfied(&count);
+    (held.rounds, held.dropped.len())
+}
+
 /// The probes filling and pruning kept: the input probes at their `refined`
 /// positions (with their cluster sizes) followed by those filling added
 /// (cluster size 0), in the order of `fp.kept`.
@@ -467,6 +548,8 @@ struct Outcome<'a> {
     fp: &'a FillPrune,
     /// Texels of the atlas.
     atlas_texels: usize,
+    /// The fresh rounds of samples and how many probes their judge dropped.
+    rounds: (Vec<holdout::CheckRound>, usize),
 }
 
 /// The [`RefineReport`] of `outcome`, its coverages measured by `matrix`.
@@ -506,6 +589,8 @@ fn refine_report(
         fill_rounds: fp.rounds.clone(),
         probes_before_budget: fp.before_budget,
         probes_before_minimum: fp.before_minimum,
+        check_rounds: outcome.rounds.0.clone(),
+        probes_dropped_in_solid: outcome.rounds.1,
         params: r.report(params, outcome.atlas_texels),
     }
 }
@@ -550,17 +635,10 @@ fn fill_candidates(
     reference: &CoverageReference,
     controls: &Controls,
 ) -> Vec<Vec<Vec3>> {
-    let tier_of = |p: Vec3| {
-        if controls.excluded(p) {
-            return None;
-        }
-        r.tiers
-            .iter()
-            .position(|&c| may_stand(input.sdf, input.domain, c, p))
-    };
+    let tier_of = |p: Vec3| candidate_tier(r, input, controls, p);
     let mut tiers: Vec<Vec<Vec3>> = vec![Vec::new(); r.tiers.len()];
     for &p in &reference.references {
-        if let Some(t) = tier_of(p) {
+        if let Some(t) = reference_tier(r, input, controls, p) {
             tiers[t].push(p);
         }
     }
@@ -581,9 +659,52 @@ fn fill_candidates(
     }
     for (tier, mut band) in tiers.iter_mut().zip(voxels) {
         crate::sampling::keep_least(&mut band, params.fill_candidates.0 as usize);
-        tier.extend(band.iter().map(|&(_, v)| input.sdf.center(v)));
+        // Free by the SDF, and by the rays every final probe must pass
+        // (`coverage::stands_free`): a position filling picks is one it
+        // may keep.
+        let free: Vec<Vec3> = band
+            .par_iter()
+            .map(|&(_, v)| input.sdf.center(v))
+            .filter(|&p| crate::coverage::stands_free(input.bvh, input.sdf.voxel_size, p))
+            .collect();
+        tier.extend(free);
     }
     tiers
+}
+
+/// The first fill tier of `r.tiers` at whose clearance a probe may stand
+/// at `p` ([`may_stand`]), `None` where none may or an `exclude` box of
+/// `controls` holds it.
+fn candidate_tier(
+    r: &Resolved,
+    input: &PlacementInput,
+    controls: &Controls,
+    p: Vec3,
+) -> Option<usize> {
+    if controls.excluded(p) {
+        return None;
+    }
+    r.tiers
+        .iter()
+        .position(|&c| may_stand(input.sdf, input.domain, c, p))
+}
+
+/// [`candidate_tier`] of a coverage reference point, which is free by its
+/// own rays ([`crate::coverage::free_points`]): the first tier whose
+/// clearance it keeps by the measure's own distance
+/// ([`crate::coverage::surface_distance`]), whatever the SDF's class says, so that every coverable sample stays in sight of some
+/// candidate of the last tier (two reference points see it).
+fn reference_tier(
+    r: &Resolved,
+    input: &PlacementInput,
+    controls: &Controls,
+    p: Vec3,
+) -> Option<usize> {
+    if controls.excluded(p) || !input.domain.contains(p) {
+        return None;
+    }
+    let clearance = crate::coverage::surface_distance(input.sdf, p);
+    r.tiers.iter().position(|&c| clearance >= c)
 }
 
 /// Two panels side by side with a dark gap, top-aligned.

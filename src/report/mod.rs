@@ -212,12 +212,20 @@ pub struct Report {
     pub config: String,
     /// Number of probes placed.
     pub probe_count: usize,
-    /// Covered share of the coverable surface (see the coverage module).
+    /// Covered share of the coverable surface (see the coverage module),
+    /// measured on the validation stream: samples and reference points
+    /// the placer never saw.
     pub coverage: f64,
     /// Half-width of the 95% interval of `coverage`.
     pub coverage_ci95: f64,
-    /// Probes inside solid voxels.
+    /// Coverage on the samples the placer fitted (a training score);
+    /// `null` when nothing was fitted.
+    pub coverage_train: Option<f64>,
+    /// Probes in solid by their own rays (`coverage::stands_free`), the
+    /// same verdict under any seed.
     pub probes_in_solid: usize,
+    /// Probes in voxels the run's SDF classifies solid.
+    pub probes_in_solid_sdf: usize,
     /// Probes in voxels outside the scene.
     pub probes_outside_scene: usize,
     /// Probes outside the domain box.
@@ -322,7 +330,9 @@ impl Report {
             probe_count: probes.probes.len(),
             coverage: coverage.coverage,
             coverage_ci95: coverage.ci95,
+            coverage_train: placed.coverage_train,
             probes_in_solid: health.probes_in_solid,
+            probes_in_solid_sdf: health.probes_in_solid_sdf,
             probes_outside_scene: health.probes_outside_scene,
             probes_outside_domain: health.probes_outside_domain,
             probes_below_clearance: refine.as_ref().map_or(0, |r| r.probes_below_clearance),

@@ -4,7 +4,7 @@
 
 use super::Prepared;
 use crate::config::{short, Config};
-use crate::coverage::{self, Coverage, CoverageReference, ProbeHealth};
+use crate::coverage::{self, Coverage, CoverageReference, ProbeHealth, Stream};
 use crate::error::{Error, Result};
 use crate::limits;
 use crate::placement::controls::{Controls, ControlsReport};
@@ -20,8 +20,12 @@ pub struct Placed {
     pub probes: ProbeSet,
     /// Refinement's report and its atlas image; `None` when it was off.
     pub refined: Option<(RefineReport, crate::raster::RgbImage)>,
-    /// Their coverage by the run's reference.
+    /// Their coverage by the run's validation reference, which the placer
+    /// never saw.
     pub coverage: Coverage,
+    /// Their coverage on the samples the placer fitted (a training score;
+    /// `None` when nothing was fitted: no refinement and no budget).
+    pub coverage_train: Option<f64>,
     /// The coverable samples no probe sees.
     pub holes: Vec<Vec3>,
     /// Probes in solid, outside the scene or the domain.
@@ -39,8 +43,11 @@ pub struct Placed {
 /// Places probes with `config.placement` (or takes `given`, a probe set made
 /// elsewhere, which is scored, not refined), refines them where
 /// `config.refine.enabled`, and measures and indexes the result.
-/// `reference` is the coverage measure refinement maximizes and the result
-/// is scored by. The config's artist controls
+/// `reference` is the coverage measure the result is scored by, the
+/// validation stream ([`Stream::Validation`]): refinement and the budget
+/// never see it; they fit a training reference of their own
+/// ([`Stream::Train`], built here when they run), and refinement checks
+/// its result on fresh rounds ([`crate::refine::holdout`]). The config's artist controls
 /// ([`crate::placement::controls`]) shape a placement, not a given set
 /// (which gets a warning instead): fixed probes first, none in an
 /// `exclude` box, at most `max_probes`; `probe_density` needs refinement
@@ -86,15 +93,30 @@ pub fn place(
         }
         None => {}
     }
+    let fits = refine_it || (given.is_none() && controls.max_probes.is_some());
+    let training = fits.then(|| {
+        timings.time("coverage_train_reference", || {
+            CoverageReference::by_rays(
+                &prepared.scene,
+                &prepared.bvh,
+                &prepared.sdf,
+                &prepared.domain,
+                &config.coverage,
+                Stream::Train.seed(config.seed),
+                progress,
+            )
+        })
+    });
+    let fitted = training.as_ref().unwrap_or(reference);
     let mut report = ControlsReport {
         max_probes: controls.max_probes,
         min_probes: controls.min_probes,
         density_regions: controls.density.len(),
-        samples_with_density: reference
+        samples_with_density: fitted
             .samples
             .iter()
             .enumerate()
-            .filter(|&(i, s)| reference.coverable[i] && controls.density_at(s.position) != 1.0)
+            .filter(|&(i, s)| fitted.coverable[i] && controls.density_at(s.position) != 1.0)
             .count(),
         ..ControlsReport::default()
     };
@@ -126,10 +148,10 @@ pub fn place(
     let (probes, refined) = if refine_it {
         let placed = probes.probes.len();
         let out = timings.try_time("refine", || {
-            refine::refine(&config.refine, probes, &input, reference, &controls)
+            refine::refine(&config.refine, probes, &input, fitted, &controls)
         })?;
         if out.probes.probes.is_empty() {
-            return Err(pruned_all(config, reference, placed));
+            return Err(pruned_all(config, fitted, placed));
         }
         report.probes_before_budget = out.report.probes_before_budget;
         report.probes_before_minimum = out.report.probes_before_minimum;
@@ -140,7 +162,7 @@ pub fn place(
             Some(budget) if probes.probes.len() > budget => {
                 report.probes_before_budget = Some(probes.probes.len());
                 let kept = timings.time("budget", || {
-                    refine::prune::CoverMatrix::new(reference, &prepared.bvh).select(
+                    refine::prune::CoverMatrix::new(fitted, &prepared.bvh).select(
                         &probes.positions(),
                         probes.fixed,
                         budget,
@@ -159,15 +181,21 @@ pub fn place(
     let ((coverage, holes), health) = timings.time("coverage", || {
         (
             reference.evaluate_with_holes(&prepared.bvh, &positions, progress),
-            coverage::probe_health(&prepared.sdf, &prepared.domain, &positions),
+            coverage::probe_health(&prepared.bvh, &prepared.sdf, &prepared.domain, &positions),
         )
     });
+    let coverage_train = match (&refined, &training) {
+        (Some((r, _)), _) => Some(r.coverage_final),
+        (None, Some(t)) => Some(t.evaluate(&prepared.bvh, &positions, progress).coverage),
+        (None, None) => None,
+    };
     let baked = timings.try_time("svo", || svo::bake(&config.svo, &probes, &input))?;
     let svo = (baked.svo, baked.report);
     Ok(Placed {
         probes,
         refined,
         coverage,
+        coverage_train,
         holes,
         health,
         svo,

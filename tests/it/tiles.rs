@@ -86,7 +86,8 @@ fn slurm(test: &str) -> bool {
 /// same `config`, and returns the world's probe count: no probe in solid,
 /// coverage at the target within its interval, and the bar, no
 /// more than 10% over one machine's count (fewer is allowed: the merge's
-/// cover is stronger than refinement's prune; half is the sanity floor).
+/// cover is stronger than refinement's prune, and it runs no check rounds;
+/// a quarter is the sanity floor).
 fn near_one_machine(name: &str, one: &Value, world: &Value, config: &Overlay) -> u64 {
     let count = world["probe_count"].as_u64().unwrap();
     let single = one["probe_count"].as_u64().unwrap();
@@ -102,8 +103,11 @@ fn near_one_machine(name: &str, one: &Value, world: &Value, config: &Overlay) ->
         coverage + ci >= target,
         "{name}: coverage {coverage} ± {ci} under {target}"
     );
+    // One machine checks its probes on fresh rounds of samples and fills
+    // what they find (refine::holdout); the merge fits the tiles' samples
+    // alone, so it may keep well under one machine's count, never over.
     assert!(
-        count * 10 <= single * 11 && count * 2 >= single,
+        count * 10 <= single * 11 && count * 4 >= single,
         "{name}: {count} probes where one machine places {single}"
     );
     count
