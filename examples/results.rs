@@ -612,8 +612,11 @@ fn render(inputs: &mut Inputs) -> Files {
         "Every figure below is generated from the JSON the runs write (schemas in \
          [formats.md](formats.md)); none is typed. Nothing that varies between runs \
          (timings, GPU times) is shown, so the same JSON gives the same file, byte for \
-         byte. To regenerate, from the repository root (the real scenes are read from \
-         `../shared/scenes`):\n\n",
+         byte. Every coverage figure is the validation measure, `report.json`'s \
+         `coverage`: surface samples the placer never saw, against reference points \
+         free by their own rays (formats.md, \"What coverage means\"), not the \
+         training score the placer fitted. To regenerate, from the repository root \
+         (the real scenes are read from `../shared/scenes`):\n\n",
     );
     let _ = write!(md, "```sh\n{REGENERATE}```\n\n");
     md.push_str(
@@ -1680,7 +1683,8 @@ fn generality_section(md: &mut String, rows: &mut [Value]) -> String {
         .len();
     let readme = format!(
         "On placement alone, the stock config (nothing but the scene) needs fewer probes \
-         than the smallest uniform grid reaching the same coverage, or no grid of the sweep \
+         than the smallest uniform grid reaching the same coverage (validation coverage: \
+         samples the placer never saw), or no grid of the sweep \
          (up to 16 cells along the longest axis) reaches it, on **{} of the {n} rows** of \
          the generality table ({scenes} scenes, generated and every config, by {methods} \
          methods; [docs/results.md](docs/results.md), \"Any scene\").\n",

@@ -657,8 +657,8 @@ pub struct CoverageParams {
     /// 95% interval within ±0.5% for any coverage (1.96·sqrt(0.25/40000) = 0.0049).
     /// At most 5 000 000.
     pub samples: Count<5_000_000>,
-    /// Free voxel centres used as reference viewpoints (subsampled if more;
-    /// at most 1 000 000).
+    /// About how many lattice points over the domain decide what is
+    /// coverable (`coverage::free_points`; at most 1 000 000).
     pub reference_points: Count<1_000_000>,
     /// A surface point counts as seen only under this incidence angle.
     pub max_incidence_deg: Degrees,

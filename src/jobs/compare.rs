@@ -115,13 +115,10 @@ pub fn compare(options: &RunOptions) -> Result<Outcome> {
         crate::render::material::all_glossy(&mut prepared.scene.materials, alpha.0);
     }
     let mut warnings = prepared.scene.warnings.clone();
-    let coverage = CoverageReference::by_rays(
-        &prepared.scene,
-        &prepared.bvh,
-        &prepared.sdf,
-        &prepared.domain,
+    let coverage = prepared.coverage_reference(
         &job.config.coverage,
-        crate::coverage::Stream::Validation.seed(job.config.seed),
+        crate::coverage::Stream::Validation,
+        job.config.seed,
         &job.progress,
     );
     let mut cameras: Vec<(CameraParams, bool)> = cameras.into_iter().map(|c| (c, false)).collect();

@@ -129,13 +129,10 @@ fn compute_placed(job: &mut Job, prepared: &Prepared) -> Result<(CoverageReferen
     let config = &job.config;
     let progress = job.progress;
     let reference = job.watch.time("coverage_reference", || {
-        CoverageReference::by_rays(
-            &prepared.scene,
-            &prepared.bvh,
-            &prepared.sdf,
-            &prepared.domain,
+        prepared.coverage_reference(
             &config.coverage,
-            crate::coverage::Stream::Validation.seed(config.seed),
+            crate::coverage::Stream::Validation,
+            config.seed,
             &progress,
         )
     });

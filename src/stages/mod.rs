@@ -48,6 +48,26 @@ pub struct Prepared {
 }
 
 impl Prepared {
+    /// The coverage measure over this scene ([`CoverageReference::by_rays`])
+    /// for the samples of `stream` of a run seeded `seed`.
+    pub fn coverage_reference(
+        &self,
+        params: &crate::config::CoverageParams,
+        stream: crate::coverage::Stream,
+        seed: u64,
+        progress: &Progress,
+    ) -> crate::coverage::CoverageReference {
+        crate::coverage::CoverageReference::by_rays(
+            &self.scene,
+            &self.bvh,
+            &self.sdf,
+            &self.domain,
+            params,
+            stream.seed(seed),
+            progress,
+        )
+    }
+
     /// The input of a placement method over this scene.
     pub fn placement_input<'a>(&'a self, seed: u64, progress: &'a Progress) -> PlacementInput<'a> {
         PlacementInput {

@@ -96,15 +96,7 @@ pub fn place(
     let fits = refine_it || (given.is_none() && controls.max_probes.is_some());
     let training = fits.then(|| {
         timings.time("coverage_train_reference", || {
-            CoverageReference::by_rays(
-                &prepared.scene,
-                &prepared.bvh,
-                &prepared.sdf,
-                &prepared.domain,
-                &config.coverage,
-                Stream::Train.seed(config.seed),
-                progress,
-            )
+            prepared.coverage_reference(&config.coverage, Stream::Train, config.seed, progress)
         })
     });
     let fitted = training.as_ref().unwrap_or(reference);
