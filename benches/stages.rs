@@ -66,14 +66,15 @@ fn stages(c: &mut Criterion, name: &str, config: &str) {
     let cov = CoverageParams::default();
     g.bench_function("coverage", |b| {
         b.iter(|| {
-            CoverageReference::new(&scene, &bvh, &field, &cov, 1, &progress)
+            CoverageReference::by_rays(&scene, &bvh, &field, &scene.bounds, &cov, 1, &progress)
                 .evaluate(&bvh, &probes, &progress)
         })
     });
     // Refinement: the whole stage on the sdf-skeleton probes, and its hot
     // loop: one probe view (32² rays), the incremental score of a moved
     // probe against the full recomputation it replaces.
-    let reference = CoverageReference::new(&scene, &bvh, &field, &cov, 1, &progress);
+    let reference =
+        CoverageReference::by_rays(&scene, &bvh, &field, &scene.bounds, &cov, 1, &progress);
     let set = place(&method, &input).unwrap();
     let rp = RefineParams::default();
     g.bench_function("refine", |b| {

@@ -20,16 +20,15 @@
 //!   Distortion"). Only front faces count: seeing a back face means the
 //!   viewer is behind the surface, the very rule the SDF uses for solid space;
 //!   the outer sides of single-sided walls are thereby nobody's business;
-//! * **coverable** when some reference point sees it: references are free
-//!   voxel centres of the SDF at least [`REFERENCE_MIN_CLEARANCE_VOXELS`]
-//!   from every surface (subsampled deterministically to
-//!   `reference_points`), i.e. wherever a probe could legally stand. Voxels
-//!   nearer than that are crossed by a surface or touch one; the only
-//!   surfaces they alone see are slivers such as the top of a roof that
-//!   reaches the domain's ceiling, which no probe can serve;
-//!   [`CoverageReference::by_rays`] judges its reference points by their
-//!   own rays instead ([`free_points`]) and needs [`MIN_REFERENCE_VIEWS`]
-//!   of them, so that no SDF verdict moves its denominator;
+//! * **coverable** when [`MIN_REFERENCE_VIEWS`] reference points see it
+//!   ([`CoverageReference::by_rays`]): points of a lattice over the domain
+//!   where a probe could legally stand, each free by its own rays
+//!   ([`free_points`]) and a quarter of the lattice's spacing (at least
+//!   [`REFERENCE_MIN_CLEARANCE_VOXELS`]) from every surface, so that no
+//!   SDF verdict moves the denominator. Points nearer a surface stand in
+//!   gaps the lattice does not resolve. (The measure before,
+//!   [`CoverageReference::new`], took free voxel centres of the SDF, one
+//!   view enough.);
 //! * **covered** when some probe sees it (and it is coverable).
 //!
 //! `coverage = covered area / coverable area`, estimated as the ratio of
@@ -281,18 +280,97 @@ pub fn evaluation_segments(params: &CoverageParams, probes: usize) -> f64 {
     params.samples.0 as f64 * probes as f64 * TESTED_SHARE
 }
 
-/// Nearest references tried first for each sample, before all others.
+/// Viewers each sample tries first, before all others: those nearest its
+/// cell of [`NearViewers`].
 const NEAREST_FIRST: usize = 32;
 
-/// A sample within this share of the [`NEAREST_FIRST`]-th neighbour's
-/// distance from the last point whose nearest viewers were found tries
-/// those viewers first rather than asking the tree again: consecutive
-/// samples lie on the same or neighbouring triangles
-/// ([`sample_surface`]), so the lists hardly differ. Which viewers a
-/// sample tries first changes only how soon it finds one that sees it,
-/// never whether one does: it tries every other viewer that faces it
-/// after them.
-const NEAR_REUSE: f32 = 0.25;
+/// Cells of [`NearViewers`]'s grid per viewer, about.
+const CELLS_PER_VIEWER: f32 = 1.0;
+
+/// Most cells of [`NearViewers`]'s grid along an edge.
+const MAX_CELLS_PER_EDGE: f32 = 64.0;
+
+/// The [`NEAREST_FIRST`] viewers nearest the centre of each cell of a grid
+/// over the viewers' box, about one cell per viewer: the viewers a sample
+/// tries first are its cell's, one table lookup. Most coverable samples
+/// are settled by a viewer among them. Which viewers a sample tries first
+/// changes only how soon it finds those that see it, never whether it
+/// does: it tries every other viewer that faces it after them. A k-d tree
+/// query for each sample found the sample's own nearest, at a cost of a
+/// third of a coverage reference's time on Dabrovic Sponza (BENCHMARKS.md,
+/// "Coverage on samples the placer never saw"); a sample's cell's
+/// nearest are nearly the same viewers.
+struct NearViewers {
+    lo: Vec3,
+    cell: f32,
+    dims: glam::UVec3,
+    k: usize,
+    /// `k` viewer indices per cell, nearest the cell's centre first.
+    lists: Vec<u32>,
+}
+
+impl NearViewers {
+    fn new(viewers: &[Vec3]) -> NearViewers {
+        let (lo, hi) = viewers.iter().fold(
+            (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
+            |(lo, hi), &v| (lo.min(v), hi.max(v)),
+        );
+        let k = NEAREST_FIRST.min(viewers.len());
+        let widest = (hi - lo).max_element();
+        let size = (hi - lo).max(Vec3::splat(1e-3 * widest + 1e-6));
+        let cells = (viewers.len() as f32 * CELLS_PER_VIEWER).max(1.0);
+        let cell = (size.x * size.y * size.z / cells)
+            .cbrt()
+            .max(size.max_element() / MAX_CELLS_PER_EDGE);
+        let dims = (size / cell).ceil().max(Vec3::ONE).as_uvec3();
+        let total = (dims.x * dims.y * dims.z) as usize;
+        let points: Vec<[f32; 3]> = viewers.iter().map(|v| v.to_array()).collect();
+        let lists = match (
+            ImmutableKdTree::<f32, 3>::new_from_slice(&points),
+            NonZero::new(k),
+        ) {
+            (Ok(tree), Some(n)) => (0..total)
+                .into_par_iter()
+                .with_min_len(64)
+                .flat_map_iter(|c| {
+                    let u = glam::UVec3::new(
+                        c as u32 % dims.x,
+                        (c as u32 / dims.x) % dims.y,
+                        c as u32 / (dims.x * dims.y),
+                    );
+                    let centre = lo + (u.as_vec3() + 0.5) * cell;
+                    tree.query(&centre.to_array())
+                        .nearest_n::<SquaredEuclidean<f32>>(n)
+                        .execute()
+                        .into_iter()
+                        .map(|r| r.item as u32)
+                })
+                .collect(),
+            // Too few viewers for a tree: each cell lists them all.
+            _ => (0..total).flat_map(|_| 0..k as u32).collect(),
+        };
+        NearViewers {
+            lo,
+            cell,
+            dims,
+            k,
+            lists,
+        }
+    }
+
+    /// The viewers listed for the cell that holds `p` (the nearest cell
+    /// for points outside the grid).
+    #[inline]
+    fn of(&self, p: Vec3) -> &[u32] {
+        let max = (self.dims - 1).as_vec3();
+        let u = ((p - self.lo) / self.cell)
+            .floor()
+            .clamp(Vec3::ZERO, max)
+            .as_uvec3();
+        let c = (u.x + self.dims.x * (u.y + self.dims.y * u.z)) as usize;
+        self.lists.get(c * self.k..(c + 1) * self.k).unwrap_or(&[])
+    }
+}
 
 /// Viewers per group of neighbours whose facing test a sample makes once
 /// for the whole group ([`ViewerGroups`]).
@@ -383,6 +461,8 @@ pub struct CoverageReference {
     pub references: Vec<Vec3>,
     /// The parameters it was built with.
     pub params: CoverageParams,
+    /// Reference points that must see a sample for it to be coverable.
+    need: usize,
     min_cos: f32,
     eps: f32,
 }
@@ -460,7 +540,10 @@ pub fn sample_surface(scene: &Scene, n: usize, seed: u64) -> Vec<SurfaceSample> 
 impl CoverageReference {
     /// Samples the surface and decides which samples are coverable, by
     /// free voxel centres of the SDF (module docs) each able to make a
-    /// sample coverable alone: the measure every job reports today.
+    /// sample coverable alone: the measure before
+    /// [`CoverageReference::by_rays`], which every job now uses; quicker,
+    /// but its denominator moves with the SDF's verdicts (a seed's), so
+    /// only the unit tests of the steps, on small rooms, still build it.
     pub fn new(
         scene: &Scene,
         bvh: &SceneBvh,
@@ -490,10 +573,9 @@ impl CoverageReference {
 
     /// The measure whose denominator does not depend on the SDF's verdicts:
     /// reference points by [`free_points`] (free by their own rays), and a
-    /// sample coverable when [`MIN_REFERENCE_VIEWS`] of them see it. The
-    /// fresh rounds of [`crate::refine::holdout`] measure with it; the
-    /// jobs' reports do not yet (docs/method.md, "Coverage on samples the
-    /// placer never saw", says why).
+    /// sample coverable when [`MIN_REFERENCE_VIEWS`] of them see it: the
+    /// measure of every job's training, check rounds and report
+    /// (docs/method.md, "Coverage on samples the placer never saw").
     pub fn by_rays(
         scene: &Scene,
         bvh: &SceneBvh,
@@ -504,6 +586,22 @@ impl CoverageReference {
         progress: &Progress,
     ) -> CoverageReference {
         let refs = free_points(bvh, sdf, domain, params.reference_points.0 as usize);
+        CoverageReference::on_free_points(scene, bvh, sdf, params, seed, refs, progress)
+    }
+
+    /// [`CoverageReference::by_rays`] on reference points `refs` that
+    /// [`free_points`] found for this scene, domain and
+    /// `params.reference_points` (which depend on no seed, so one run
+    /// finds them once for all its streams).
+    pub(crate) fn on_free_points(
+        scene: &Scene,
+        bvh: &SceneBvh,
+        sdf: &Sdf,
+        params: &CoverageParams,
+        seed: u64,
+        refs: Vec<Vec3>,
+        progress: &Progress,
+    ) -> CoverageReference {
         CoverageReference::build(
             scene,
             bvh,
@@ -513,6 +611,21 @@ impl CoverageReference {
             (refs, MIN_REFERENCE_VIEWS),
             progress,
         )
+    }
+
+    /// The same measure (reference points, and views a sample needs) on
+    /// fresh samples: those of `seed`, as many as `params` asks.
+    pub(crate) fn resampled(
+        &self,
+        scene: &Scene,
+        bvh: &SceneBvh,
+        sdf: &Sdf,
+        params: &CoverageParams,
+        seed: u64,
+        progress: &Progress,
+    ) -> CoverageReference {
+        let refs = self.references.clone();
+        CoverageReference::build(scene, bvh, sdf, params, seed, (refs, self.need), progress)
     }
 
     /// The samples of `seed` and their coverability by `refs`, each
@@ -532,6 +645,7 @@ impl CoverageReference {
             reference_points: refs.len(),
             references: Vec::new(),
             params: *params,
+            need,
             min_cos: params.max_incidence_deg.0.to_radians().cos(),
             eps: 1e-3 * sdf.voxel_size,
         };
@@ -595,9 +709,9 @@ impl CoverageReference {
         len > self.eps && sample.normal.dot(to_viewer) >= self.min_cos * len
     }
 
-    /// For each sample, whether at least `need` of `viewers` see it:
-    /// nearest viewers first (most samples are settled by them), then all
-    /// others.
+    /// For each sample, whether at least `need` of `viewers` see it: the
+    /// viewers near it first ([`NearViewers`]; most samples are settled by
+    /// them), then every other that it faces.
     pub(crate) fn seen_by_all(
         &self,
         bvh: &SceneBvh,
@@ -609,40 +723,20 @@ impl CoverageReference {
         if viewers.is_empty() {
             return vec![false; samples.len()];
         }
-        let points: Vec<[f32; 3]> = viewers.iter().map(|v| v.to_array()).collect();
-        let tree = ImmutableKdTree::<f32, 3>::new_from_slice(&points);
-        let k = NonZero::new(NEAREST_FIRST.min(viewers.len())).unwrap_or(NonZero::<usize>::MIN);
+        let near = NearViewers::new(viewers);
         let groups = ViewerGroups::new(viewers);
         samples
             .par_chunks(256)
             .flat_map_iter(|chunk| {
                 let mut tried = vec![false; viewers.len()];
                 let mut blocker = Blocker::default();
-                // The viewers nearest the last point the tree was asked
-                // about, and how near a sample must be to that point to
-                // take them as its own first tries (see `NEAR_REUSE`).
-                let mut near: Vec<usize> = Vec::with_capacity(k.get());
-                let mut anchor: Option<(Vec3, f32)> = None;
                 let out: Vec<bool> = chunk
                     .iter()
                     .map(|s| {
-                        let reuse =
-                            anchor.is_some_and(|(q, r2)| s.position.distance_squared(q) <= r2);
-                        if !reuse {
-                            near.clear();
-                            anchor = None;
-                            if let Ok(tree) = &tree {
-                                let found = tree
-                                    .query(&s.position.to_array())
-                                    .nearest_n::<SquaredEuclidean<f32>>(k)
-                                    .execute();
-                                near.extend(found.iter().map(|r| r.item as usize));
-                                let far = found.iter().map(|r| r.distance).fold(0.0f32, f32::max);
-                                anchor = Some((s.position, NEAR_REUSE * NEAR_REUSE * far));
-                            }
-                        }
+                        let near = near.of(s.position);
                         let mut found = 0;
-                        for &v in &near {
+                        for &v in near {
+                            let v = v as usize;
                             tried[v] = true;
                             if self.sees_from(bvh, viewers[v], s, &mut blocker) {
                                 found += 1;
@@ -664,8 +758,8 @@ impl CoverageReference {
                                 }
                             }
                         }
-                        for &v in &near {
-                            tried[v] = false;
+                        for &v in near {
+                            tried[v as usize] = false;
                         }
                         found >= need
                     })
@@ -893,5 +987,50 @@ mod tests {
             }
         }
         assert!(skipped > 0, "no group was ever passed over");
+    }
+
+    /// Which viewers a sample tries first ([`NearViewers`]) changes only
+    /// how soon it is settled: for viewer sets spread through the room,
+    /// flat on one plane, clustered in a corner, and fewer than
+    /// [`NEAREST_FIRST`], `seen_by_all` says a sample is seen by `need`
+    /// viewers exactly when a scan of every viewer counts that many.
+    #[test]
+    fn seen_by_all_agrees_with_a_scan_of_every_viewer() {
+        let (_, bvh, _, reference) = setup();
+        let u = |i: u64, k: u64| crate::sampling::unit_f32(hash2(i, k));
+        let spread: Vec<Vec3> = (0..300u64)
+            .map(|i| Vec3::new(4.0 * u(i, 1), 4.0 * u(i, 2), 4.0 * u(i, 3)))
+            .collect();
+        let flat: Vec<Vec3> = (0..200u64)
+            .map(|i| Vec3::new(4.0 * u(i, 4), 2.5, 4.0 * u(i, 5)))
+            .collect();
+        let corner: Vec<Vec3> = (0..100u64)
+            .map(|i| Vec3::new(0.3 * u(i, 6), 0.3 * u(i, 7), 0.3 * u(i, 8)) + 0.2)
+            .collect();
+        let few: Vec<Vec3> = spread[..5].to_vec();
+        let samples: Vec<SurfaceSample> = reference.samples.iter().step_by(5).copied().collect();
+        let bar = indicatif::ProgressBar::hidden();
+        for (name, viewers) in [
+            ("spread", spread),
+            ("flat", flat),
+            ("corner", corner),
+            ("few", few),
+        ] {
+            let views: Vec<usize> = samples
+                .iter()
+                .map(|s| {
+                    viewers
+                        .iter()
+                        .filter(|&&v| reference.sees(&bvh, v, s))
+                        .count()
+                })
+                .collect();
+            for need in [1, 2, 3] {
+                let got = reference.seen_by_all(&bvh, &samples, &viewers, need, &bar);
+                let want: Vec<bool> = views.iter().map(|&n| n >= need).collect();
+                assert_eq!(got, want, "{name}, need {need}");
+                assert!(want.iter().any(|&w| w), "{name}: no sample seen");
+            }
+        }
     }
 }

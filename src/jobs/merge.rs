@@ -23,23 +23,31 @@
 //!    probes") over the whole world, then pairs swapped for one and a
 //!    local search for a smaller cover.
 //!    Coverage is what the kept probes see, summed over the cores.
-//! 4. **Index.** Tile by tile again, the SVO of the tile's box is baked
+//! 4. **Check.** The cover fitted the tiles' training samples; tile by
+//!    tile again, a fresh stream's core samples the kept probes miss are
+//!    listed with the positions that see them, and filled from
+//!    ([`fill_round`]), for at most [`CHECK_ROUNDS`] rounds: one machine's
+//!    [`crate::refine::holdout`] over the whole world.
+//! 5. **Index.** Tile by tile again, the SVO of the tile's box is baked
 //!    over the kept probes inside it and its leaves renumbered to the
 //!    world's probe indices: `tile-NNN.svo.bin`, one per region, as
 //!    engines stream probe volumes. `world.json` lists each tile's core
 //!    box, box, probe index range (probes are numbered tile by tile, by the
 //!    core that holds them) and file. `--single` also bakes one SVO over
 //!    the whole domain (`svo.bin`), for a world that fits one machine.
+//!    The same pass measures the report's `coverage` on each core's
+//!    validation stream, which no step saw, and each probe by its own rays.
 
 use super::split::{SplitIndex, TileEntry};
 use super::Outcome;
 use crate::config::Config;
-use crate::coverage::CoverageReference;
+use crate::coverage::{CoverageReference, Stream};
 use crate::error::{Error, Result};
 use crate::placement::controls::Controls;
 use crate::probes::{Probe, ProbeSet};
 use crate::progress::Progress;
 use crate::provenance::{Overrides, Provenance};
+use crate::refine::holdout::CheckRound;
 use crate::report::commit::{self, OutputSet};
 use crate::scene::raycast::Blocker;
 use crate::sdf::VoxelClass;
@@ -107,6 +115,10 @@ struct TileTally {
     seen: usize,
     /// Core samples no probe of the union sees.
     unseen: usize,
+    /// Coverable core samples of the validation stream.
+    validation_samples: usize,
+    /// Of them, those a kept probe sees.
+    validation_covered: usize,
 }
 
 /// Runs `probeplace merge`.
@@ -218,29 +230,9 @@ pub fn merge(options: &MergeOptions) -> Result<Outcome> {
             continue;
         }
         let tile = Tile::take_or_prepare(&mut carried, dir, entry, progress)?;
-        let relevant: Vec<(usize, glam::Vec3)> = probes
-            .iter()
-            .enumerate()
-            .filter(|(_, p)| entry.domain.contains(p.position))
-            .map(|(k, p)| (k, tile.prepared.scene.to_local(p.position)))
-            .collect();
-        let samples = tile.core_samples(&grid, entry.index);
-        let seen: Vec<Vec<u32>> = samples
-            .par_iter()
-            .map_init(Blocker::default, |blocker, &i| {
-                let s = &tile.reference.samples[i];
-                // Every probe that sees the sample, in index order.
-                let mut list = relevant
-                    .iter()
-                    .filter(|&&(_, p)| tile.reference.sees_from(&tile.prepared.bvh, p, s, blocker))
-                    .map(|&(k, _)| k as u32)
-                    .collect::<Vec<u32>>();
-                // Grown by doubling: hand back the spare half, which over
-                // millions of entries is most of the merge's memory.
-                list.shrink_to_fit();
-                list
-            })
-            .collect();
+        let relevant = tile.relevant(&probes, entry);
+        let samples = tile.core_samples(&tile.reference, &grid, entry.index);
+        let seen = tile.lists(&tile.reference, &samples, &relevant);
         let mut tally = TileTally {
             name: entry.name.clone(),
             probes_placed: placed[entry.index as usize],
@@ -273,20 +265,59 @@ pub fn merge(options: &MergeOptions) -> Result<Outcome> {
     // Refinement's tier rule: a position of a lower tier (nearer a
     // surface) serves only samples no position of a higher tier sees.
     let tier: Vec<u8> = probes.iter().map(|p| p.tier).collect();
-    let kept = cover(probes.len(), &lists, &tier, need);
+    let mut kept = cover(probes.len(), &lists, &tier, need);
+
+    // Passes 3… (check rounds): per core, a fresh stream's samples the
+    // kept probes miss, and the candidates that see each; filled from.
+    let mut rounds = Vec::new();
+    for round in 0..CHECK_ROUNDS {
+        // From the tile carried over, so that it is not prepared again.
+        let forward = carried.as_ref().is_none_or(|(i, _)| *i == 0);
+        let order: Vec<&TileEntry> = if forward {
+            index.tile.iter().collect()
+        } else {
+            index.tile.iter().rev().collect()
+        };
+        let (mut coverable, mut covered, mut holes) = (0, 0, Vec::new());
+        for entry in order.into_iter().filter(|e| !empty(e.index)) {
+            let tile = Tile::take_or_prepare(&mut carried, dir, entry, progress)?;
+            let check = tile.resampled(Stream::Check(round), progress);
+            let core = tile.core_samples(&check, &grid, entry.index);
+            let relevant = tile.relevant(&probes, entry);
+            let (missed, seen) = tile.missed(&check, &core, &relevant, &kept);
+            coverable += core.len();
+            covered += seen;
+            holes.extend(tile.lists(&check, &missed, &relevant));
+            carried = Some((entry.index, tile));
+        }
+        let record = fill_round(
+            round,
+            (coverable, covered, &holes),
+            &mut kept,
+            &tier,
+            target,
+        );
+        rounds.push(record);
+        if record.is_last(target) {
+            break;
+        }
+    }
 
     // The world's probes, numbered tile by tile by the core that holds them.
     let mut order: Vec<usize> = (0..probes.len()).filter(|&k| kept[k]).collect();
     order.sort_by_key(|&k| (probes[k].owner, k));
     let final_probes: Vec<WorldProbe> = order.iter().map(|&k| probes[k]).collect();
 
-    // Pass 3 (index): per tile, its SVO over the world's indices, and the SDF's
-    // word on the probes its core holds.
+    // The last pass (index): per tile, its SVO over the world's indices, the
+    // validation figure of its core, and the rays' and the SDF's word on the
+    // probes its core holds.
     let provenance = index.world.clone();
     let mut set = OutputSet::new();
     let mut records: Vec<Option<MergedProbe>> = (0..final_probes.len()).map(|_| None).collect();
     let mut world_tiles = Vec::new();
-    let mut health = (0usize, 0usize);
+    // Probes in solid by their own rays, outside the scene and in solid by
+    // the tile's SDF.
+    let mut health = (0usize, 0usize, 0usize);
     for entry in &index.tile {
         let owned: Vec<usize> = (0..final_probes.len())
             .filter(|&g| final_probes[g].owner == entry.index)
@@ -329,6 +360,20 @@ pub fn merge(options: &MergeOptions) -> Result<Outcome> {
         svo.provenance = provenance.to_bytes();
         let file = format!("{}.svo.bin", entry.name);
         set.add(file.clone(), svo.to_bytes());
+        // The validation stream: the core's fresh samples, seen by a kept
+        // probe in the tile's box.
+        let validation = tile.resampled(Stream::Validation, progress);
+        let core = tile.core_samples(&validation, &grid, entry.index);
+        let viewers: Vec<(usize, glam::Vec3)> = inside
+            .iter()
+            .map(|&g| (g, scene.to_local(final_probes[g].position)))
+            .collect();
+        let all_kept = vec![true; final_probes.len()];
+        let (_, seen) = tile.missed(&validation, &core, &viewers, &all_kept);
+        if let Some(tally) = tallies.get_mut(entry.index as usize) {
+            tally.validation_samples = core.len();
+            tally.validation_covered = seen;
+        }
         let sdf = &tile.prepared.sdf;
         // The probes its core holds, and those it placed in the core of a
         // tile without triangles, which has no SDF of its own to ask.
@@ -341,9 +386,12 @@ pub fn merge(options: &MergeOptions) -> Result<Outcome> {
             let voxel = sdf.voxel_at(p);
             let class = voxel.map(|v| sdf.class[v]);
             match class {
-                Some(VoxelClass::Solid) => health.0 += 1,
+                Some(VoxelClass::Solid) => health.2 += 1,
                 Some(VoxelClass::Outside) => health.1 += 1,
                 _ => {}
+            }
+            if !crate::coverage::stands_free(&tile.prepared.bvh, sdf.voxel_size, p) {
+                health.0 += 1;
             }
             let world = final_probes[g].position;
             let config = &tile.world_config;
@@ -379,25 +427,31 @@ pub fn merge(options: &MergeOptions) -> Result<Outcome> {
         set.add("svo.bin", svo.to_bytes());
     }
 
+    // The training figure: the samples the cover fitted.
     let coverable: usize = tallies.iter().map(|t| t.coverable_samples).sum();
-    let covered_lists = lists
+    let covered = lists
         .iter()
         .filter(|l| l.iter().any(|&k| kept[k as usize]))
         .count();
-    let covered = covered_lists;
     // Nothing coverable in any core: nothing is missed.
-    let (coverage, ci95) = match coverable {
+    let ratio = |covered: usize, coverable: usize| match coverable {
         0 => (1.0, 0.0),
         n => crate::coverage::ratio_ci95(covered, n),
     };
+    let (coverage_train, _) = ratio(covered, coverable);
+    // What the report prints: the validation stream, never shown to the cover.
+    let validation_coverable: usize = tallies.iter().map(|t| t.validation_samples).sum();
+    let validation_covered: usize = tallies.iter().map(|t| t.validation_covered).sum();
+    let (coverage, ci95) = ratio(validation_covered, validation_coverable);
     let candidates = probes.iter().filter(|p| p.candidate).count();
     let offered_all: usize = offered.iter().sum();
     let offered_kept = final_probes.iter().filter(|p| p.offered).count();
     let mut warnings = Vec::new();
-    if coverage < target {
+    if coverage + ci95 < target {
         warnings.push(format!(
-            "coverage {:.2}% is under refine.coverage_target {:.2}%: some core surfaces are seen by no tile's probe (a larger --margin sees more of them from both sides)",
+            "coverage {:.2}% ± {:.2}% on unseen samples is under refine.coverage_target {:.2}%: some core surfaces are seen by no tile's probe (a larger --margin sees more of them from both sides)",
             100.0 * coverage,
+            100.0 * ci95,
             100.0 * target
         ));
     }
@@ -422,7 +476,9 @@ pub fn merge(options: &MergeOptions) -> Result<Outcome> {
         "probe_count": final_probes.len(),
         "coverage": coverage,
         "coverage_ci95": ci95,
+        "coverage_train": coverage_train,
         "probes_in_solid": health.0,
+        "probes_in_solid_sdf": health.2,
         "probes_outside_scene": health.1,
         "merge": {
             "tiles": index.tile.len(),
@@ -431,8 +487,11 @@ pub fn merge(options: &MergeOptions) -> Result<Outcome> {
             "offered_kept": offered_kept,
             "candidates": candidates,
             "candidates_kept": order.iter().filter(|&&k| probes[k].candidate).count(),
-            "coverable_samples": coverable,
-            "covered_samples": covered,
+            "coverable_samples": validation_coverable,
+            "covered_samples": validation_covered,
+            "coverable_samples_train": coverable,
+            "covered_samples_train": covered,
+            "check_rounds": rounds,
             "per_tile": tallies,
         },
         "timings_ms": { "total": watch_start.elapsed().as_secs_f64() * 1e3 },
@@ -460,7 +519,7 @@ pub fn merge(options: &MergeOptions) -> Result<Outcome> {
     let out = options.out.clone().unwrap_or_else(|| dir.join("world"));
     commit::commit(&out, &set, std::slice::from_ref(&index.config))?;
     let mut summary = vec![format!(
-        "{} tiles: {} probes ({} placed, {} in overlaps, {} of them kept; {} of {} positions offered), coverage {:.2}% ± {:.2}%, {} in solid",
+        "{} tiles: {} probes ({} placed, {} in overlaps, {} of them kept; {} of {} positions offered), coverage {:.2}% ± {:.2}% on unseen samples (training {:.2}%), {} in solid",
         index.tile.len(),
         final_probes.len(),
         probes.len() - offered_all,
@@ -470,6 +529,7 @@ pub fn merge(options: &MergeOptions) -> Result<Outcome> {
         offered_all,
         100.0 * coverage,
         100.0 * ci95,
+        100.0 * coverage_train,
         health.0
     )];
     summary.extend(warnings.iter().map(|w| format!("warning: {w}")));
@@ -612,14 +672,8 @@ impl Tile {
         }
         let prepared =
             stages::prepare(&config, &path, &text, progress).map_err(|e| tile_error(entry, e))?;
-        let reference = CoverageReference::new(
-            &prepared.scene,
-            &prepared.bvh,
-            &prepared.sdf,
-            &config.coverage,
-            config.seed,
-            progress,
-        );
+        let reference =
+            prepared.coverage_reference(&config.coverage, Stream::Train, config.seed, progress);
         let index_path = dir.join("split.json");
         let index: SplitIndex = serde_json::from_str(&crate::input::read_text(
             &index_path,
@@ -682,13 +736,97 @@ impl Tile {
             .unwrap_or(tiers.len().min(u8::MAX as usize) as u8)
     }
 
-    /// The coverable samples of the tile's reference that its core owns.
-    fn core_samples(&self, grid: &TileGrid, tile: u32) -> Vec<usize> {
+    /// The coverable samples of `reference` (one of the tile's) that its
+    /// core owns.
+    fn core_samples(
+        &self,
+        reference: &CoverageReference,
+        grid: &TileGrid,
+        tile: u32,
+    ) -> Vec<usize> {
         let scene = &self.prepared.scene;
-        (0..self.reference.samples.len())
+        (0..reference.samples.len())
             .filter(|&i| {
-                self.reference.coverable[i]
-                    && grid.owner(scene.to_world(self.reference.samples[i].position)) == tile
+                reference.coverable[i]
+                    && grid.owner(scene.to_world(reference.samples[i].position)) == tile
+            })
+            .collect()
+    }
+
+    /// The tile's measure on the samples of `stream` (of its run's seed).
+    fn resampled(&self, stream: Stream, progress: &Progress) -> CoverageReference {
+        let p = &self.prepared;
+        self.reference.resampled(
+            &p.scene,
+            &p.bvh,
+            &p.sdf,
+            &self.config.coverage,
+            stream.seed(self.config.seed),
+            progress,
+        )
+    }
+
+    /// The positions of `probes` inside `entry`'s box (this tile's), with
+    /// their index, in tile coordinates.
+    fn relevant(&self, probes: &[WorldProbe], entry: &TileEntry) -> Vec<(usize, glam::Vec3)> {
+        probes
+            .iter()
+            .enumerate()
+            .filter(|(_, p)| entry.domain.contains(p.position))
+            .map(|(k, p)| (k, self.prepared.scene.to_local(p.position)))
+            .collect()
+    }
+
+    /// Of `reference`'s `samples`, those no kept position of `relevant`
+    /// (index, tile coordinates) sees, and how many the kept ones see.
+    fn missed(
+        &self,
+        reference: &CoverageReference,
+        samples: &[usize],
+        relevant: &[(usize, glam::Vec3)],
+        kept: &[bool],
+    ) -> (Vec<usize>, usize) {
+        let viewers: Vec<glam::Vec3> = relevant
+            .iter()
+            .filter(|&&(k, _)| kept[k])
+            .map(|&(_, p)| p)
+            .collect();
+        let chosen: Vec<crate::coverage::SurfaceSample> =
+            samples.iter().map(|&i| reference.samples[i]).collect();
+        let bar = indicatif::ProgressBar::hidden();
+        let seen = reference.seen_by_all(&self.prepared.bvh, &chosen, &viewers, 1, &bar);
+        let missed: Vec<usize> = samples
+            .iter()
+            .zip(&seen)
+            .filter(|(_, &s)| !s)
+            .map(|(&i, _)| i)
+            .collect();
+        let covered = samples.len() - missed.len();
+        (missed, covered)
+    }
+
+    /// For each of `reference`'s `samples`, every one of the `relevant`
+    /// positions (index, tile coordinates) that sees it, in index order.
+    fn lists(
+        &self,
+        reference: &CoverageReference,
+        samples: &[usize],
+        relevant: &[(usize, glam::Vec3)],
+    ) -> Vec<Vec<u32>> {
+        let bvh = &self.prepared.bvh;
+        samples
+            .par_iter()
+            .map_init(Blocker::default, |blocker, &i| {
+                let s = &reference.samples[i];
+                let mut list = relevant
+                    .iter()
+                    .filter(|&&(_, p)| reference.sees_from(bvh, p, s, blocker))
+                    .map(|&(k, _)| k as u32)
+                    .collect::<Vec<u32>>();
+                // Grown by doubling: hand back the spare half, which over
+                // millions of entries is most of the merge's memory.
+                list.shrink_to_fit();
+                list
             })
             .collect()
     }
@@ -733,6 +871,55 @@ fn tile_error(entry: &TileEntry, e: Error) -> Error {
         Error::User(m) => Error::User(format!("{}: {m}", entry.name)),
         e => e,
     }
+}
+
+/// Most fresh rounds of samples the merged cover is checked on and filled
+/// from (as one machine's [`crate::refine::holdout`]), one pass over the
+/// tiles each.
+const CHECK_ROUNDS: u32 = 3;
+
+/// One check round of the merge: of `coverable` fresh core samples the
+/// kept probes saw `covered`; `holes` lists, for each of the rest, the
+/// positions that see it (empty where none does). When the round's
+/// interval reaches `target` nothing is added; else positions are kept,
+/// each the one named by most of the open holes (ties: the higher `tier`,
+/// then the lower index), until the round's coverage reaches the target
+/// plus [`crate::refine::holdout::FILL_MARGIN`] of its shortfall, as one
+/// machine's [`crate::refine::holdout`] fills. A round whose coverage had
+/// reached the target is the last (filling only adds views).
+fn fill_round(
+    round: u32,
+    (coverable, covered, holes): (usize, usize, &[Vec<u32>]),
+    kept: &mut [bool],
+    tier: &[u8],
+    target: f64,
+) -> CheckRound {
+    let mut record = CheckRound::measured(round, covered, coverable);
+    if record.holds(target) {
+        return record;
+    }
+    let want = record.fill_goal(target);
+    let mut open: Vec<&Vec<u32>> = holes.iter().collect();
+    let mut have = covered;
+    while have < want {
+        let mut gain = vec![0u32; kept.len()];
+        for l in &open {
+            for &k in l.iter() {
+                gain[k as usize] += 1;
+            }
+        }
+        let best = (0..kept.len())
+            .filter(|&k| !kept[k] && gain[k] > 0)
+            .max_by_key(|&k| (gain[k], tier[k], std::cmp::Reverse(k)));
+        let Some(k) = best else {
+            break;
+        };
+        kept[k] = true;
+        record.added += 1;
+        have += gain[k] as usize;
+        open.retain(|l| !l.contains(&(k as u32)));
+    }
+    record
 }
 
 /// Partial set cover: which probes to keep so that at least `need` of the
@@ -1068,6 +1255,33 @@ impl<'a> CoverLists<'a> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A round whose interval reaches the target adds nothing; one short of
+    /// it keeps the positions that see the most holes (ties: the higher
+    /// tier) until the target plus half its shortfall holds.
+    #[test]
+    fn a_round_fills_its_holes_to_the_target_and_margin() {
+        let target = 0.99;
+        // 1000 samples, 995 seen: 99.5% ± 0.44%, its lower end over 0.99.
+        let mut kept = vec![true, false, false, false];
+        let r = fill_round(0, (1000, 995, &[]), &mut kept, &[0; 4], target);
+        assert_eq!((r.added, r.coverage), (0, 0.995));
+        // 1000 samples, 980 seen; holes: probe 1 sees 12 of them, probes
+        // 2 and 3 the same 6 others (3 of the higher tier), none the last 2.
+        let mut holes: Vec<Vec<u32>> = vec![vec![1]; 12];
+        holes.extend(vec![vec![2, 3]; 6]);
+        holes.extend(vec![vec![]; 2]);
+        let tier = [0, 0, 0, 1];
+        let r = fill_round(1, (1000, 980, &holes), &mut kept, &tier, target);
+        // The goal, 99.5%: 995 of 1000, so 1 (992), then 3 (998).
+        assert_eq!(r.added, 2);
+        assert_eq!(kept, vec![true, true, false, true]);
+        assert_eq!(r.covered_samples, 980);
+        // No position sees what is left: nothing more to add.
+        let mut kept = vec![true, false, false, false];
+        let r = fill_round(2, (100, 50, &vec![vec![]; 50]), &mut kept, &tier, target);
+        assert_eq!(r.added, 0);
+    }
 
     #[test]
     fn the_cover_keeps_the_fewest_probes_that_reach_the_count() {

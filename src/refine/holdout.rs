@@ -13,17 +13,24 @@
 //! 1. **Free under any judgement.** Every probe (but the fixed ones, which
 //!    are the artist's) is judged by [`stands_free`], rays of its own that
 //!    share nothing with the run's SDF; one that fails is dropped.
-//! 2. **A fresh round.** A new stream of samples and reference points
-//!    ([`Stream::Check`]) measures the probes. When the lower end of its 95%
-//!    interval reaches the target, the placement holds and the step ends.
+//! 2. **A fresh round.** A new stream of samples ([`Stream::Check`]),
+//!    judged coverable by the training measure's own reference points
+//!    ([`CoverageReference::resampled`]), measures the probes. When the
+//!    lower end of its 95% interval reaches the target, the placement
+//!    holds and the step ends.
 //! 3. **Fill its holes.** Otherwise the round's holes (coverable samples no
 //!    probe sees) are filled by the same greedy set cover as training
-//!    ([`CoverMatrix::fill`]), from the training's candidates and the
-//!    round's own reference points, to a target with a margin
+//!    ([`CoverMatrix::fill`]), from the training's candidates (the
+//!    measure's reference points among them), to a target with a margin
 //!    ([`FILL_MARGIN`]): half of what the target leaves unseen. Each position
 //!    filling picks is judged as in 1; one that fails is refused and the
 //!    round filled again without it. Then a new round (2), at most
-//!    [`MAX_CHECK_ROUNDS`] in all.
+//!    [`MAX_CHECK_ROUNDS`] in all, unless this round's coverage (not its
+//!    interval's lower end) had reached the target already: filling only
+//!    adds views, so the probes now see at least what the round measured
+//!    on the surface the round sampled, and another round, as dear as
+//!    the validation itself, would only confirm it (on Dabrovic Sponza it
+//!    was a tenth of `place`'s time).
 //!
 //! The figure to judge the result by comes from yet another stream
 //! ([`Stream::Validation`]), never shown to the placer, so neither the
@@ -31,12 +38,9 @@
 //! it. Under a `max_probes` budget the target is not the goal, so no round
 //! should run (step 1 still does).
 //!
-//! **Not yet in the pipeline.** The `place` stage does not call this step
-//! yet: on Dabrovic Sponza it reached the target on fresh samples but
-//! nearly doubled the probes (43 to 84) and the run's time (+30%), and on
-//! the Holodeck the ray-judged denominator holds surfaces that no position
-//! the SDF calls free sees (training coverage 96.2%). docs/method.md,
-//! "Coverage on samples the placer never saw", has the figures.
+//! [`super::refine`] runs this step after filling and pruning. What it
+//! costs and adds on the shipped scenes is in docs/method.md ("Coverage on
+//! samples the placer never saw") and BENCHMARKS.md.
 
 use super::prune::{Bits, CoverMatrix, MAX_SCORED_HOLES};
 use crate::coverage::{ratio_ci95, stands_free, CoverageReference, Stream};
@@ -78,6 +82,43 @@ pub struct CheckRound {
     pub refused: usize,
 }
 
+impl CheckRound {
+    /// Round `round` before filling: `covered` of `coverable` samples seen.
+    pub fn measured(round: u32, covered: usize, coverable: usize) -> CheckRound {
+        let (coverage, ci95) = ratio_ci95(covered, coverable);
+        CheckRound {
+            round,
+            coverable_samples: coverable,
+            covered_samples: covered,
+            coverage,
+            ci95,
+            added: 0,
+            refused: 0,
+        }
+    }
+
+    /// Whether the probes hold `target` on this round: the lower end of
+    /// its interval reaches it (or nothing is coverable), so nothing is
+    /// filled and no round follows.
+    pub fn holds(&self, target: f64) -> bool {
+        self.coverable_samples == 0 || self.coverage - self.ci95 >= target
+    }
+
+    /// How many of the round's samples filling must see: the target plus
+    /// [`FILL_MARGIN`] of the shortfall it allows.
+    pub fn fill_goal(&self, target: f64) -> usize {
+        let goal = target + FILL_MARGIN * (1.0 - target);
+        let n = self.coverable_samples;
+        ((goal * n as f64).ceil() as usize).min(n)
+    }
+
+    /// Whether no round follows this filled one: it added nothing, or its
+    /// coverage (not its interval's lower end) had reached `target`.
+    pub fn is_last(&self, target: f64) -> bool {
+        self.added == 0 || self.coverage >= target
+    }
+}
+
 /// What [`hold`] did to a probe set.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Held {
@@ -93,12 +134,14 @@ pub struct Held {
 pub struct HoldInput<'a> {
     /// The scene, its BVH and SDF, the seed and progress.
     pub input: &'a PlacementInput<'a>,
+    /// The measure training fitted: each round measures as it does
+    /// (the same reference points and views a sample needs) on fresh
+    /// samples.
+    pub training: &'a CoverageReference,
     /// The coverage parameters of every round (the config's, as training's).
     pub params: &'a crate::config::CoverageParams,
     /// The fill candidates, by tier (the training's).
     pub tiers: &'a [Vec<Vec3>],
-    /// The fill tier of a position, `None` where no probe may be added.
-    pub tier_of: &'a (dyn Fn(Vec3) -> Option<usize> + Sync),
     /// The coverage target.
     pub target: f64,
     /// Views a sample at a position needs (`probe_density`,
@@ -107,6 +150,28 @@ pub struct HoldInput<'a> {
     pub need: &'a (dyn Fn(usize, Vec3) -> u32 + Sync),
     /// Whether rounds run and fill (false: only step 1 of the module docs).
     pub fill: bool,
+    /// The first round's samples, when the caller measured them already
+    /// ([`check_round`]; they depend on no probe): [`super::refine`]
+    /// measures them while its sweeps leave a core idle.
+    pub first_round: Option<&'a CoverageReference>,
+}
+
+/// The samples of check round `round` ([`Stream::Check`]), judged
+/// coverable as the `training` measure judges: `params.samples` of them.
+pub fn check_round(
+    input: &PlacementInput,
+    training: &CoverageReference,
+    params: &crate::config::CoverageParams,
+    round: u32,
+) -> CoverageReference {
+    training.resampled(
+        input.scene,
+        input.bvh,
+        input.sdf,
+        params,
+        Stream::Check(round).seed(input.seed),
+        input.progress,
+    )
 }
 
 /// Judges `probes` (the first `pinned` are never dropped) and runs the
@@ -115,7 +180,8 @@ pub struct HoldInput<'a> {
 ///
 /// Contract: deterministic for the same inputs and seed; no probe it adds
 /// fails [`stands_free`] or its tier's [`super::may_stand`]; it never
-/// moves a probe; a round whose interval reaches the target ends it.
+/// moves a probe; a round whose interval reaches the target ends it, and
+/// a round whose coverage does is the last.
 pub fn hold(h: &HoldInput, probes: &[Vec3], pinned: usize) -> Held {
     let (bvh, voxel) = (h.input.bvh, h.input.sdf.voxel_size);
     let free: Vec<bool> = probes
@@ -135,46 +201,28 @@ pub fn hold(h: &HoldInput, probes: &[Vec3], pinned: usize) -> Held {
         .collect();
     let params = *h.params;
     for round in 0..MAX_CHECK_ROUNDS {
-        let check = CoverageReference::by_rays(
-            h.input.scene,
-            bvh,
-            h.input.sdf,
-            h.input.domain,
-            &params,
-            Stream::Check(round).seed(h.input.seed),
-            h.input.progress,
-        );
+        let built;
+        let check = match (round, h.first_round) {
+            (0, Some(first)) => first,
+            _ => {
+                built = check_round(h.input, h.training, &params, round);
+                &built
+            }
+        };
         let bar = h.input.progress.bar("refine: check round", 0);
         let seen = check.seen_by_all(bvh, &check.samples, &live, 1, &bar);
         bar.finish_and_clear();
-        let matrix = CoverMatrix::new(&check, bvh).with_need(|i, p| (h.need)(i, p).min(1));
+        let matrix = CoverMatrix::new(check, bvh).with_need(|i, p| (h.need)(i, p).min(1));
         let mut count = matrix.counts_of_seen(&seen);
-        let coverable = matrix.demanded();
-        let covered = matrix.satisfied(&count);
-        let (coverage, ci95) = ratio_ci95(covered, coverable);
-        let mut record = CheckRound {
-            round,
-            coverable_samples: coverable,
-            covered_samples: covered,
-            coverage,
-            ci95,
-            added: 0,
-            refused: 0,
-        };
-        if coverable == 0 || coverage - ci95 >= h.target {
+        let mut record = CheckRound::measured(round, matrix.satisfied(&count), matrix.demanded());
+        if record.holds(h.target) {
             held.rounds.push(record);
             break;
         }
-        // The training's candidates, then the round's own reference points
-        // where a probe may be added.
+        // The training's candidates, the measure's reference points among
+        // them (a round's are training's).
         let mut tiers: Vec<Vec<Vec3>> = h.tiers.to_vec();
-        for &p in &check.references {
-            if let Some(t) = (h.tier_of)(p) {
-                tiers[t].push(p);
-            }
-        }
-        let goal = h.target + FILL_MARGIN * (1.0 - h.target);
-        let target_count = ((goal * coverable as f64).ceil() as usize).min(coverable);
+        let target_count = record.fill_goal(h.target);
         let before = count.clone();
         let mut added = Vec::new();
         for _ in 0..REFILLS {
@@ -206,11 +254,11 @@ pub fn hold(h: &HoldInput, probes: &[Vec3], pinned: usize) -> Held {
         }
         record.added = added.len();
         held.rounds.push(record);
-        if added.is_empty() {
-            break;
-        }
         live.extend(added.iter().map(|&(p, _)| p));
         held.added.extend(added);
+        if record.is_last(h.target) {
+            break;
+        }
     }
     held
 }
@@ -289,19 +337,26 @@ mod tests {
         let held = hold(
             &HoldInput {
                 input: &input,
+                training: &training,
                 params: &params(20_000),
                 tiers: &tiers,
-                tier_of: &tier_of,
                 target,
                 need: &|_, _| 1,
                 fill: true,
+                first_round: None,
             },
             &fitted,
             0,
         );
         assert!(!held.added.is_empty(), "{:?}", held.rounds);
+        // The last round met the target by its interval, or by its own
+        // coverage before its holes were filled.
         let last = held.rounds.last().unwrap();
-        assert!(last.coverage - last.ci95 >= target, "{:?}", held.rounds);
+        assert!(
+            last.coverage - last.ci95 >= target || (last.coverage >= target && last.added > 0),
+            "{:?}",
+            held.rounds
+        );
         let mut after: Vec<Vec3> = (0..fitted.len())
             .filter(|k| !held.dropped.contains(k))
             .map(|k| fitted[k])
@@ -326,15 +381,28 @@ mod tests {
         let input = input_over(&scene, &bvh, &sdf, 5, &hidden);
         let inside_box = Vec3::new(1.5, 0.5, 1.5);
         let open = Vec3::new(3.0, 2.0, 3.0);
-        let none = |_: Vec3| None;
+        let params = CoverageParams {
+            samples: Count(500),
+            ..CoverageParams::default()
+        };
+        let training = CoverageReference::by_rays(
+            &scene,
+            &bvh,
+            &sdf,
+            &scene.bounds,
+            &params,
+            Stream::Train.seed(5),
+            &hidden,
+        );
         let h = HoldInput {
             input: &input,
-            params: &CoverageParams::default(),
+            training: &training,
+            params: &params,
             tiers: &[],
-            tier_of: &none,
             target: 0.999,
             need: &|_, _| 1,
             fill: false,
+            first_round: None,
         };
         assert_eq!(hold(&h, &[open, inside_box], 0).dropped, vec![1]);
         assert!(hold(&h, &[inside_box, open], 1).dropped.is_empty());

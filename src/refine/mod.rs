@@ -123,6 +123,10 @@ pub struct RefineReport {
     /// Probes dropped for standing in solid by their own rays
     /// ([`crate::coverage::stands_free`]).
     pub probes_dropped_in_solid: usize,
+    /// Fill candidates the same rays refused: judged all, and filling and
+    /// pruning run again without the refused, when a position they kept
+    /// failed; 0 when none did.
+    pub candidates_refused: usize,
     /// Parameters as used, defaults resolved (lengths in world units).
     pub params: BTreeMap<&'static str, f64>,
 }
@@ -318,9 +322,11 @@ pub fn refine(
     let atlas_initial = seen_texels(&atlas, &state);
     let atlas_coverage_initial = state.seen_share();
     let matrix = CoverMatrix::new(reference, input.bvh).with_need(|i, p| controls.need(i, p));
-    // The report's coverage of the input probes is measured while the
+    // The report's coverage of the input probes, and the first check
+    // round's samples (which depend on no probe), are measured while the
     // sweeps run: their steps leave a core idle between parallel views.
-    let ((refined, stats), summary_initial) = rayon::join(
+    let rounds_run = params.fill && controls.max_probes.is_none();
+    let ((refined, stats), (summary_initial, first_round)) = rayon::join(
         || {
             sweep(
                 params,
@@ -332,36 +338,59 @@ pub fn refine(
                 &initial,
             )
         },
-        || matrix.summary(&initial),
+        || {
+            rayon::join(
+                || matrix.summary(&initial),
+                || rounds_run.then(|| holdout::check_round(input, reference, &reference.params, 0)),
+            )
+        },
     );
     let r_refined = AtlasState::new(params.fitness, &atlas, views_of(&refined)).r();
 
     // Fill holes and prune superfluous probes (§1 "fewest probes").
-    let tiers = fill_candidates(params, &r, input, reference, controls);
+    let mut tiers = fill_candidates(params, &r, input, reference, controls);
     let rules = Rules {
         pinned: probes.fixed,
         budget: controls.max_probes,
         minimum: controls.min_probes,
     };
-    let fp = matrix.fill_and_prune(
-        &refined,
-        &tiers,
-        params.coverage_target.0 as f64,
-        params.fill,
-        params.prune,
-        rules,
-        input.progress,
-    );
-    let mut fp = fp;
+    let fill_and_prune = |tiers: &[Vec<Vec3>]| {
+        matrix.fill_and_prune(
+            &refined,
+            tiers,
+            params.coverage_target.0 as f64,
+            params.fill,
+            params.prune,
+            rules,
+            input.progress,
+        )
+    };
+    let mut fp = fill_and_prune(&tiers);
+    let mut candidates_refused = 0;
+    if !refused_additions(input, &refined, &fp).is_empty() {
+        // Where one kept position fails, others will (block worlds: a
+        // dozen a round): judge every candidate, and fill and prune again.
+        for tier in &mut tiers {
+            let before = tier.len();
+            *tier = tier
+                .par_iter()
+                .copied()
+                .filter(|&p| crate::coverage::stands_free(input.bvh, input.sdf.voxel_size, p))
+                .collect();
+            candidates_refused += before - tier.len();
+        }
+        fp = fill_and_prune(&tiers);
+    }
     let rounds = hold(
         &holdout::HoldInput {
             input,
+            training: reference,
             params: &reference.params,
             tiers: &tiers,
-            tier_of: &|p| reference_tier(&r, input, controls, p),
             target: params.coverage_target.0 as f64,
             need: &|i, p| controls.need(i, p),
-            fill: params.fill && controls.max_probes.is_none(),
+            fill: rounds_run,
+            first_round: first_round.as_ref(),
         },
         &matrix,
         (&refined, probes.fixed),
@@ -383,6 +412,7 @@ pub fn refine(
         fp: &fp,
         atlas_texels: atlas.len(),
         rounds,
+        candidates_refused,
     };
     let report = refine_report(params, &r, &matrix, &outcome);
     let atlas_image = atlas_panels(&atlas, &atlas_initial, &final_state);
@@ -550,6 +580,8 @@ struct Outcome<'a> {
     atlas_texels: usize,
     /// The fresh rounds of samples and how many probes their judge dropped.
     rounds: (Vec<holdout::CheckRound>, usize),
+    /// Fill positions refused by their own rays ([`refused_additions`]).
+    candidates_refused: usize,
 }
 
 /// The [`RefineReport`] of `outcome`, its coverages measured by `matrix`.
@@ -591,6 +623,7 @@ fn refine_report(
         probes_before_minimum: fp.before_minimum,
         check_rounds: outcome.rounds.0.clone(),
         probes_dropped_in_solid: outcome.rounds.1,
+        candidates_refused: outcome.candidates_refused,
         params: r.report(params, outcome.atlas_texels),
     }
 }
@@ -626,8 +659,10 @@ fn clearance_tiers(start: f32, floor: f32) -> Vec<f32> {
 /// coverage measure's own clearance, every reference point is a candidate
 /// of some tier, and every coverable sample is seen by one of them), then
 /// up to `fill_candidates` other free voxel centres of its band where a
-/// probe may stand, chosen by a seeded hash. None lies in an `exclude` box
-/// of `controls`.
+/// probe may stand, chosen by a seeded hash: free by the SDF, not yet by
+/// rays of their own ([`refused_additions`] judges those that filling
+/// keeps, and [`refine`] all of them when one fails). None lies in an
+/// `exclude` box of `controls`.
 fn fill_candidates(
     params: &RefineParams,
     r: &Resolved,
@@ -659,17 +694,25 @@ fn fill_candidates(
     }
     for (tier, mut band) in tiers.iter_mut().zip(voxels) {
         crate::sampling::keep_least(&mut band, params.fill_candidates.0 as usize);
-        // Free by the SDF, and by the rays every final probe must pass
-        // (`coverage::stands_free`): a position filling picks is one it
-        // may keep.
-        let free: Vec<Vec3> = band
-            .par_iter()
-            .map(|&(_, v)| input.sdf.center(v))
-            .filter(|&p| crate::coverage::stands_free(input.bvh, input.sdf.voxel_size, p))
-            .collect();
-        tier.extend(free);
+        tier.extend(band.iter().map(|&(_, v)| input.sdf.center(v)));
     }
     tiers
+}
+
+/// The positions filling and pruning kept (`fp`, whose indices run over
+/// `refined` and then its additions) that [`crate::coverage::stands_free`]
+/// refuses, of those it added (the refined probes are judged after,
+/// [`holdout::hold`]): the voxel candidates are free by the SDF only, and
+/// a final probe must be free by its own rays. Judging the few positions
+/// kept first, and every candidate (thousands, 128 rays each: a tenth of
+/// Sponza's run) only when one of them fails, costs a second fill and
+/// prune where the SDF and the rays disagree, and nothing elsewhere.
+fn refused_additions(input: &PlacementInput, refined: &[Vec3], fp: &FillPrune) -> Vec<Vec3> {
+    fp.kept
+        .par_iter()
+        .filter_map(|&k| k.checked_sub(refined.len()).map(|a| fp.added[a]))
+        .filter(|&p| !crate::coverage::stands_free(input.bvh, input.sdf.voxel_size, p))
+        .collect()
 }
 
 /// The first fill tier of `r.tiers` at whose clearance a probe may stand
@@ -724,6 +767,46 @@ fn side_by_side(a: &RgbImage, b: &RgbImage) -> RgbImage {
 mod tests {
     use super::*;
     use crate::config::Count;
+
+    /// Of the probes filling and pruning kept, only the added ones are
+    /// judged, and exactly those whose own rays call them solid are
+    /// refused: one inside the room's box, not one in the open, nor a
+    /// refined probe (which [`holdout::hold`] judges).
+    #[test]
+    fn refused_additions_are_the_kept_additions_in_solid() {
+        use crate::progress::Progress;
+        use crate::scene::testing::{input_over, room_sdf};
+        let (scene, bvh, sdf) = room_sdf(0.25, 2);
+        let hidden = Progress::hidden();
+        let input = input_over(&scene, &bvh, &sdf, 5, &hidden);
+        let (open, other, inside) = (
+            Vec3::new(3.0, 2.0, 3.0),
+            Vec3::new(0.5, 3.0, 0.5),
+            Vec3::new(1.5, 0.5, 1.5),
+        );
+        let fp = |kept: Vec<usize>| FillPrune {
+            kept_tiers: vec![0; kept.len()],
+            kept,
+            added: vec![other, inside, inside + 0.1],
+            rounds: Vec::new(),
+            covered_initial: 0,
+            covered_final: 0,
+            coverable: 0,
+            before_budget: None,
+            before_minimum: None,
+            kept_cols: Vec::new(),
+        };
+        let refined = [inside, open];
+        assert_eq!(
+            refused_additions(&input, &refined, &fp(vec![0, 1, 2, 3])),
+            vec![inside]
+        );
+        assert!(refused_additions(&input, &refined, &fp(vec![0, 1, 2])).is_empty());
+        assert_eq!(
+            refused_additions(&input, &refined, &fp(vec![3, 4])),
+            vec![inside, inside + 0.1]
+        );
+    }
 
     #[test]
     fn corners_take_half_the_directions_within_bounds_unless_set() {

@@ -45,6 +45,10 @@ pub struct Prepared {
     pub resolution: Resolution,
     /// `load`, `bvh`, `resolution`, `sdf`.
     pub timings: Stopwatch,
+    /// The coverage measure's reference points
+    /// ([`crate::coverage::free_points`]) and the count asked for: the
+    /// same for every stream and seed, found once.
+    free_points: std::sync::OnceLock<(u32, Vec<glam::Vec3>)>,
 }
 
 impl Prepared {
@@ -57,13 +61,22 @@ impl Prepared {
         seed: u64,
         progress: &Progress,
     ) -> crate::coverage::CoverageReference {
-        crate::coverage::CoverageReference::by_rays(
+        let count = params.reference_points.0;
+        let find =
+            || crate::coverage::free_points(&self.bvh, &self.sdf, &self.domain, count as usize);
+        let (cached, points) = self.free_points.get_or_init(|| (count, find()));
+        let refs = if *cached == count {
+            points.clone()
+        } else {
+            find()
+        };
+        crate::coverage::CoverageReference::on_free_points(
             &self.scene,
             &self.bvh,
             &self.sdf,
-            &self.domain,
             params,
             stream.seed(seed),
+            refs,
             progress,
         )
     }
@@ -125,6 +138,7 @@ pub fn prepare(
         sdf,
         resolution,
         timings,
+        free_points: std::sync::OnceLock::new(),
     })
 }
 

@@ -86,8 +86,9 @@ fn slurm(test: &str) -> bool {
 /// same `config`, and returns the world's probe count: no probe in solid,
 /// coverage at the target within its interval, and the bar, no
 /// more than 10% over one machine's count (fewer is allowed: the merge's
-/// cover is stronger than refinement's prune, and it runs no check rounds;
-/// a quarter is the sanity floor).
+/// cover is stronger than refinement's prune; a quarter is the sanity
+/// floor). `coverage` is the validation figure of both, and the merge ran
+/// check rounds as one machine does.
 fn near_one_machine(name: &str, one: &Value, world: &Value, config: &Overlay) -> u64 {
     let count = world["probe_count"].as_u64().unwrap();
     let single = one["probe_count"].as_u64().unwrap();
@@ -99,13 +100,18 @@ fn near_one_machine(name: &str, one: &Value, world: &Value, config: &Overlay) ->
         one["coverage"]
     );
     assert_eq!(world["probes_in_solid"], 0, "{name}");
+    let rounds = world["merge"]["check_rounds"].as_array().unwrap();
+    assert!(!rounds.is_empty(), "{name}: no check round");
+    assert!(
+        world["coverage_train"].as_f64().is_some(),
+        "{name}: no training figure"
+    );
     assert!(
         coverage + ci >= target,
         "{name}: coverage {coverage} ± {ci} under {target}"
     );
-    // One machine checks its probes on fresh rounds of samples and fills
-    // what they find (refine::holdout); the merge fits the tiles' samples
-    // alone, so it may keep well under one machine's count, never over.
+    // Both check their probes on fresh rounds of samples and fill what
+    // they find (refine::holdout, merge's fill_round).
     assert!(
         count * 10 <= single * 11 && count * 4 >= single,
         "{name}: {count} probes where one machine places {single}"
