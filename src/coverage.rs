@@ -255,17 +255,24 @@ pub fn free_points(bvh: &SceneBvh, sdf: &Sdf, domain: &Bounds, count: usize) -> 
 /// configs/ (BENCHMARKS.md, "Limits").
 const TESTED_SHARE: f64 = 0.25;
 
-/// Refuses coverage parameters whose reference would take longer than
+/// Sample sets one `place` run measures coverability of, at most: the
+/// validation stream, the training stream and every check round
+/// ([`crate::refine::holdout::MAX_CHECK_ROUNDS`]).
+const SAMPLE_SETS_PER_RUN: u32 = 2 + crate::refine::holdout::MAX_CHECK_ROUNDS;
+
+/// Refuses coverage parameters whose references would take longer than
 /// [`crate::limits::work_limit_seconds`] over a domain of `voxels` SDF
 /// voxels (at most that many reference points exist): samples ×
-/// references × [`TESTED_SHARE`] segments.
+/// references × [`TESTED_SHARE`] segments for each of the
+/// [`SAMPLE_SETS_PER_RUN`] sample sets a run may draw.
 pub fn check_work(params: &CoverageParams, voxels: f64) -> crate::error::Result<()> {
     let references = (params.reference_points.0 as f64).min(voxels);
-    let segments = params.samples.0 as f64 * references * TESTED_SHARE;
+    let sets = SAMPLE_SETS_PER_RUN as f64;
+    let segments = sets * params.samples.0 as f64 * references * TESTED_SHARE;
     crate::limits::check_work(
         "coverage.samples",
         &format!(
-            "the coverage reference ({} samples × {} reference points)",
+            "the coverage measure (up to {SAMPLE_SETS_PER_RUN} sets of {} samples × {} reference points: validation, training and check rounds)",
             params.samples.0, references as u64
         ),
         segments,
