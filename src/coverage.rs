@@ -621,18 +621,23 @@ impl CoverageReference {
     }
 
     /// The same measure (reference points, and views a sample needs) on
-    /// fresh samples: those of `seed`, as many as `params` asks.
+    /// fresh samples over `input`'s scene: those of `stream` of
+    /// `input.seed`, as many as `params` asks.
     pub(crate) fn resampled(
         &self,
-        scene: &Scene,
-        bvh: &SceneBvh,
-        sdf: &Sdf,
+        input: &crate::placement::PlacementInput,
         params: &CoverageParams,
-        seed: u64,
-        progress: &Progress,
+        stream: Stream,
     ) -> CoverageReference {
-        let refs = self.references.clone();
-        CoverageReference::build(scene, bvh, sdf, params, seed, (refs, self.need), progress)
+        CoverageReference::build(
+            input.scene,
+            input.bvh,
+            input.sdf,
+            params,
+            stream.seed(input.seed),
+            (self.references.clone(), self.need),
+            input.progress,
+        )
     }
 
     /// The samples of `seed` and their coverability by `refs`, each

@@ -755,15 +755,9 @@ impl Tile {
 
     /// The tile's measure on the samples of `stream` (of its run's seed).
     fn resampled(&self, stream: Stream, progress: &Progress) -> CoverageReference {
-        let p = &self.prepared;
-        self.reference.resampled(
-            &p.scene,
-            &p.bvh,
-            &p.sdf,
-            &self.config.coverage,
-            stream.seed(self.config.seed),
-            progress,
-        )
+        let input = self.prepared.placement_input(self.config.seed, progress);
+        self.reference
+            .resampled(&input, &self.config.coverage, stream)
     }
 
     /// The positions of `probes` inside `entry`'s box (this tile's), with

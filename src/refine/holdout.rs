@@ -151,27 +151,10 @@ pub struct HoldInput<'a> {
     /// Whether rounds run and fill (false: only step 1 of the module docs).
     pub fill: bool,
     /// The first round's samples, when the caller measured them already
-    /// ([`check_round`]; they depend on no probe): [`super::refine`]
+    /// ([`CoverageReference::resampled`] on [`Stream::Check`] 0; they
+    /// depend on no probe): [`super::refine`]
     /// measures them while its sweeps leave a core idle.
     pub first_round: Option<&'a CoverageReference>,
-}
-
-/// The samples of check round `round` ([`Stream::Check`]), judged
-/// coverable as the `training` measure judges: `params.samples` of them.
-pub fn check_round(
-    input: &PlacementInput,
-    training: &CoverageReference,
-    params: &crate::config::CoverageParams,
-    round: u32,
-) -> CoverageReference {
-    training.resampled(
-        input.scene,
-        input.bvh,
-        input.sdf,
-        params,
-        Stream::Check(round).seed(input.seed),
-        input.progress,
-    )
 }
 
 /// Judges `probes` (the first `pinned` are never dropped) and runs the
@@ -205,7 +188,7 @@ pub fn hold(h: &HoldInput, probes: &[Vec3], pinned: usize) -> Held {
         let check = match (round, h.first_round) {
             (0, Some(first)) => first,
             _ => {
-                built = check_round(h.input, h.training, &params, round);
+                built = h.training.resampled(h.input, &params, Stream::Check(round));
                 &built
             }
         };

@@ -32,7 +32,7 @@ pub mod topup;
 pub mod view;
 
 use crate::config::{FitnessKind, RefineParams};
-use crate::coverage::{CoverageReference, REFERENCE_MIN_CLEARANCE_VOXELS};
+use crate::coverage::{CoverageReference, Stream, REFERENCE_MIN_CLEARANCE_VOXELS};
 use crate::error::Result;
 use crate::placement::controls::Controls;
 use crate::placement::{PlacementInput, Probe, ProbeSet};
@@ -341,7 +341,10 @@ pub fn refine(
         || {
             rayon::join(
                 || matrix.summary(&initial),
-                || rounds_run.then(|| holdout::check_round(input, reference, &reference.params, 0)),
+                || {
+                    rounds_run
+                        .then(|| reference.resampled(input, &reference.params, Stream::Check(0)))
+                },
             )
         },
     );
