@@ -263,6 +263,22 @@ pub enum UpAxis {
     Z,
 }
 
+/// Which free space probes, coverage and receivers consider: the space a
+/// viewer can reach ([`crate::reachable`]).
+#[derive(Debug, Clone, PartialEq, Default, Deserialize)]
+pub enum Reach {
+    /// The space the config's cameras reach (`reference.camera`,
+    /// `compare.cameras`); without a camera, the largest connected free
+    /// region. Sealed voids are left out.
+    #[default]
+    Cameras,
+    /// The space reached from these points (world coordinates), besides
+    /// the cameras.
+    From(Vec<Point3>),
+    /// All free space, sealed voids included (Wang et al. 2019 §3.1).
+    Everywhere,
+}
+
 /// The region of space in which probes may be placed and the SDF is built.
 #[derive(Debug, Clone, Copy, PartialEq, Default, Deserialize)]
 pub enum Domain {
@@ -1092,6 +1108,36 @@ pub struct CompareParams {
     /// The surfaces the comparison renders with: the scene's own, or all
     /// glossy (Wang et al. 2019 §5.2 benchmark every surface glossy).
     pub materials: Materials,
+    /// The diffuse evaluation: irradiance at receivers, as engines blend
+    /// probes ([`crate::diffuse`]).
+    pub diffuse: DiffuseParams,
+}
+
+/// `compare.diffuse`: how many receivers the diffuse evaluation measures
+/// and how many rays each reference and each probe's SH take.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct DiffuseParams {
+    /// Surface receivers, shared among the views (0: no diffuse
+    /// evaluation).
+    pub surface_receivers: Whole<65536>,
+    /// Receivers in the free space a viewer reaches.
+    pub free_receivers: Whole<65536>,
+    /// Cosine-weighted paths per receiver's reference irradiance.
+    pub reference_rays: Count<65536>,
+    /// Directions per probe's SH L2 projection.
+    pub probe_rays: Count<65536>,
+}
+
+impl Default for DiffuseParams {
+    fn default() -> Self {
+        DiffuseParams {
+            surface_receivers: Whole(1024),
+            free_receivers: Whole(512),
+            reference_rays: Count(1024),
+            probe_rays: Count(1024),
+        }
+    }
 }
 
 impl Default for CompareParams {
@@ -1102,6 +1148,7 @@ impl Default for CompareParams {
             glossy_rays: Count(8),
             views: Whole(8),
             materials: Materials::Scene,
+            diffuse: DiffuseParams::default(),
         }
     }
 }
@@ -1155,6 +1202,10 @@ pub struct Config {
     /// Where probes may go.
     #[serde(default)]
     pub domain: Domain,
+    /// The free space that counts: what the cameras reach (default), what
+    /// given points reach, or everywhere.
+    #[serde(default)]
+    pub reachable: Reach,
     /// Edge length of an SDF voxel, in world units, or `Auto` (the
     /// default) to derive it from the scene.
     #[serde(default)]

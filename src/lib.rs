@@ -71,6 +71,7 @@
 
 pub mod config;
 pub mod coverage;
+pub mod diffuse;
 pub mod error;
 pub mod fixtures;
 pub mod generality;
@@ -84,6 +85,7 @@ pub mod probes;
 pub mod progress;
 pub mod provenance;
 pub mod raster;
+pub mod reachable;
 pub mod refine;
 pub mod render;
 pub(crate) mod report;

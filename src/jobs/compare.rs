@@ -149,6 +149,13 @@ pub fn compare(options: &RunOptions) -> Result<Outcome> {
         )));
     }
     let views = views(&mut job, &prepared, &cameras)?;
+    // The diffuse evaluation's receivers, their reference, and the space
+    // the config's cameras reach (chosen views are not seeds: they are
+    // drawn from all free space, sealed voids included).
+    let given: Vec<CameraParams> = cameras.iter().filter(|c| !c.1).map(|c| c.0).collect();
+    let diffuse = job.watch.time("diffuse reference", || {
+        stages::diffuse::bench(&job.config, &prepared, &views, &given)
+    });
     let context = if job.cpu {
         None
     } else {
@@ -163,6 +170,7 @@ pub fn compare(options: &RunOptions) -> Result<Outcome> {
         prepared: &prepared,
         coverage: &coverage,
         views: &views,
+        diffuse: diffuse.as_ref(),
         context: context.as_ref(),
         progress: job.progress,
         gpu_used: true,
@@ -194,6 +202,27 @@ fn write(
     let config = &job.config;
     let rows = bench.rows;
     let metric = performance_metric(&adapter, &rows);
+    let diffuse = bench.diffuse.map(|d| {
+        let r = &d.receivers;
+        let mean = |v: &[crate::diffuse::Irradiance]| {
+            let n = v.len().max(1) as f64;
+            let lum = |x: glam::Vec3| crate::render::lights::luminance(x) as f64;
+            [
+                v.iter().map(|e| lum(e.total)).sum::<f64>() / n,
+                v.iter().map(|e| lum(e.indirect)).sum::<f64>() / n,
+            ]
+        };
+        crate::report::compare::DiffuseSetup {
+            surface_receivers: r.surface.len(),
+            free_receivers: r.free.len(),
+            reference_rays: config.compare.diffuse.reference_rays.0,
+            probe_rays: config.compare.diffuse.probe_rays.0,
+            bounces: config.bake.bounces.0,
+            unreachable_fraction: d.reachable.excluded_fraction(),
+            surface_reference_mean: mean(&r.surface_reference),
+            free_reference_mean: mean(&r.free_reference),
+        }
+    });
     let comparisons = comparisons(&rows, metric, config.seed);
     let report = CompareReport {
         format: "probeplace.compare",
@@ -225,6 +254,7 @@ fn write(
             .collect(),
         placements: rows,
         comparisons,
+        diffuse,
         warnings: bench.warnings,
         timings_ms: job.watch.to_map(),
     };
@@ -467,6 +497,7 @@ struct Bench<'a> {
     prepared: &'a Prepared,
     coverage: &'a CoverageReference,
     views: &'a [View],
+    diffuse: Option<&'a stages::diffuse::Bench>,
     context: Option<&'a Context>,
     progress: Progress,
     /// Whether every placement so far was traced on the GPU.
@@ -716,6 +747,17 @@ impl Bench<'_> {
         if lattice.is_some() {
             tracers.push((TRACER_BILEVEL, SelectionKind::Grid, March::BiLevel));
         }
+        let diffuse = self.diffuse.map(|bench| {
+            stages::diffuse::measure(
+                &self.config,
+                self.prepared,
+                bench,
+                &positions,
+                &field,
+                &svo,
+                lattice.as_ref(),
+            )
+        });
         let (probe_bytes, svo_bytes) = (field.bytes() as u64, svo.bytes());
         let (tracer, why) = Tracer::new(self.context, &field, Some(&svo), lattice.as_ref());
         if let Some(e) = why {
@@ -759,6 +801,13 @@ impl Bench<'_> {
                 cameras,
                 stats: stats.clone(),
                 blocks: rendered.iter().map(|r| r.blocks.clone()).collect(),
+                diffuse: diffuse.as_ref().map(|d| {
+                    let gather = match (kind, &d.gather_grid) {
+                        (SelectionKind::Grid, Some(g)) => g,
+                        _ => &d.gather_svo,
+                    };
+                    crate::report::compare::DiffuseRow::new(d, gather)
+                }),
             });
             let (mut renders, mut errors, mut flips) = (Vec::new(), Vec::new(), Vec::new());
             for r in rendered.into_iter().filter_map(|r| r.figures) {

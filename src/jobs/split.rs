@@ -210,6 +210,10 @@ pub fn split(options: &SplitOptions) -> Result<Outcome> {
                     ),
                 ),
                 ("voxel_size", format!("{voxel_size:?}")),
+                // A tile's box cuts the world's free space into pieces that
+                // its cameras do not reach: every tile keeps all its free
+                // space (the reach of the world is not yet carried).
+                ("reachable", "Everywhere".to_string()),
                 ("output", "\"out\"".to_string()),
                 ("seed", config.seed.to_string()),
                 ("export", "[]".to_string()),

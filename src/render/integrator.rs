@@ -146,16 +146,29 @@ impl<'a> Renderer<'a> {
     /// Contract: `dir` unit. Unbiased for the `bounces`-truncated radiance;
     /// deterministic given the sampler's state; allocation-free.
     pub fn radiance(&self, origin: Vec3, dir: Vec3, sampler: &mut Sampler) -> Vec3 {
+        let (emitted, reflected) = self.radiance_parts(origin, dir, sampler);
+        emitted + reflected
+    }
+
+    /// [`Renderer::radiance`] in two parts: what the first surface emits
+    /// (or the sky, when the ray escapes), and what it reflects (direct
+    /// light there and the bounces). The second is the indirect light a
+    /// point at `origin` receives from that direction; the diffuse
+    /// evaluation ([`crate::diffuse`]) scores probes on it apart.
+    ///
+    /// Contract: as [`Renderer::radiance`], whose value is the sum, from
+    /// the same sampler draws.
+    pub fn radiance_parts(&self, origin: Vec3, dir: Vec3, sampler: &mut Sampler) -> (Vec3, Vec3) {
         let Some(v) = self.intersect(origin, dir) else {
-            return self.lights.sky();
+            return (self.lights.sky(), Vec3::ZERO);
         };
-        let mut l = self.emission[v.material] + self.direct(&v, sampler);
+        let mut reflected = self.direct(&v, sampler);
         if self.bounces > 0 {
             if let Some((wi, weight)) = self.sample_lobe(&v, Lobe::Either, sampler) {
-                l += self.trace(self.spawn(&v), wi, weight, self.bounces, sampler);
+                reflected += self.trace(self.spawn(&v), wi, weight, self.bounces, sampler);
             }
         }
-        l
+        (self.emission[v.material], reflected)
     }
 
     /// One sample of a camera ray's radiance, split as Wang et al. 2019 §5.1

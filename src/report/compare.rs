@@ -115,6 +115,168 @@ pub struct PlacementRow {
     /// written).
     #[serde(skip)]
     pub blocks: Vec<Blocks>,
+    /// Diffuse light at the receivers ([`crate::diffuse`]); `null` when
+    /// `compare.diffuse` measures no receiver.
+    pub diffuse: Option<DiffuseRow>,
+}
+
+/// One lookup's mean relative irradiance errors ([`crate::diffuse::Errors`])
+/// and its leaks; `null` where it has no such receivers or part.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct DiffuseLookup {
+    /// Total irradiance at the surface receivers.
+    pub surface_total: Option<f64>,
+    /// Indirect irradiance at the surface receivers.
+    pub surface_indirect: Option<f64>,
+    /// Total irradiance at the free-space receivers.
+    pub free_total: Option<f64>,
+    /// Indirect irradiance at the free-space receivers.
+    pub free_indirect: Option<f64>,
+    /// Share of every receiver lit [`crate::diffuse::LEAK_RATIO`] times too
+    /// much or too little (total irradiance).
+    pub leak_fraction: Option<f64>,
+}
+
+impl DiffuseLookup {
+    fn of(m: &crate::stages::diffuse::Measured) -> DiffuseLookup {
+        use crate::diffuse::mean;
+        let leaks: Vec<f64> = m.surface.leak.iter().chain(&m.free.leak).copied().collect();
+        DiffuseLookup {
+            surface_total: mean(&m.surface.total),
+            surface_indirect: mean(&m.surface.indirect),
+            free_total: mean(&m.free.total),
+            free_indirect: mean(&m.free.indirect),
+            leak_fraction: mean(&leaks),
+        }
+    }
+}
+
+/// A placement's diffuse light as engines blend it.
+#[derive(Debug, Clone, Serialize)]
+pub struct DiffuseRow {
+    /// SH L2 per probe blended over a Delaunay tetrahedralization of the
+    /// valid probes (Unity's light probes, Godot's LightmapGI): the same
+    /// for both rows of a grid.
+    pub sh_tetrahedra: DiffuseLookup,
+    /// McGuire et al. 2017 §5.2's irradiance gather with Chebyshev
+    /// visibility, by the row's selection: every probe by inverse square
+    /// distance (`hiz+svo`), or trilinear over the grid cell's eight
+    /// (`bilevel+grid`, DDGI's blend). Total light only.
+    pub gather: DiffuseLookup,
+    /// Probes the SH blend drops as standing in solid.
+    pub invalid_probes: usize,
+    /// Probes in open space that no camera reaches (sealed voids,
+    /// [`crate::reachable`]).
+    pub unreachable_probes: usize,
+    /// The errors per receiver the intervals resample (not written).
+    #[serde(skip)]
+    pub errors: crate::stages::diffuse::Measured,
+}
+
+impl PartialEq for DiffuseRow {
+    fn eq(&self, o: &Self) -> bool {
+        self.sh_tetrahedra == o.sh_tetrahedra
+            && self.gather == o.gather
+            && self.invalid_probes == o.invalid_probes
+            && self.unreachable_probes == o.unreachable_probes
+    }
+}
+
+impl DiffuseRow {
+    /// The row of a placement measured as `m`, with the gather `gather`.
+    pub fn new(
+        m: &crate::stages::diffuse::Placement,
+        gather: &crate::stages::diffuse::Measured,
+    ) -> DiffuseRow {
+        DiffuseRow {
+            sh_tetrahedra: DiffuseLookup::of(&m.sh),
+            gather: DiffuseLookup::of(gather),
+            invalid_probes: m.invalid_probes,
+            unreachable_probes: m.unreachable_probes,
+            errors: m.sh.clone(),
+        }
+    }
+}
+
+/// A rival's diffuse errors over ours with the SH tetrahedral lookup, each
+/// with its 95% paired-bootstrap interval over receiver groups (views for
+/// surface receivers, runs of [`crate::diffuse::FREE_GROUP`] in free
+/// space); above 1, ours has the lower error. `null` where a set is empty
+/// or ours has no error there.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct DiffuseRatio {
+    /// Indirect irradiance at surface receivers.
+    pub surface_indirect: Option<Interval>,
+    /// Total irradiance at surface receivers.
+    pub surface_total: Option<Interval>,
+    /// Indirect irradiance at free-space receivers.
+    pub free_indirect: Option<Interval>,
+    /// Total irradiance at free-space receivers.
+    pub free_total: Option<Interval>,
+    /// Leaking receivers, surface and free together.
+    pub leak_fraction: Option<Interval>,
+    /// The surface indirect interval lies wholly above 1.
+    pub win: bool,
+    /// It lies wholly below 1.
+    pub loss: bool,
+}
+
+/// The diffuse ratios of `rival` over `ours`, when both have them.
+fn diffuse_ratio(rival: &PlacementRow, ours: &PlacementRow, seed: u64) -> Option<DiffuseRatio> {
+    let (a, b) = (
+        &rival.diffuse.as_ref()?.errors,
+        &ours.diffuse.as_ref()?.errors,
+    );
+    let interval = |x: &crate::diffuse::Errors,
+                    y: &crate::diffuse::Errors,
+                    f: fn(&crate::diffuse::Errors) -> &Vec<f64>| {
+        let (num, den) = (x.by_group(f(x)), y.by_group(f(y)));
+        let paired = !den.is_empty()
+            && num.len() == den.len()
+            && num.iter().zip(&den).all(|(p, q)| p.len() == q.len());
+        let sum: f64 = den.iter().flatten().sum();
+        (paired && sum > 0.0).then(|| paired_ratio_over_views(&num, &den, RESAMPLES, seed))
+    };
+    let leaks = |e: &crate::stages::diffuse::Measured| {
+        let mut all = e.surface.clone();
+        all.leak.extend(&e.free.leak);
+        let offset = all.group.iter().max().map_or(0, |g| g + 1);
+        all.group.extend(e.free.group.iter().map(|g| g + offset));
+        all
+    };
+    let surface_indirect = interval(&a.surface, &b.surface, |e| &e.indirect);
+    Some(DiffuseRatio {
+        win: surface_indirect.is_some_and(|i| i.lo > 1.0),
+        loss: surface_indirect.is_some_and(|i| i.hi < 1.0),
+        surface_indirect,
+        surface_total: interval(&a.surface, &b.surface, |e| &e.total),
+        free_indirect: interval(&a.free, &b.free, |e| &e.indirect),
+        free_total: interval(&a.free, &b.free, |e| &e.total),
+        leak_fraction: interval(&leaks(a), &leaks(b), |e| &e.leak),
+    })
+}
+
+/// The diffuse evaluation's set-up, in `compare.json`.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct DiffuseSetup {
+    /// Surface receivers (primary hits of the views).
+    pub surface_receivers: usize,
+    /// Receivers in reachable free space.
+    pub free_receivers: usize,
+    /// Paths per receiver's reference.
+    pub reference_rays: u32,
+    /// Directions per probe's SH projection.
+    pub probe_rays: u32,
+    /// Indirect bounces of the references and the probes (the bake's).
+    pub bounces: u32,
+    /// Share of the open voxels no camera reaches (sealed voids, regions
+    /// cut off by geometry): no free receiver stands there.
+    pub unreachable_fraction: f64,
+    /// Mean luminance of the reference irradiance, total and indirect, at
+    /// the surface receivers.
+    pub surface_reference_mean: [f64; 2],
+    /// The same at the free receivers.
+    pub free_reference_mean: [f64; 2],
 }
 
 /// A grid picked by one of the three matches.
@@ -150,6 +312,9 @@ pub struct Ratio {
     pub win: bool,
     /// Both intervals lie wholly below 1: the rival wins on both.
     pub loss: bool,
+    /// The diffuse errors, SH over tetrahedra (`null` without the
+    /// diffuse evaluation).
+    pub diffuse: Option<DiffuseRatio>,
 }
 
 /// The three matches for one placement.
@@ -243,6 +408,8 @@ pub struct CompareReport {
     pub placements: Vec<PlacementRow>,
     /// The three matches for every placement that is not a sweep grid.
     pub comparisons: Vec<Comparison>,
+    /// The diffuse evaluation's receivers and rays (`null` without it).
+    pub diffuse: Option<DiffuseSetup>,
     /// Problems worth knowing.
     pub warnings: Vec<String>,
     /// Wall time per step (ms).
@@ -400,6 +567,7 @@ fn ratio_against(rival: &PlacementRow, ours: &PlacementRow, seed: u64) -> Ratio 
         loss: mse.hi < 1.0 && flip.hi < 1.0,
         mse_glossy_filtered: mse,
         flip,
+        diffuse: diffuse_ratio(rival, ours, seed),
     }
 }
 
@@ -440,25 +608,62 @@ pub fn summary(report: &CompareReport) -> Vec<String> {
                 (Some(m), Some(r)) => format!("{} has {r:.2}× the error", m.grid),
                 _ => "no grid".into(),
             };
+            let diffuse = c
+                .ratios
+                .iter()
+                .filter(|r| r.family == Family::Grid && r.tracer == TRACER_HIZ)
+                .find_map(|r| {
+                    let i = r.diffuse.as_ref()?.surface_indirect?;
+                    Some(format!(
+                        "; diffuse (SH over tetrahedra): {} has {:.2}× [{:.2}, {:.2}] the indirect surface error",
+                        r.against, i.value, i.lo, i.hi
+                    ))
+                })
+                .unwrap_or_default();
             format!(
-                "{}: {} probes, filtered glossy MSE {:.3e}; equal count: {count}; equal quality: {quality}; equal {}: {perf}",
+                "{}: {} probes, filtered glossy MSE {:.3e}; equal count: {count}; equal quality: {quality}; equal {}: {perf}{diffuse}",
                 c.placement, c.probes, c.error, report.performance_metric
             )
         })
         .collect()
 }
 
+/// A figure for a table cell: blank when absent.
+fn cell(v: Option<f64>) -> String {
+    v.map(|x| format!("{x:.6}")).unwrap_or_default()
+}
+
 /// `compare.csv`: one line per placement and camera, a header first.
 pub fn to_csv(report: &CompareReport) -> String {
     let mut out = String::from(
-        "placement,family,tracer,camera,chosen,probes,coverage,probes_in_solid,probe_bytes,svo_bytes,texel_fetches_per_ray,gpu_ms,mse_glossy,mse_glossy_filtered,mse_glossy_relative,flip,mse_full,unresolved_fraction\n",
+        "placement,family,tracer,camera,chosen,probes,coverage,probes_in_solid,probe_bytes,svo_bytes,texel_fetches_per_ray,gpu_ms,mse_glossy,mse_glossy_filtered,mse_glossy_relative,flip,mse_full,unresolved_fraction,sh_surface_total,sh_surface_indirect,sh_free_total,sh_free_indirect,sh_leak_fraction,gather_surface_total,gather_free_total,gather_leak_fraction,invalid_probes,unreachable_probes\n",
     );
     for p in &report.placements {
+        // The placement's diffuse figures, the same on each camera's line.
+        let diffuse = match &p.diffuse {
+            Some(d) => {
+                let (s, g) = (&d.sh_tetrahedra, &d.gather);
+                [
+                    cell(s.surface_total),
+                    cell(s.surface_indirect),
+                    cell(s.free_total),
+                    cell(s.free_indirect),
+                    cell(s.leak_fraction),
+                    cell(g.surface_total),
+                    cell(g.free_total),
+                    cell(g.leak_fraction),
+                    d.invalid_probes.to_string(),
+                    d.unreachable_probes.to_string(),
+                ]
+                .join(",")
+            }
+            None => ",,,,,,,,,".to_string(),
+        };
         for (i, c) in p.cameras.iter().enumerate() {
             let gpu = c.gpu_ms.map(|v| format!("{v:.3}")).unwrap_or_default();
             let _ = writeln!(
                 out,
-                "{},{},{},{i},{},{},{:.6},{},{},{},{:.4},{gpu},{:.6e},{:.6e},{:.6e},{:.6},{:.6e},{:.6}",
+                "{},{},{},{i},{},{},{:.6},{},{},{},{:.4},{gpu},{:.6e},{:.6e},{:.6e},{:.6},{:.6e},{:.6},{diffuse}",
                 p.name,
                 p.family.key(),
                 p.tracer,
@@ -506,6 +711,7 @@ mod tests {
             cameras: vec![],
             stats: BTreeMap::new(),
             blocks: vec![],
+            diffuse: None,
         }
     }
 

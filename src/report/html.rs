@@ -63,6 +63,7 @@ pub fn page(report: &CompareReport, figures: &Figures) -> String {
     );
     summary(&mut h, report);
     ratios_table(&mut h, report);
+    diffuse_tables(&mut h, report);
     placements_table(&mut h, report);
     figures.view.section(
         &mut h,
@@ -310,6 +311,77 @@ fn verdict(r: &Ratio) -> &'static str {
         (_, true) => "ours loses",
         _ => "no clear difference",
     }
+}
+
+/// A ratio with its interval, or a dash.
+fn maybe_interval(i: &Option<Interval>) -> String {
+    i.as_ref().map_or_else(|| "–".into(), interval)
+}
+
+/// A mean relative error as a percentage, or a dash.
+fn percent(v: Option<f64>) -> String {
+    v.map_or_else(|| "–".into(), |x| format!("{:.1}%", 100.0 * x))
+}
+
+/// The diffuse evaluation: ours against each rival with SH over
+/// tetrahedra, then every placement's errors by each lookup.
+fn diffuse_tables(h: &mut String, report: &CompareReport) {
+    let Some(d) = &report.diffuse else {
+        return;
+    };
+    let _ = writeln!(
+        h,
+        "<h2 id=\"diffuse\">Diffuse light, as engines blend probes</h2>\n<p>Irradiance at {} surface points the views see and {} points in the free space the cameras reach ({:.1}% of the open space is cut off from them and holds no receiver), against a path-traced reference of {} paths each ({} bounces, the bake's). <b>SH over tetrahedra</b>: each probe's light in SH L2 ({} directions), blended over a Delaunay tetrahedralization of the probes that do not stand in solid, as Unity and Godot blend light probes. <b>Gather</b>: McGuire's irradiance with Chebyshev visibility, all probes by distance (<code>hiz+svo</code> rows) or the grid cell's eight, trilinear (<code>bilevel+grid</code>, DDGI's blend). Errors are mean relative errors of the luminance (against at least 5% of the mean); a leak is a receiver lit 2× too much or too little. Ratios are the rival's error over ours (above 1: ours is better) with 95% intervals from a paired bootstrap over views (surface) and runs of receivers (free space).</p>",
+        d.surface_receivers, d.free_receivers, 100.0 * d.unreachable_fraction, d.reference_rays, d.bounces, d.probe_rays
+    );
+    h.push_str("<table id=\"diffuse-ratios\">\n<tr><th>ours</th><th>probes</th><th>rival</th><th>kind</th><th>probes</th><th>indirect, surface</th><th>indirect, free space</th><th>total, surface</th><th>total, free space</th><th>leaks</th></tr>\n");
+    for c in &report.comparisons {
+        if !ours_or_given(report, c) {
+            continue;
+        }
+        for r in c.ratios.iter().filter(|r| r.tracer == TRACER_HIZ) {
+            let Some(x) = &r.diffuse else { continue };
+            let _ = writeln!(
+                h,
+                "<tr class=\"{}\"><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
+                r.family.key(),
+                escape(&c.placement),
+                c.probes,
+                escape(&r.against),
+                r.family.label(),
+                r.probes,
+                maybe_interval(&x.surface_indirect),
+                maybe_interval(&x.free_indirect),
+                maybe_interval(&x.surface_total),
+                maybe_interval(&x.free_total),
+                maybe_interval(&x.leak_fraction),
+            );
+        }
+    }
+    h.push_str("</table>\n<table id=\"diffuse-placements\">\n<tr><th>placement</th><th>tracer</th><th>probes</th><th>invalid</th><th>in sealed space</th><th>SH: indirect, surface</th><th>SH: indirect, free</th><th>SH: total, surface</th><th>SH: total, free</th><th>SH: leaks</th><th>gather: total, surface</th><th>gather: total, free</th><th>gather: leaks</th></tr>\n");
+    for r in &report.placements {
+        let Some(x) = &r.diffuse else { continue };
+        let (a, g) = (&x.sh_tetrahedra, &x.gather);
+        let _ = writeln!(
+            h,
+            "<tr class=\"{}\"><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
+            r.family.key(),
+            escape(&r.name),
+            r.tracer,
+            r.probes,
+            x.invalid_probes,
+            x.unreachable_probes,
+            percent(a.surface_indirect),
+            percent(a.free_indirect),
+            percent(a.surface_total),
+            percent(a.free_total),
+            percent(a.leak_fraction),
+            percent(g.surface_total),
+            percent(g.free_total),
+            percent(g.leak_fraction),
+        );
+    }
+    h.push_str("</table>\n");
 }
 
 /// Every ratio of our placements against their rivals, with intervals.

@@ -195,6 +195,33 @@ impl From<&Sdf> for SdfRecord {
     }
 }
 
+/// `report.json`'s `reachable`.
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct ReachRecord {
+    /// Seeds that started the flood (cameras and given points in open
+    /// space); 0 when none stood in open space, and all of it counts.
+    pub seeds: usize,
+    /// Voxels that are not solid.
+    pub open_voxels: usize,
+    /// Of those, the ones reached.
+    pub reached_voxels: usize,
+    /// Share of the open voxels left out (sealed voids, regions cut off by
+    /// geometry, space outside): no probe and no coverage reference point
+    /// stands there.
+    pub excluded_fraction: f64,
+}
+
+impl From<&crate::reachable::Reachable> for ReachRecord {
+    fn from(r: &crate::reachable::Reachable) -> Self {
+        ReachRecord {
+            seeds: r.seeds_used,
+            open_voxels: r.open_voxels,
+            reached_voxels: r.reached_voxels,
+            excluded_fraction: r.excluded_fraction(),
+        }
+    }
+}
+
 /// `report.json`.
 #[derive(Debug, Serialize)]
 pub struct Report {
@@ -246,6 +273,10 @@ pub struct Report {
     pub sdf: SdfRecord,
     /// How the SDF's voxel size was chosen.
     pub resolution: Option<crate::resolution::Resolution>,
+    /// The free space a viewer reaches (`config.reachable`), which the
+    /// placement and the coverage measure keep to; `null` for
+    /// `Everywhere`.
+    pub reachable: Option<ReachRecord>,
     /// Sample counts behind `coverage`.
     pub coverage_detail: Coverage,
     /// World positions of up to [`HOLE_SAMPLE`] coverage holes (coverable
@@ -349,6 +380,7 @@ impl Report {
             domain: BoundsRecord::world(&prepared.domain, scene),
             sdf: sdf.into(),
             resolution: Some(prepared.resolution),
+            reachable: prepared.reachable.as_ref().map(ReachRecord::from),
             coverage_detail: *coverage,
             coverage_holes: hole_sample(&placed.holes)
                 .iter()

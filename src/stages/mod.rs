@@ -8,11 +8,13 @@
 //! | [`bake()`]: light-field maps, pyramid, irradiance | [`Baked`] | McGuire et al. 2017 §3; Wang §4.2 |
 //! | [`validate::reference`]: the path-traced reference | [`crate::render::Reference`] | Wang §5.1 |
 //! | [`validate::validate`]: a render through the probes, measured | [`validate::Validation`] | Wang §5.1 |
+//! | [`diffuse::bench`], [`diffuse::measure`]: irradiance at receivers as engines blend probes | [`diffuse::Placement`] | Ramamoorthi & Hanrahan 2001; McGuire §5.2 |
 //!
 //! Stages compute; they never encode a file. Each product carries the wall
 //! times of its steps in a [`Stopwatch`] the job folds into its own.
 
 pub mod bake;
+pub mod diffuse;
 pub mod place;
 pub mod validate;
 
@@ -45,6 +47,9 @@ pub struct Prepared {
     pub resolution: Resolution,
     /// `load`, `bvh`, `resolution`, `sdf`.
     pub timings: Stopwatch,
+    /// The free space a viewer reaches (`config.reachable`); `None` for
+    /// `Everywhere`. The SDF already marks the rest `Outside`.
+    pub reachable: Option<crate::reachable::Reachable>,
     /// The coverage measure's reference points
     /// ([`crate::coverage::free_points`]) and the count asked for: the
     /// same for every stream and seed, found once.
@@ -62,8 +67,20 @@ impl Prepared {
         progress: &Progress,
     ) -> crate::coverage::CoverageReference {
         let count = params.reference_points.0;
-        let find =
-            || crate::coverage::free_points(&self.bvh, &self.sdf, &self.domain, count as usize);
+        // Reference points only where a viewer reaches: a surface seen
+        // only from a sealed void is no surface to cover.
+        let find = || {
+            let mut points =
+                crate::coverage::free_points(&self.bvh, &self.sdf, &self.domain, count as usize);
+            if let Some(reach) = &self.reachable {
+                points.retain(|&p| {
+                    self.sdf.voxel_at(p).is_none_or(|v| {
+                        reach.mask[v] || self.sdf.class[v] == sdf::VoxelClass::Solid
+                    })
+                });
+            }
+            points
+        };
         let (cached, points) = self.free_points.get_or_init(|| (count, find()));
         let refs = if *cached == count {
             points.clone()
@@ -131,6 +148,10 @@ pub fn prepare(
             )
         })
         .map_err(in_config)?;
+    let mut sdf = sdf;
+    let reachable = timings.time("reachable", || {
+        restrict_to_reach(config, &scene, &bvh, &mut sdf)
+    });
     Ok(Prepared {
         scene,
         domain,
@@ -138,8 +159,54 @@ pub fn prepare(
         sdf,
         resolution,
         timings,
+        reachable,
         free_points: std::sync::OnceLock::new(),
     })
+}
+
+/// The seeds of `config.reachable` in `scene`'s local coordinates: the
+/// config's cameras (and the given points); `None` for `Everywhere`.
+/// Empty when the config has neither: all free space then counts
+/// ([`crate::reachable`] says why not a guess).
+pub fn reach_seeds(config: &Config, scene: &Scene) -> Option<Vec<glam::Vec3>> {
+    let cameras = config
+        .reference
+        .camera
+        .iter()
+        .chain(&config.compare.cameras)
+        .map(|c| c.position.0);
+    let points: Vec<[f64; 3]> = match &config.reachable {
+        crate::config::Reach::Everywhere => return None,
+        crate::config::Reach::Cameras => cameras.collect(),
+        crate::config::Reach::From(given) => cameras.chain(given.iter().map(|p| p.0)).collect(),
+    };
+    Some(
+        points
+            .into_iter()
+            .map(|p| scene.to_local(DVec3::from(p)))
+            .collect(),
+    )
+}
+
+/// The space `config.reachable` names ([`crate::reachable`]); every open
+/// voxel outside it becomes [`sdf::VoxelClass::Outside`], so that no
+/// placement puts a probe there and no coverage reference point stands
+/// there. `None` for `Everywhere`, or without any seed, which change
+/// nothing.
+fn restrict_to_reach(
+    config: &Config,
+    scene: &Scene,
+    bvh: &SceneBvh,
+    sdf: &mut Sdf,
+) -> Option<crate::reachable::Reachable> {
+    let seeds = reach_seeds(config, scene).filter(|s| !s.is_empty())?;
+    let reach = crate::reachable::reachable(sdf, bvh, &seeds);
+    for (class, &reached) in sdf.class.iter_mut().zip(&reach.mask) {
+        if *class == sdf::VoxelClass::Free && !reached {
+            *class = sdf::VoxelClass::Outside;
+        }
+    }
+    Some(reach)
 }
 
 /// Refuses, before any of it runs, an SDF or a coverage reference whose

@@ -335,7 +335,16 @@ pub const TEST_REFERENCE: [(&str, &str); 3] = [
 
 /// The test-quality `compare`, set inside the config's own `compare`: two
 /// chosen views besides the config's camera.
-pub const TEST_COMPARE: [(&str, &str); 2] = [("glossy_rays", "2"), ("views", "2")];
+pub const TEST_COMPARE: [(&str, &str); 3] = [
+    ("glossy_rays", "2"),
+    ("views", "2"),
+    ("diffuse", TEST_DIFFUSE),
+];
+
+/// The test-quality diffuse evaluation: a quarter of the receivers and
+/// rays.
+pub const TEST_DIFFUSE: &str =
+    "(surface_receivers: 256, free_receivers: 128, reference_rays: 256, probe_rays: 256)";
 
 /// The test-quality coverage measure (a tenth of the samples: a 95%
 /// interval of about ±1.6% instead of ±0.5%), set inside the config's own
@@ -833,6 +842,8 @@ fn test_quality_overlays_change_only_what_they_set() {
         );
         (c.compare.glossy_rays, c.compare.views) =
             (shipped.compare.glossy_rays, shipped.compare.views);
+        assert_eq!(c.compare.diffuse.reference_rays.0, 256, "{name}");
+        c.compare.diffuse = shipped.compare.diffuse;
         assert_eq!(c.coverage.samples.0, 4000, "{name}");
         assert_eq!(c.refine.iterations.0, 5, "{name}");
         (c.coverage.samples, c.coverage.reference_points) =

@@ -85,7 +85,14 @@ fn evidence(config: &str, grids: &str) -> Value {
     ));
     fields.push((
         "compare",
-        within("compare", &[("glossy_rays", "8"), ("views", "5")]),
+        within(
+            "compare",
+            &[
+                ("glossy_rays", "8"),
+                ("views", "5"),
+                ("diffuse", TEST_DIFFUSE),
+            ],
+        ),
     ));
     let fields: Vec<(&str, &str)> = fields.iter().map(|(k, v)| (*k, v.as_str())).collect();
     let config = overlay(config, &fields);
@@ -181,6 +188,100 @@ fn ours_beats_the_engines_grid_and_greedy_with_intervals() {
 
 /// Every placement the issue names, with every figure, for each camera. At
 /// test quality.
+/// The diffuse evaluation: its set-up, every placement's errors by both
+/// lookups, the ratios' intervals, the CSV columns and the page's tables.
+#[test]
+fn diffuse_light_is_measured_for_every_placement() {
+    let Shared { dir, report: r } = cornell_glossy_test_quality();
+    let d = &r["diffuse"];
+    assert_eq!(
+        d["surface_receivers"], 258,
+        "256 shared among 3 views, rounded up: {d}"
+    );
+    assert_eq!(d["free_receivers"], 128);
+    let unreachable = d["unreachable_fraction"].as_f64().unwrap();
+    assert!((0.0..0.5).contains(&unreachable), "{d}");
+    for set in ["surface_reference_mean", "free_reference_mean"] {
+        let (total, indirect) = (d[set][0].as_f64().unwrap(), d[set][1].as_f64().unwrap());
+        assert!(
+            total > 0.0 && indirect > 0.0 && indirect <= total,
+            "{set}: {d}"
+        );
+    }
+    let placements = r["placements"].as_array().unwrap();
+    for p in placements {
+        let x = &p["diffuse"];
+        let name = &p["name"];
+        for key in [
+            "surface_total",
+            "surface_indirect",
+            "free_total",
+            "free_indirect",
+        ] {
+            let e = x["sh_tetrahedra"][key]
+                .as_f64()
+                .unwrap_or_else(|| panic!("{name}: {key}"));
+            assert!(e.is_finite() && e >= 0.0, "{name}: {key} {e}");
+        }
+        for lookup in ["sh_tetrahedra", "gather"] {
+            let leak = x[lookup]["leak_fraction"].as_f64().unwrap();
+            assert!((0.0..=1.0).contains(&leak), "{name}: {lookup} leaks {leak}");
+        }
+        // The gather's maps hold no indirect split.
+        assert!(x["gather"]["surface_indirect"].is_null());
+        assert!(x["gather"]["surface_total"].as_f64().unwrap() >= 0.0);
+        assert!(x["invalid_probes"].as_u64().unwrap() <= p["probes"].as_u64().unwrap());
+        assert!(x["unreachable_probes"].as_u64().unwrap() <= p["probes"].as_u64().unwrap());
+        // A grid's two rows share the SH blend; their gathers differ in
+        // selection.
+        if p["family"] == "grid" {
+            let twin = placements
+                .iter()
+                .find(|q| q["name"] == p["name"] && q["tracer"] != p["tracer"])
+                .unwrap();
+            assert_eq!(x["sh_tetrahedra"], twin["diffuse"]["sh_tetrahedra"]);
+        }
+    }
+    let c = comparison(r, "sdf-skeleton");
+    for ratio in c["ratios"].as_array().unwrap() {
+        let x = &ratio["diffuse"];
+        for key in [
+            "surface_indirect",
+            "surface_total",
+            "free_indirect",
+            "free_total",
+        ] {
+            let i = &x[key];
+            let (v, lo, hi) = (
+                i["value"].as_f64().unwrap(),
+                i["lo"].as_f64().unwrap(),
+                i["hi"].as_f64().unwrap(),
+            );
+            assert!(
+                lo <= v && v <= hi && lo > 0.0,
+                "{}: {key} {i}",
+                ratio["against"]
+            );
+        }
+        let lo = x["surface_indirect"]["lo"].as_f64().unwrap();
+        let hi = x["surface_indirect"]["hi"].as_f64().unwrap();
+        assert_eq!(x["win"], lo > 1.0);
+        assert_eq!(x["loss"], hi < 1.0);
+    }
+    let csv = std::fs::read_to_string(dir.join("compare.csv")).unwrap();
+    let header: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
+    let col = header
+        .iter()
+        .position(|h| *h == "sh_surface_indirect")
+        .unwrap();
+    for line in csv.lines().skip(1) {
+        let v: f64 = line.split(',').nth(col).unwrap().parse().unwrap();
+        assert!(v.is_finite(), "{line}");
+    }
+    let html = std::fs::read_to_string(dir.join("report.html")).unwrap();
+    assert!(html.contains("id=\"diffuse-ratios\"") && html.contains("id=\"diffuse-placements\""));
+}
+
 #[test]
 fn report_has_every_placement_and_figure() {
     let Shared { dir, report: r } = cornell_glossy_test_quality();

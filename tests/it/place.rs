@@ -268,3 +268,95 @@ fn committed_fixtures_match_their_generator() {
         }
     }
 }
+
+/// An OBJ of a closed 4 m room whose walls face in, holding a sealed
+/// hollow box (0.75..2.25)³ whose faces also look into its hollow: free
+/// space to the SDF, as the cavity behind a wall panel is.
+fn room_with_sealed_void() -> String {
+    let mut obj = String::new();
+    let mut v = 0;
+    for (lo, hi) in [(0.0f64, 4.0f64), (0.75, 2.25)] {
+        let c = |i: usize| {
+            [
+                if i & 1 == 0 { lo } else { hi },
+                if i & 2 == 0 { lo } else { hi },
+                if i & 4 == 0 { lo } else { hi },
+            ]
+        };
+        for i in 0..8 {
+            let p = c(i);
+            obj.push_str(&format!("v {} {} {}\n", p[0], p[1], p[2]));
+        }
+        // Quads counter-clockwise seen from inside the box.
+        for q in [
+            [0, 1, 3, 2],
+            [4, 6, 7, 5],
+            [0, 2, 6, 4],
+            [1, 5, 7, 3],
+            [0, 4, 5, 1],
+            [2, 3, 7, 6],
+        ] {
+            let [a, b, c, d] = q.map(|k| k + 1 + v);
+            obj.push_str(&format!("f {a} {b} {c}\nf {a} {c} {d}\n"));
+        }
+        v += 8;
+    }
+    obj
+}
+
+/// Issue 44: no probe in a sealed void. From a camera in the room, the
+/// hollow box's inside is out of reach: no probe stands there, the report
+/// says how much space was left out, and coverage holds on what remains;
+/// with `reachable: Everywhere` its walls must be seen from inside, so a
+/// probe goes in (the test can fail both ways).
+#[test]
+fn no_probe_stands_in_a_sealed_void() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("void.obj"), room_with_sealed_void()).unwrap();
+    let inside = |p: &serde_json::Value| {
+        (0..3).all(|k| {
+            let x = p["position"][k].as_f64().unwrap();
+            (0.75..=2.25).contains(&x)
+        })
+    };
+    for (reach, sealed_off) in [("Cameras", true), ("Everywhere", false)] {
+        let config = dir.path().join(format!("{reach}.ron"));
+        std::fs::write(
+            &config,
+            format!(
+                "(scene: \"void.obj\", voxel_size: 0.1, reachable: {reach},\n reference: (camera: Some((position: (3.3, 1.6, 3.3), look_at: (0.5, 1.0, 0.5)))))"
+            ),
+        )
+        .unwrap();
+        let out = dir.path().join(reach);
+        let o = probeplace(&[
+            "place",
+            config.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--quiet",
+        ]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let r = read_json(&out.join("report.json"));
+        let probes = read_json(&out.join("probes.json"));
+        let in_void = probes["probes"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .filter(|p| inside(p))
+            .count();
+        let cov = r["coverage"].as_f64().unwrap();
+        let ci95 = r["coverage_ci95"].as_f64().unwrap();
+        assert!(cov >= 0.999 - ci95, "{reach}: coverage {cov} ± {ci95}");
+        if sealed_off {
+            assert_eq!(in_void, 0, "{reach}: {probes}");
+            let excluded = r["reachable"]["excluded_fraction"].as_f64().unwrap();
+            // The hollow is 1.5³ of the room's 4³ less its walls: about 5%.
+            assert!((0.03..0.08).contains(&excluded), "{}", r["reachable"]);
+            assert_eq!(r["reachable"]["seeds"], 1);
+        } else {
+            assert!(in_void >= 1, "{reach}: no probe sees the hollow's walls");
+            assert!(r["reachable"].is_null());
+        }
+    }
+}

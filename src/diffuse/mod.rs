@@ -1,0 +1,491 @@
+//! Diffuse light as engines take it from probes: receivers, their
+//! path-traced irradiance, each probe's SH L2, and the error of a lookup.
+//!
+//! Engines use probes mainly for diffuse irradiance (Unity's light probes
+//! and Adaptive Probe Volumes, Godot's LightmapGI, DDGI). This stage
+//! measures a placement the way they use it, beside the glossy
+//! light-field measure of Wang et al. 2019 §5:
+//!
+//! * **Receivers** ([`receivers`]): surface points the views see (their
+//!   primary hits, lifted off the surface, with the normal), and points in
+//!   the free space a viewer can reach ([`crate::reachable`]) with random
+//!   normals, where dynamic objects take their light.
+//! * **Reference irradiance** at each: `E = ∫ L cos dω` by cosine-weighted
+//!   path tracing with the bake's transport ([`Renderer::radiance_parts`],
+//!   the same light a probe records), as a **total** (everything arriving,
+//!   emitters and sky seen directly included) and an **indirect** part
+//!   (light reflected by a surface at least once). Point, spot and
+//!   directional lights' direct light at the receiver is left out of both:
+//!   a real-time renderer shades it analytically and probes never hold it
+//!   (McGuire et al. 2017 §1; Unity's mixed lights).
+//! * **Probe SH** ([`bake_sh`]): each probe's incident radiance projected
+//!   to SH L2 ([`sh`]), total and indirect.
+//! * **Lookups**: SH blended by tetrahedral interpolation over a Delaunay
+//!   tetrahedralization of the valid probes ([`tetrahedra`]; Unity's and
+//!   Godot's blend, with probes in solid removed as their validity tests
+//!   do), and McGuire's irradiance gather
+//!   ([`crate::trace::gather::irradiance_at`]) by the placement's own
+//!   selection.
+//! * **Errors** ([`Errors`]): per receiver the relative error of the
+//!   luminance, against a floor of [`DARK_FLOOR`] of the mean so that black
+//!   corners do not dominate, and whether it is lit 2× too much or too
+//!   little (a leak).
+
+pub mod sh;
+pub mod tetrahedra;
+
+use crate::render::integrator::Renderer;
+use crate::render::lights::luminance;
+use crate::render::material::cosine_hemisphere;
+use crate::sampling::{fibonacci_sphere, hash2, random_rotation, unit_f32, Sampler};
+use glam::Vec3;
+use rayon::prelude::*;
+pub use sh::ShL2;
+
+/// A receiver's relative error is taken against at least this share of the
+/// mean reference luminance of its set: a receiver a hundred times darker
+/// than the mean would otherwise weigh a hundred times more for the same
+/// absolute error, and noise in its reference would decide the figure.
+pub const DARK_FLOOR: f64 = 0.05;
+
+/// A receiver lit this many times too much, or too little, by a lookup
+/// counts as a leak (light through a wall, or a probe's shadow spilled).
+pub const LEAK_RATIO: f64 = 2.0;
+
+/// Receivers per group of free-space receivers that the intervals resample
+/// as one cluster.
+pub const FREE_GROUP: usize = 32;
+
+/// A point that takes light from the probes.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Receiver {
+    /// Where (lifted off the surface for surface receivers).
+    pub p: Vec3,
+    /// Unit normal of the surface, or of the imagined object's surface.
+    pub n: Vec3,
+    /// The cluster the intervals resample it with: its view for surface
+    /// receivers, a run of [`FREE_GROUP`] for free ones.
+    pub group: u32,
+}
+
+/// Irradiance at a receiver, RGB.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Irradiance {
+    /// Everything a probe can carry.
+    pub total: Vec3,
+    /// Light reflected at least once.
+    pub indirect: Vec3,
+}
+
+/// The receivers of a comparison with their reference irradiance.
+#[derive(Debug, Clone, Default)]
+pub struct Receivers {
+    /// Surface points the views see.
+    pub surface: Vec<Receiver>,
+    /// Points in reachable free space.
+    pub free: Vec<Receiver>,
+    /// Reference at each surface receiver.
+    pub surface_reference: Vec<Irradiance>,
+    /// Reference at each free receiver.
+    pub free_reference: Vec<Irradiance>,
+}
+
+/// The surface receivers of one view: `count` of its primary hits
+/// (`queries`: lifted point and normal), evenly strided, in pixel order.
+pub fn surface_receivers(queries: &[crate::gpu::Query], count: usize, group: u32) -> Vec<Receiver> {
+    if queries.is_empty() || count == 0 {
+        return Vec::new();
+    }
+    let take = count.min(queries.len());
+    (0..take)
+        .map(|k| {
+            let q = &queries[k * queries.len() / take];
+            Receiver {
+                p: Vec3::from(q.origin),
+                n: Vec3::from(q.dir),
+                group,
+            }
+        })
+        .collect()
+}
+
+/// `count` receivers in the reached voxels of `sdf` that keep at least a
+/// voxel from every surface, each jittered within its voxel (which keeps
+/// it in free space) with a uniformly random normal; drawn from `seed`.
+/// Fewer when no voxel qualifies.
+pub fn free_receivers(
+    sdf: &crate::sdf::Sdf,
+    reachable: &crate::reachable::Reachable,
+    count: usize,
+    seed: u64,
+) -> Vec<Receiver> {
+    let h = sdf.voxel_size;
+    let voxels: Vec<usize> = (0..sdf.len())
+        .filter(|&i| reachable.mask[i] && sdf.distance[i] >= h)
+        .collect();
+    if voxels.is_empty() {
+        return Vec::new();
+    }
+    (0..count as u64)
+        .map(|k| {
+            let key = hash2(seed, k);
+            let v = voxels[(hash2(key, 0) % voxels.len() as u64) as usize];
+            let jitter = Vec3::new(
+                unit_f32(hash2(key, 1)),
+                unit_f32(hash2(key, 2)),
+                unit_f32(hash2(key, 3)),
+            ) - 0.5;
+            Receiver {
+                p: sdf.center(v) + jitter * h,
+                n: crate::sampling::uniform_direction(key, 4),
+                group: (k as usize / FREE_GROUP) as u32,
+            }
+        })
+        .collect()
+}
+
+/// Reference irradiance at each receiver: `rays` cosine-weighted paths
+/// (stratified on a √rays grid), `E = π/rays · Σ L`. Stream `seed` per
+/// receiver index.
+///
+/// Contract: deterministic whatever the thread count; finite and
+/// non-negative; `indirect ≤ total` per channel.
+pub fn reference(
+    renderer: &Renderer,
+    receivers: &[Receiver],
+    rays: u32,
+    seed: u64,
+) -> Vec<Irradiance> {
+    let side = (rays as f32).sqrt().ceil().max(1.0) as u32;
+    let n = side * side;
+    receivers
+        .par_iter()
+        .enumerate()
+        .map(|(i, r)| {
+            let mut sampler = Sampler::new(seed, i as u64);
+            let (mut total, mut indirect) = (Vec3::ZERO, Vec3::ZERO);
+            for k in 0..n {
+                let j = sampler.next_2d();
+                let u = glam::Vec2::new(
+                    ((k % side) as f32 + j.x) / side as f32,
+                    ((k / side) as f32 + j.y) / side as f32,
+                );
+                let d = cosine_hemisphere(r.n, u);
+                let (e, l) = renderer.radiance_parts(r.p, d, &mut sampler);
+                total += e + l;
+                indirect += l;
+            }
+            let s = std::f32::consts::PI / n as f32;
+            Irradiance {
+                total: clean(total * s),
+                indirect: clean(indirect * s),
+            }
+        })
+        .collect()
+}
+
+fn clean(v: Vec3) -> Vec3 {
+    if v.is_finite() {
+        v.max(Vec3::ZERO)
+    } else {
+        Vec3::ZERO
+    }
+}
+
+/// A probe's diffuse light: its incident radiance in SH L2, all of it and
+/// the reflected part.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct ProbeSh {
+    /// Everything arriving.
+    pub total: ShL2,
+    /// Light reflected at least once.
+    pub indirect: ShL2,
+}
+
+/// Each probe's incident radiance projected to SH L2 ([`sh`]) from `rays`
+/// directions spread evenly over the sphere (a spherical Fibonacci set,
+/// turned by a rotation drawn from the probe's position and `seed`, so a
+/// probe at the same place gets the same rays whatever placement it is
+/// part of: common random numbers between placements).
+///
+/// Contract: deterministic whatever the thread count; finite.
+pub fn bake_sh(renderer: &Renderer, probes: &[Vec3], rays: u32, seed: u64) -> Vec<ProbeSh> {
+    let dirs = fibonacci_sphere(rays.max(1));
+    let w = 4.0 * std::f32::consts::PI / dirs.len() as f32;
+    probes
+        .par_iter()
+        .map(|&p| {
+            let key = hash2(
+                hash2(seed, p.x.to_bits() as u64),
+                ((p.y.to_bits() as u64) << 32) | p.z.to_bits() as u64,
+            );
+            let rot = random_rotation(key);
+            let mut sampler = Sampler::new(key, 0x5A);
+            let mut out = ProbeSh::default();
+            for &d in &dirs {
+                let d = rot * d;
+                let (e, l) = renderer.radiance_parts(p, d, &mut sampler);
+                let (e, l) = (clean(e), clean(l));
+                out.total.add_sample(d, e + l, w);
+                out.indirect.add_sample(d, l, w);
+            }
+            out
+        })
+        .collect()
+}
+
+/// Irradiance by SH L2 blended over a Delaunay tetrahedralization of the
+/// valid probes, as Unity's light probes and Godot's LightmapGI blend them.
+pub struct ShLookup {
+    sh: Vec<ProbeSh>,
+    blend: Blend,
+}
+
+/// How the valid probes' SH are weighted at a point.
+enum Blend {
+    /// Barycentric over the tetrahedron containing it (or the hull face
+    /// nearest it).
+    Tetrahedra(tetrahedra::Tetrahedralization),
+    /// Fewer than four probes, or all in a plane: the nearest one.
+    Nearest(Vec<Vec3>),
+    /// No valid probe: black.
+    None,
+}
+
+impl ShLookup {
+    /// The lookup over the probes at `positions` with SH `sh` whose `valid`
+    /// flag is set (engines drop probes that stand in geometry).
+    ///
+    /// Contract: the three slices have the same length.
+    pub fn new(positions: &[Vec3], sh: &[ProbeSh], valid: &[bool]) -> ShLookup {
+        let keep: Vec<usize> = (0..positions.len()).filter(|&i| valid[i]).collect();
+        let points: Vec<Vec3> = keep.iter().map(|&i| positions[i]).collect();
+        let sh: Vec<ProbeSh> = keep.iter().map(|&i| sh[i]).collect();
+        let blend = if points.is_empty() {
+            Blend::None
+        } else {
+            match tetrahedra::Tetrahedralization::new(&points) {
+                Some(t) => Blend::Tetrahedra(t),
+                None => Blend::Nearest(points),
+            }
+        };
+        ShLookup { sh, blend }
+    }
+
+    /// Irradiance at `r`, total and indirect, clamped at zero (SH ringing).
+    pub fn irradiance(&self, r: &Receiver) -> Irradiance {
+        let mix = |f: fn(&ProbeSh) -> &ShL2, weights: &[(u32, f32)]| {
+            ShL2::blend(weights.iter().map(|&(i, w)| (f(&self.sh[i as usize]), w))).irradiance(r.n)
+        };
+        let weights: Vec<(u32, f32)> = match &self.blend {
+            Blend::None => return Irradiance::default(),
+            Blend::Tetrahedra(t) => t.weights(r.p).to_vec(),
+            Blend::Nearest(points) => {
+                let i = (0..points.len())
+                    .min_by(|&a, &b| {
+                        points[a]
+                            .distance_squared(r.p)
+                            .total_cmp(&points[b].distance_squared(r.p))
+                    })
+                    .unwrap_or(0);
+                vec![(i as u32, 1.0)]
+            }
+        };
+        Irradiance {
+            total: clean(mix(|s| &s.total, &weights)),
+            indirect: clean(mix(|s| &s.indirect, &weights)),
+        }
+    }
+}
+
+/// One lookup's errors at every receiver of one set (surface or free).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Errors {
+    /// Relative error of the total irradiance's luminance per receiver.
+    pub total: Vec<f64>,
+    /// The same for the indirect part; empty where the lookup has none.
+    pub indirect: Vec<f64>,
+    /// 1 where the receiver's total is off by [`LEAK_RATIO`] or more, else 0.
+    pub leak: Vec<f64>,
+    /// Each receiver's group.
+    pub group: Vec<u32>,
+}
+
+impl Errors {
+    /// `got` against `reference` at `receivers` (module docs);
+    /// `indirect`: whether `got` has an indirect part to score.
+    ///
+    /// Contract: the three slices have the same length.
+    pub fn measure(
+        receivers: &[Receiver],
+        reference: &[Irradiance],
+        got: &[Irradiance],
+        indirect: bool,
+    ) -> Errors {
+        let floor_of = |f: fn(&Irradiance) -> Vec3| {
+            let mean = reference
+                .iter()
+                .map(|e| luminance(f(e)) as f64)
+                .sum::<f64>()
+                / reference.len().max(1) as f64;
+            (DARK_FLOOR * mean).max(1e-12)
+        };
+        let (ft, fi) = (floor_of(|e| e.total), floor_of(|e| e.indirect));
+        let rel = |a: Vec3, b: Vec3, floor: f64| {
+            (luminance(a) as f64 - luminance(b) as f64).abs() / (luminance(b) as f64).max(floor)
+        };
+        let mut out = Errors::default();
+        for ((r, want), g) in receivers.iter().zip(reference).zip(got) {
+            out.total.push(rel(g.total, want.total, ft));
+            if indirect {
+                out.indirect.push(rel(g.indirect, want.indirect, fi));
+            }
+            let ratio =
+                (luminance(g.total) as f64).max(ft) / (luminance(want.total) as f64).max(ft);
+            out.leak
+                .push(if ratio >= LEAK_RATIO || ratio <= 1.0 / LEAK_RATIO {
+                    1.0
+                } else {
+                    0.0
+                });
+            out.group.push(r.group);
+        }
+        out
+    }
+
+    /// `values` split by group, in group order (the clusters of
+    /// [`crate::stats::paired_ratio_over_views`]).
+    pub fn by_group(&self, values: &[f64]) -> Vec<Vec<f64>> {
+        let groups = self
+            .group
+            .iter()
+            .map(|&g| g as usize + 1)
+            .max()
+            .unwrap_or(0);
+        let mut out = vec![Vec::new(); groups];
+        for (&g, &v) in self.group.iter().zip(values) {
+            out[g as usize].push(v);
+        }
+        out.retain(|g| !g.is_empty());
+        out
+    }
+}
+
+/// Mean of `v`, `None` when empty.
+pub fn mean(v: &[f64]) -> Option<f64> {
+    (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::{Light, Point3, Rgb};
+    use crate::scene::raycast::SceneBvh;
+    use crate::scene::testing::room_with_box;
+
+    /// The 4 m room with its box, lit by a point light near the ceiling
+    /// and an emissive square on the ceiling (so that both the indirect
+    /// part and emitters seen directly count).
+    fn lit_room() -> (crate::scene::Scene, SceneBvh, Vec<Light>) {
+        let mut scene = room_with_box();
+        let mut lamp = crate::scene::Material::fallback();
+        lamp.emission = [4.0, 4.0, 4.0];
+        let id = scene.materials.len() as u32;
+        scene.materials.push(lamp);
+        let y = 3.99;
+        let (a, b) = (1.5, 2.5);
+        for t in [
+            [Vec3::new(a, y, a), Vec3::new(b, y, a), Vec3::new(b, y, b)],
+            [Vec3::new(a, y, a), Vec3::new(b, y, b), Vec3::new(a, y, b)],
+        ] {
+            scene.triangles.push(t);
+            scene.normals.push(Vec3::NEG_Y);
+            scene.material_ids.push(id);
+        }
+        let bvh = SceneBvh::new(&scene);
+        let light = Light::Point {
+            position: Point3([3.0, 3.5, 3.0]),
+            intensity: Rgb([20.0, 20.0, 20.0]),
+        };
+        (scene, bvh, vec![light])
+    }
+
+    #[test]
+    fn a_probe_at_a_receiver_reproduces_its_reference() {
+        // The probe's SH, evaluated at the receiver's own normal, is the
+        // receiver's irradiance up to L2's truncation and noise: the bake,
+        // the projection and the reference measure the same light.
+        let (scene, bvh, lights) = lit_room();
+        let r = Renderer::new(&scene, &bvh, &lights, 2);
+        let receivers: Vec<Receiver> = [
+            (Vec3::new(3.0, 1.5, 3.0), Vec3::Y),
+            (Vec3::new(0.5, 2.0, 3.0), Vec3::X),
+            (Vec3::new(3.2, 0.6, 0.8), Vec3::new(0.0, 0.6, 0.8)),
+            (Vec3::new(2.5, 3.0, 1.0), Vec3::NEG_Y),
+        ]
+        .iter()
+        .map(|&(p, n)| Receiver { p, n, group: 0 })
+        .collect();
+        let reference = reference(&r, &receivers, 4096, 9);
+        for (x, want) in receivers.iter().zip(&reference) {
+            assert!(luminance(want.indirect) > 0.0);
+            if x.n == Vec3::Y {
+                // Sees the lamp: emitters seen directly are part of the total.
+                assert!(
+                    luminance(want.total) > 1.02 * luminance(want.indirect),
+                    "{want:?}"
+                );
+            }
+            let sh = bake_sh(&r, &[x.p], 4096, 3);
+            let lookup = ShLookup::new(&[x.p], &sh, &[true]);
+            let got = lookup.irradiance(x);
+            for (g, w) in [(got.total, want.total), (got.indirect, want.indirect)] {
+                let rel = (luminance(g) - luminance(w)).abs() / luminance(w);
+                assert!(rel < 0.12, "{x:?}: {g} vs {w} ({rel:.3})");
+            }
+        }
+    }
+
+    #[test]
+    fn errors_and_leaks_follow_their_definitions() {
+        let rs: Vec<Receiver> = (0..4)
+            .map(|i| Receiver {
+                p: Vec3::ZERO,
+                n: Vec3::Y,
+                group: i / 2,
+            })
+            .collect();
+        let e = |v: f32| Irradiance {
+            total: Vec3::splat(v),
+            indirect: Vec3::splat(v / 2.0),
+        };
+        let reference = [e(1.0), e(1.0), e(1.0), e(1.0)];
+        let got = [e(1.0), e(1.5), e(2.0), e(0.25)];
+        let m = Errors::measure(&rs, &reference, &got, true);
+        assert_eq!(m.total.len(), 4);
+        for (a, b) in m.total.iter().zip([0.0, 0.5, 1.0, 0.75]) {
+            assert!((a - b).abs() < 1e-5, "{:?}", m.total);
+        }
+        assert_eq!(m.leak, vec![0.0, 0.0, 1.0, 1.0]);
+        assert_eq!(m.by_group(&m.leak), vec![vec![0.0, 0.0], vec![1.0, 1.0]]);
+        // A black reference is measured against the floor, not divided by 0.
+        let dark = [e(0.0), e(1.0), e(1.0), e(1.0)];
+        let m = Errors::measure(&rs, &dark, &[e(0.0); 4], false);
+        assert!(m.total.iter().all(|x| x.is_finite()) && m.indirect.is_empty());
+    }
+
+    #[test]
+    fn free_receivers_stand_in_reached_free_space() {
+        let (scene, bvh, _) = lit_room();
+        let (_, sdf) = crate::scene::testing::bvh_and_sdf(&scene, 0.25, 1);
+        let reach = crate::reachable::reachable(&sdf, &bvh, &[Vec3::new(3.0, 2.0, 3.0)]);
+        let rs = free_receivers(&sdf, &reach, 200, 4);
+        assert_eq!(rs.len(), 200);
+        for r in &rs {
+            assert!(reach.contains(&sdf, r.p), "{r:?}");
+            assert!(crate::coverage::stands_free(&bvh, sdf.voxel_size, r.p));
+            assert!((r.n.length() - 1.0).abs() < 1e-4);
+        }
+        assert_eq!(rs, free_receivers(&sdf, &reach, 200, 4));
+    }
+}

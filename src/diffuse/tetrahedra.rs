@@ -1,0 +1,563 @@
+//! Delaunay tetrahedralization of a probe set, and the tetrahedral
+//! interpolation Unity's light probes and Godot's LightmapGI blend
+//! probes by (Cupisz, "Light Probe Interpolation Using Tetrahedral
+//! Tessellations", GDC 2012).
+//!
+//! Bowyer–Watson insertion (Bowyer 1981; Watson 1981) with Shewchuk's
+//! exact `orient3d` and `insphere` predicates (the `robust` crate) and an
+//! infinite vertex closing the hull with "ghost" tetrahedra, so that no
+//! bounding super-tetrahedron distorts the hull. Exact predicates make
+//! the degenerate sets engines meet every day work: a uniform grid's
+//! points are cospherical eight at a time and coplanar on every face.
+//!
+//! * A finite tetrahedron conflicts with a new point `p` when `p` lies
+//!   strictly inside its circumsphere. With strict tests the cavity of
+//!   conflicting tetrahedra is star-shaped from `p` even when points are
+//!   cospherical: a point on the plane of a cavity face and inside one
+//!   side's circumsphere is inside the face's circumcircle, hence inside
+//!   the other side's circumsphere too, so no flat tetrahedron is made.
+//! * A ghost tetrahedron (a hull face and the infinite vertex) conflicts
+//!   when `p` lies strictly outside its face, or on the face's plane and
+//!   inside the face's circumcircle, which is when the finite tetrahedron
+//!   behind the face conflicts (Shewchuk, "Lecture Notes on Delaunay Mesh
+//!   Generation" 2012, §3.6 on ghost triangles, lifted to 3D).
+//! * Points are inserted in Morton order and located by a visibility walk
+//!   from the last tetrahedron made; a repeated point is skipped.
+//!
+//! Outside the hull, engines extrapolate from the hull (Unity projects a
+//! point outside onto the hull's outer cells); here a point outside takes
+//! the barycentric weights of its closest point on the nearest hull
+//! triangle, which is continuous across the hull and matches the
+//! interpolation on it.
+
+use glam::{DVec3, Vec3};
+use robust::{insphere, orient3d, Coord3D};
+use std::collections::HashMap;
+
+/// The infinite vertex.
+const INF: u32 = u32::MAX;
+/// No tetrahedron.
+const NONE: u32 = u32::MAX;
+
+/// A Delaunay tetrahedralization of a point set.
+#[derive(Debug, Clone)]
+pub struct Tetrahedralization {
+    points: Vec<DVec3>,
+    /// Finite tetrahedra, positively oriented ([`orient3d`] > 0: the
+    /// fourth vertex below the counter-clockwise first three), indices
+    /// into the input points.
+    pub tetrahedra: Vec<[u32; 4]>,
+    /// Hull triangles, counter-clockwise seen from outside.
+    pub hull: Vec<[u32; 3]>,
+}
+
+fn c(p: DVec3) -> Coord3D<f64> {
+    Coord3D {
+        x: p.x,
+        y: p.y,
+        z: p.z,
+    }
+}
+
+/// The triangulation under construction.
+struct Mesh<'a> {
+    points: &'a [DVec3],
+    tets: Vec<[u32; 4]>,
+    /// Neighbour across the face opposite each vertex.
+    neighbours: Vec<[u32; 4]>,
+    alive: Vec<bool>,
+}
+
+impl Mesh<'_> {
+    fn orient(&self, t: [u32; 4]) -> f64 {
+        let p = |i: u32| c(self.points[i as usize]);
+        orient3d(p(t[0]), p(t[1]), p(t[2]), p(t[3]))
+    }
+
+    /// `t` with vertex `i` replaced by point `q`'s index.
+    fn with(t: [u32; 4], i: usize, q: u32) -> [u32; 4] {
+        let mut u = t;
+        u[i] = q;
+        u
+    }
+
+    /// Whether tetrahedron `t` conflicts with point `q` (module docs).
+    fn conflicts(&self, t: u32, q: u32) -> bool {
+        let v = self.tets[t as usize];
+        match v.iter().position(|&x| x == INF) {
+            None => {
+                let p = |i: u32| c(self.points[i as usize]);
+                insphere(p(v[0]), p(v[1]), p(v[2]), p(v[3]), p(q)) > 0.0
+            }
+            Some(k) => {
+                let o = self.orient(Self::with(v, k, q));
+                if o != 0.0 {
+                    return o > 0.0;
+                }
+                let behind = self.neighbours[t as usize][k];
+                let w = self.tets[behind as usize];
+                let p = |i: u32| c(self.points[i as usize]);
+                insphere(p(w[0]), p(w[1]), p(w[2]), p(w[3]), p(q)) > 0.0
+            }
+        }
+    }
+
+    /// A tetrahedron in conflict with point `q`, walking from `start`;
+    /// `None` when `q` repeats a vertex.
+    fn locate(&self, start: u32, q: u32) -> Option<u32> {
+        let p = self.points[q as usize];
+        let mut t = start;
+        let limit = 4 * self.tets.len() + 16;
+        for _ in 0..limit {
+            let v = self.tets[t as usize];
+            if v.contains(&INF) {
+                return Some(t);
+            }
+            let mut moved = false;
+            for i in 0..4 {
+                if self.orient(Self::with(v, i, q)) < 0.0 {
+                    t = self.neighbours[t as usize][i];
+                    moved = true;
+                    break;
+                }
+            }
+            if !moved {
+                if v.iter().any(|&x| self.points[x as usize] == p) {
+                    return None;
+                }
+                return Some(t);
+            }
+        }
+        // Not reached for a Delaunay mesh (visibility walks terminate);
+        // kept as a guard: scan.
+        (0..self.tets.len() as u32).find(|&t| self.alive[t as usize] && self.conflicts(t, q))
+    }
+
+    /// Inserts point `q` into the cavity grown from `first`; returns one new
+    /// tetrahedron.
+    fn insert(&mut self, first: u32, q: u32) -> u32 {
+        let mut cavity = vec![first];
+        let mut in_cavity: HashMap<u32, ()> = HashMap::new();
+        in_cavity.insert(first, ());
+        let mut k = 0;
+        while k < cavity.len() {
+            let t = cavity[k];
+            k += 1;
+            for i in 0..4 {
+                let n = self.neighbours[t as usize][i];
+                if !in_cavity.contains_key(&n) && self.conflicts(n, q) {
+                    in_cavity.insert(n, ());
+                    cavity.push(n);
+                }
+            }
+        }
+        // One new tetrahedron per boundary face of the cavity.
+        let mut faces: HashMap<(u32, u32), (u32, usize)> = HashMap::new();
+        let mut last = NONE;
+        for &t in &cavity {
+            for i in 0..4 {
+                let outside = self.neighbours[t as usize][i];
+                if in_cavity.contains_key(&outside) {
+                    continue;
+                }
+                let v = Self::with(self.tets[t as usize], i, q);
+                let id = self.tets.len() as u32;
+                self.tets.push(v);
+                self.alive.push(true);
+                let mut nb = [NONE; 4];
+                nb[i] = outside;
+                self.neighbours.push(nb);
+                let back = self.neighbours[outside as usize]
+                    .iter()
+                    .position(|&x| x == t)
+                    .expect("the neighbour links back");
+                self.neighbours[outside as usize][back] = id;
+                // The three faces through q: keyed by their other two vertices.
+                for j in (0..4).filter(|&j| j != i) {
+                    let mut others = (0..4).filter(|&m| m != i && m != j).map(|m| v[m]);
+                    let (a, b) = (others.next().unwrap(), others.next().unwrap());
+                    let key = (a.min(b), a.max(b));
+                    match faces.remove(&key) {
+                        Some((u, uj)) => {
+                            self.neighbours[id as usize][j] = u;
+                            self.neighbours[u as usize][uj] = id;
+                        }
+                        None => {
+                            faces.insert(key, (id, j));
+                        }
+                    }
+                }
+                last = id;
+            }
+        }
+        for &t in &cavity {
+            self.alive[t as usize] = false;
+        }
+        debug_assert!(faces.is_empty(), "the cavity's boundary is closed");
+        last
+    }
+}
+
+impl Tetrahedralization {
+    /// The Delaunay tetrahedralization of `points` (module docs).
+    ///
+    /// Contract: `None` when fewer than four points span space (all
+    /// coplanar, collinear or repeated) or a coordinate is not finite;
+    /// otherwise the finite tetrahedra are positively oriented, fill the
+    /// convex hull without overlap, and no point lies strictly inside a
+    /// tetrahedron's circumsphere; repeated points are left out.
+    /// Deterministic.
+    pub fn new(points: &[Vec3]) -> Option<Tetrahedralization> {
+        if points.iter().any(|p| !p.is_finite()) {
+            return None;
+        }
+        let pts: Vec<DVec3> = points.iter().map(|p| p.as_dvec3()).collect();
+        let order = crate::sampling::morton_order(points);
+        let seed = initial(&pts, &order)?;
+        let mut mesh = Mesh {
+            points: &pts,
+            tets: Vec::new(),
+            neighbours: Vec::new(),
+            alive: Vec::new(),
+        };
+        let [a, b, cc, d] = seed;
+        let t0 = if mesh.orient([a, b, cc, d]) > 0.0 {
+            [a, b, cc, d]
+        } else {
+            [b, a, cc, d]
+        };
+        // The tetrahedron, and a ghost on each face. A ghost is oriented as
+        // if the infinite vertex were a point far outside its face: the
+        // replaced vertex lay inside, so two finite vertices swap.
+        mesh.tets.push(t0);
+        mesh.neighbours.push([1, 2, 3, 4]);
+        mesh.alive.push(true);
+        for i in 0..4 {
+            // Ghost i+1 shares with ghost j+1 the face without slots i, j.
+            let mut v = Mesh::with(t0, i, INF);
+            let mut nb: [u32; 4] = std::array::from_fn(|j| if i == j { 0 } else { (j + 1) as u32 });
+            let (x, y) = match i {
+                0 => (1, 2),
+                1 => (0, 2),
+                _ => (0, 1),
+            };
+            v.swap(x, y);
+            nb.swap(x, y);
+            mesh.tets.push(v);
+            mesh.alive.push(true);
+            mesh.neighbours.push(nb);
+        }
+        let mut last = 0u32;
+        for &q in &order {
+            let q = q as u32;
+            if seed.contains(&q) {
+                continue;
+            }
+            let start = if mesh.alive[last as usize] && !mesh.tets[last as usize].contains(&INF) {
+                last
+            } else {
+                (0..mesh.tets.len() as u32)
+                    .rev()
+                    .find(|&t| mesh.alive[t as usize] && !mesh.tets[t as usize].contains(&INF))
+                    .expect("a finite tetrahedron")
+            };
+            let Some(first) = mesh.locate(start, q) else {
+                continue;
+            };
+            last = mesh.insert(first, q);
+        }
+        let mut tetrahedra = Vec::new();
+        let mut hull = Vec::new();
+        for (t, v) in mesh.tets.iter().enumerate() {
+            if !mesh.alive[t] {
+                continue;
+            }
+            match v.iter().position(|&x| x == INF) {
+                None => tetrahedra.push(*v),
+                Some(k) => {
+                    // orient(v with q at k) > 0 for q outside. Moving q
+                    // from slot k to the last is an odd permutation for k
+                    // even, so orient(f, q) > 0 outside for k odd; a face
+                    // counter-clockwise from outside has orient(f, q) < 0
+                    // there, so for k odd two vertices swap.
+                    let f: Vec<u32> = (0..4).filter(|&m| m != k).map(|m| v[m]).collect();
+                    let tri = if k % 2 == 1 {
+                        [f[1], f[0], f[2]]
+                    } else {
+                        [f[0], f[1], f[2]]
+                    };
+                    hull.push(tri);
+                }
+            }
+        }
+        Some(Tetrahedralization {
+            points: pts,
+            tetrahedra,
+            hull,
+        })
+    }
+
+    /// Barycentric weights of `p` in tetrahedron `t`.
+    fn barycentric(&self, t: &[u32; 4], p: DVec3) -> [f64; 4] {
+        let [a, b, cc, d] = t.map(|i| self.points[i as usize]);
+        let vol = (b - a).dot((cc - a).cross(d - a));
+        let w1 = (p - a).dot((cc - a).cross(d - a)) / vol;
+        let w2 = (b - a).dot((p - a).cross(d - a)) / vol;
+        let w3 = (b - a).dot((cc - a).cross(p - a)) / vol;
+        [1.0 - w1 - w2 - w3, w1, w2, w3]
+    }
+
+    /// The probes and weights that blend at `p`: the four corners of the
+    /// tetrahedron holding it with its barycentric weights, or outside the
+    /// hull the corners of the nearest hull triangle with the weights of
+    /// `p`'s closest point on it (a fourth weight of 0).
+    ///
+    /// Contract: weights non-negative, summing to 1; deterministic.
+    pub fn weights(&self, p: Vec3) -> [(u32, f32); 4] {
+        let q = p.as_dvec3();
+        const SLACK: f64 = -1e-9;
+        for t in &self.tetrahedra {
+            let w = self.barycentric(t, q);
+            if w.iter().all(|&x| x >= SLACK) {
+                let w = w.map(|x| x.max(0.0));
+                let s: f64 = w.iter().sum();
+                return [0, 1, 2, 3].map(|k| (t[k], (w[k] / s) as f32));
+            }
+        }
+        let mut best = (
+            f64::INFINITY,
+            [(0u32, 1.0f32), (0, 0.0), (0, 0.0), (0, 0.0)],
+        );
+        for tri in &self.hull {
+            let [a, b, cc] = tri.map(|i| self.points[i as usize]);
+            let (x, w) = closest_on_triangle(q, a, b, cc);
+            let dist = x.distance_squared(q);
+            if dist < best.0 {
+                best = (
+                    dist,
+                    [
+                        (tri[0], w[0] as f32),
+                        (tri[1], w[1] as f32),
+                        (tri[2], w[2] as f32),
+                        (tri[0], 0.0),
+                    ],
+                );
+            }
+        }
+        best.1
+    }
+}
+
+/// Four points of `order` that span space, the first found: the first
+/// point, the next distinct one, the next off their line, the next off
+/// their plane.
+fn initial(pts: &[DVec3], order: &[usize]) -> Option<[u32; 4]> {
+    let a = *order.first()?;
+    let b = *order.iter().find(|&&i| pts[i] != pts[a])?;
+    let cc = *order
+        .iter()
+        .find(|&&i| (pts[b] - pts[a]).cross(pts[i] - pts[a]) != DVec3::ZERO)?;
+    let d = *order
+        .iter()
+        .find(|&&i| orient3d(c(pts[a]), c(pts[b]), c(pts[cc]), c(pts[i])) != 0.0)?;
+    Some([a as u32, b as u32, cc as u32, d as u32])
+}
+
+/// The closest point to `p` on triangle `abc` and its barycentric weights
+/// (Ericson, "Real-Time Collision Detection" 2005, §5.1.5).
+fn closest_on_triangle(p: DVec3, a: DVec3, b: DVec3, c: DVec3) -> (DVec3, [f64; 3]) {
+    let (ab, ac, ap) = (b - a, c - a, p - a);
+    let (d1, d2) = (ab.dot(ap), ac.dot(ap));
+    if d1 <= 0.0 && d2 <= 0.0 {
+        return (a, [1.0, 0.0, 0.0]);
+    }
+    let bp = p - b;
+    let (d3, d4) = (ab.dot(bp), ac.dot(bp));
+    if d3 >= 0.0 && d4 <= d3 {
+        return (b, [0.0, 1.0, 0.0]);
+    }
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+        let v = d1 / (d1 - d3);
+        return (a + ab * v, [1.0 - v, v, 0.0]);
+    }
+    let cp = p - c;
+    let (d5, d6) = (ab.dot(cp), ac.dot(cp));
+    if d6 >= 0.0 && d5 <= d6 {
+        return (c, [0.0, 0.0, 1.0]);
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+        let w = d2 / (d2 - d6);
+        return (a + ac * w, [1.0 - w, 0.0, w]);
+    }
+    let va = d3 * d6 - d5 * d4;
+    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
+        let w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+        return (b + (c - b) * w, [0.0, 1.0 - w, w]);
+    }
+    let denom = 1.0 / (va + vb + vc);
+    let (v, w) = (vb * denom, vc * denom);
+    (a + ab * v + ac * w, [1.0 - v - w, v, w])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sampling::{hash2, unit_f32};
+
+    fn grid(nx: u32, ny: u32, nz: u32, h: f32) -> Vec<Vec3> {
+        let mut p = Vec::new();
+        for z in 0..nz {
+            for y in 0..ny {
+                for x in 0..nx {
+                    p.push(Vec3::new(x as f32, y as f32, z as f32) * h);
+                }
+            }
+        }
+        p
+    }
+
+    fn random(n: u64, seed: u64) -> Vec<Vec3> {
+        (0..n)
+            .map(|i| {
+                Vec3::new(
+                    unit_f32(hash2(seed, 3 * i)),
+                    unit_f32(hash2(seed, 3 * i + 1)),
+                    unit_f32(hash2(seed, 3 * i + 2)),
+                ) * 10.0
+            })
+            .collect()
+    }
+
+    /// Volume of a tetrahedron, positive for [`orient3d`]'s positive
+    /// orientation (Shewchuk's: `d` below the counter-clockwise `abc`, the
+    /// opposite of the right-handed triple product).
+    fn volume(t: &Tetrahedralization, v: &[u32; 4]) -> f64 {
+        let [a, b, c, d] = v.map(|i| t.points[i as usize]);
+        -(b - a).dot((c - a).cross(d - a)) / 6.0
+    }
+
+    /// Every tetrahedron positive, Delaunay against every point, the
+    /// volumes summing to `hull_volume`, and the hull closed.
+    fn check(points: &[Vec3], hull_volume: f64) -> Tetrahedralization {
+        let t = Tetrahedralization::new(points).expect("spans space");
+        let mut total = 0.0;
+        for v in &t.tetrahedra {
+            let vol = volume(&t, v);
+            assert!(vol > 0.0, "flat or inverted {v:?}");
+            total += vol;
+            let p = |i: u32| c(t.points[i as usize]);
+            for q in 0..points.len() as u32 {
+                assert!(
+                    insphere(p(v[0]), p(v[1]), p(v[2]), p(v[3]), p(q)) <= 0.0,
+                    "point {q} inside the circumsphere of {v:?}"
+                );
+            }
+        }
+        assert!(
+            (total - hull_volume).abs() < 1e-9 * hull_volume,
+            "volume {total} vs {hull_volume}"
+        );
+        // Every hull edge is shared by exactly two hull triangles, in
+        // opposite directions.
+        let mut edges = HashMap::new();
+        for tri in &t.hull {
+            for k in 0..3 {
+                *edges.entry((tri[k], tri[(k + 1) % 3])).or_insert(0) += 1;
+            }
+        }
+        for (&(a, b), &n) in &edges {
+            assert_eq!(n, 1, "edge {a}-{b} repeated");
+            assert_eq!(edges.get(&(b, a)), Some(&1), "edge {a}-{b} open");
+        }
+        // Hull triangles face outwards: every point on their inner side.
+        for tri in &t.hull {
+            let [a, b, cc] = tri.map(|i| c(t.points[i as usize]));
+            for q in &t.points {
+                assert!(
+                    orient3d(a, b, cc, c(*q)) >= 0.0,
+                    "hull face {tri:?} faces in"
+                );
+            }
+        }
+        t
+    }
+
+    #[test]
+    fn grids_are_tetrahedralized_despite_cospherical_points() {
+        for (nx, ny, nz, h) in [
+            (2, 2, 2, 1.0),
+            (4, 3, 2, 1.0),
+            (7, 3, 2, 0.5),
+            (5, 5, 5, 0.3),
+        ] {
+            let p = grid(nx, ny, nz, h as f32);
+            // The box of the f32 corners (0.3 is not exact in f32).
+            let far = p[p.len() - 1].as_dvec3();
+            let v = far.x * far.y * far.z;
+            let t = check(&p, v);
+            assert!(!t.tetrahedra.is_empty());
+        }
+    }
+
+    #[test]
+    fn random_points_and_repeats() {
+        let mut p = random(300, 7);
+        let t = Tetrahedralization::new(&p).unwrap();
+        let vol: f64 = t.tetrahedra.iter().map(|v| volume(&t, v)).sum();
+        check(&p, vol);
+        let before = t.tetrahedra.len();
+        p.extend(random(300, 7));
+        let again = check(&p, vol);
+        assert_eq!(again.tetrahedra.len(), before, "repeats add nothing");
+    }
+
+    #[test]
+    fn flat_and_tiny_sets_are_refused() {
+        assert!(Tetrahedralization::new(&grid(4, 4, 1, 1.0)).is_none());
+        assert!(Tetrahedralization::new(&grid(5, 1, 1, 1.0)).is_none());
+        assert!(Tetrahedralization::new(&[Vec3::ZERO; 6]).is_none());
+        assert!(Tetrahedralization::new(&[]).is_none());
+        assert!(Tetrahedralization::new(&[Vec3::NAN, Vec3::ONE, Vec3::X, Vec3::Y]).is_none());
+    }
+
+    #[test]
+    fn interpolation_reproduces_linear_functions_inside_and_is_deterministic() {
+        let p = random(60, 3);
+        let t = Tetrahedralization::new(&p).unwrap();
+        let f = |x: Vec3| 1.0 + 2.0 * x.x - 0.5 * x.y + 0.25 * x.z;
+        for q in random(200, 11) {
+            let w = t.weights(q);
+            let sum: f32 = w.iter().map(|x| x.1).sum();
+            assert!((sum - 1.0).abs() < 1e-5);
+            assert!(w.iter().all(|x| x.1 >= 0.0));
+            let inside = t
+                .tetrahedra
+                .iter()
+                .any(|v| t.barycentric(v, q.as_dvec3()).iter().all(|&b| b >= 0.0));
+            if inside {
+                let got: f32 = w.iter().map(|&(i, x)| x * f(p[i as usize])).sum();
+                assert!((got - f(q)).abs() < 1e-3, "{got} vs {}", f(q));
+            }
+        }
+        let again = Tetrahedralization::new(&p).unwrap();
+        assert_eq!(again.tetrahedra, t.tetrahedra);
+    }
+
+    #[test]
+    fn outside_the_hull_the_nearest_face_is_used() {
+        let p = grid(2, 2, 2, 1.0);
+        let t = Tetrahedralization::new(&p).unwrap();
+        // Above the top face's centre: the top four corners (two of them on
+        // its diagonal) share the weight; no bottom corner takes any.
+        let w = t.weights(Vec3::new(0.5, 0.5, 3.0));
+        for (i, x) in w {
+            if x > 0.0 {
+                assert_eq!(p[i as usize].z, 1.0, "{w:?}");
+            }
+        }
+        let got: Vec3 = w.iter().map(|&(i, x)| p[i as usize] * x).sum();
+        assert!((got - Vec3::new(0.5, 0.5, 1.0)).length() < 1e-5, "{got}");
+    }
+}
