@@ -767,7 +767,6 @@ fn render(inputs: &mut Inputs) -> Files {
     if !diffuse.is_empty() {
         md.push_str("## Diffuse light at a glance\n\n");
         md.push_str(&diffuse);
-        md.push('\n');
     }
     let mut plots = Vec::new();
     if !inputs.reports.is_empty() {

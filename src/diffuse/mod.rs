@@ -246,7 +246,7 @@ enum Blend {
     /// Barycentric over the tetrahedron containing it (or the hull face
     /// nearest it).
     Tetrahedra(tetrahedra::Tetrahedralization),
-    /// Fewer than four probes, or all in a plane: the nearest one.
+    /// One probe (or all at one point): its light.
     Nearest(Vec<Vec3>),
     /// No valid probe: black.
     None,
@@ -264,7 +264,7 @@ impl ShLookup {
         let blend = if points.is_empty() {
             Blend::None
         } else {
-            match tetrahedra::Tetrahedralization::new(&points) {
+            match tetrahedra::Tetrahedralization::spanning(&points) {
                 Some(t) => Blend::Tetrahedra(t),
                 None => Blend::Nearest(points),
             }

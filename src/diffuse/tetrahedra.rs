@@ -49,6 +49,10 @@ pub struct Tetrahedralization {
     pub tetrahedra: Vec<[u32; 4]>,
     /// Hull triangles, counter-clockwise seen from outside.
     pub hull: Vec<[u32; 3]>,
+    /// The caller's point count: indices at or above it name copies
+    /// ([`Tetrahedralization::spanning`]) and [`Tetrahedralization::weights`]
+    /// folds them back.
+    originals: u32,
 }
 
 fn c(p: DVec3) -> Coord3D<f64> {
@@ -291,10 +295,46 @@ impl Tetrahedralization {
             }
         }
         Some(Tetrahedralization {
+            originals: pts.len() as u32,
             points: pts,
             tetrahedra,
             hull,
         })
+    }
+
+    /// [`Tetrahedralization::new`], or for points that do not span space
+    /// (a one-layer grid, a row of probes) the tetrahedralization of the
+    /// points and three copies moved a thousandth of their extent along x,
+    /// y and z: a slab around their plane (or a prism around their line),
+    /// whose outer faces are the plane's own Delaunay triangles. A point
+    /// off the plane then takes the barycentric weights of its projection
+    /// on the triangle below it, as a blind blend of a flat set would, and
+    /// not the nearest probe's light alone. `None` only without two
+    /// distinct finite points.
+    pub fn spanning(points: &[Vec3]) -> Option<Tetrahedralization> {
+        if let Some(t) = Tetrahedralization::new(points) {
+            return Some(t);
+        }
+        if points.iter().any(|p| !p.is_finite()) {
+            return None;
+        }
+        let (lo, hi) = points
+            .iter()
+            .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &p| {
+                (lo.min(p), hi.max(p))
+            });
+        let extent = (hi - lo).max_element();
+        if !(extent > 0.0) {
+            return None;
+        }
+        let d = 1e-3 * extent;
+        let mut all = points.to_vec();
+        for offset in [Vec3::X * d, Vec3::Y * d, Vec3::Z * d] {
+            all.extend(points.iter().map(|&p| p + offset));
+        }
+        let mut t = Tetrahedralization::new(&all)?;
+        t.originals = points.len() as u32;
+        Some(t)
     }
 
     /// Barycentric weights of `p` in tetrahedron `t`.
@@ -321,7 +361,7 @@ impl Tetrahedralization {
             if w.iter().all(|&x| x >= SLACK) {
                 let w = w.map(|x| x.max(0.0));
                 let s: f64 = w.iter().sum();
-                return [0, 1, 2, 3].map(|k| (t[k], (w[k] / s) as f32));
+                return [0, 1, 2, 3].map(|k| (t[k] % self.originals, (w[k] / s) as f32));
             }
         }
         let mut best = (
@@ -333,13 +373,14 @@ impl Tetrahedralization {
             let (x, w) = closest_on_triangle(q, a, b, cc);
             let dist = x.distance_squared(q);
             if dist < best.0 {
+                let o = self.originals;
                 best = (
                     dist,
                     [
-                        (tri[0], w[0] as f32),
-                        (tri[1], w[1] as f32),
-                        (tri[2], w[2] as f32),
-                        (tri[0], 0.0),
+                        (tri[0] % o, w[0] as f32),
+                        (tri[1] % o, w[1] as f32),
+                        (tri[2] % o, w[2] as f32),
+                        (tri[0] % o, 0.0),
                     ],
                 );
             }
@@ -543,6 +584,35 @@ mod tests {
         }
         let again = Tetrahedralization::new(&p).unwrap();
         assert_eq!(again.tetrahedra, t.tetrahedra);
+    }
+
+    #[test]
+    fn flat_sets_blend_like_their_plane_triangulation() {
+        // A one-layer grid at y = 1: a point above or below a triangle
+        // takes its projection's barycentric weights, so a linear function
+        // of x and z is reproduced; a row of probes interpolates along it.
+        let p: Vec<Vec3> = grid(4, 3, 1, 1.0)
+            .into_iter()
+            .map(|q| Vec3::new(q.x, 1.0, q.y))
+            .collect();
+        let t = Tetrahedralization::spanning(&p).unwrap();
+        let f = |x: Vec3| 2.0 + x.x - 0.5 * x.z;
+        for q in [
+            Vec3::new(0.3, 0.0, 0.6),
+            Vec3::new(2.5, 3.0, 1.2),
+            Vec3::new(1.0, -1.0, 1.9),
+        ] {
+            let w = t.weights(q);
+            assert!(w.iter().all(|&(i, x)| (i as usize) < p.len() && x >= 0.0));
+            let got: f32 = w.iter().map(|&(i, x)| x * f(p[i as usize])).sum();
+            assert!((got - f(q)).abs() < 0.01, "{q}: {got} vs {}", f(q));
+        }
+        let row: Vec<Vec3> = (0..5).map(|i| Vec3::new(i as f32, 0.0, 0.0)).collect();
+        let t = Tetrahedralization::spanning(&row).unwrap();
+        let w = t.weights(Vec3::new(1.25, 2.0, -1.0));
+        let got: f32 = w.iter().map(|&(i, x)| x * row[i as usize].x).sum();
+        assert!((got - 1.25).abs() < 0.01, "{w:?}");
+        assert!(Tetrahedralization::spanning(&[Vec3::ONE; 3]).is_none());
     }
 
     #[test]

@@ -201,8 +201,8 @@ impl DiffuseRow {
 /// A rival's diffuse errors over ours with the SH tetrahedral lookup, each
 /// with its 95% paired-bootstrap interval over receiver groups (views for
 /// surface receivers, runs of [`crate::diffuse::FREE_GROUP`] in free
-/// space); above 1, ours has the lower error. `null` where a set is empty
-/// or ours has no error there.
+/// space); above 1, ours has the lower error. `null` where a set is empty,
+/// ours has no error there, or a resample has none (rare leaks).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct DiffuseRatio {
     /// Indirect irradiance at surface receivers.
@@ -235,7 +235,11 @@ fn diffuse_ratio(rival: &PlacementRow, ours: &PlacementRow, seed: u64) -> Option
             && num.len() == den.len()
             && num.iter().zip(&den).all(|(p, q)| p.len() == q.len());
         let sum: f64 = den.iter().flatten().sum();
-        (paired && sum > 0.0).then(|| paired_ratio_over_views(&num, &den, RESAMPLES, seed))
+        // Rare events (a few leaking receivers) can resample to a zero
+        // denominator: no interval then, rather than an infinite one.
+        (paired && sum > 0.0)
+            .then(|| paired_ratio_over_views(&num, &den, RESAMPLES, seed))
+            .filter(|i| i.value.is_finite() && i.lo.is_finite() && i.hi.is_finite())
     };
     let leaks = |e: &crate::stages::diffuse::Measured| {
         let mut all = e.surface.clone();
