@@ -202,6 +202,21 @@ fn at<'a>(v: &'a Value, path: &str) -> Option<&'a Value> {
         .filter(|v| !v.is_null())
 }
 
+/// The array at `path`, empty where there is none.
+fn array<'a>(v: &'a Value, path: &str) -> &'a [Value] {
+    at(v, path)
+        .and_then(Value::as_array)
+        .map(Vec::as_slice)
+        .unwrap_or_default()
+}
+
+/// The comparison of our default method in compare report `c`.
+fn ours_comparison(c: &Value) -> Option<&Value> {
+    array(c, "comparisons")
+        .iter()
+        .find(|x| text(x, "placement") == OURS_DEFAULT)
+}
+
 fn num(v: &Value, path: &str) -> Option<f64> {
     at(v, path).and_then(Value::as_f64)
 }
@@ -430,14 +445,8 @@ fn compare_summary(compares: &[Value]) -> String {
     let (mut scenes, mut grid_wins, mut strong) = (0, 0, 0);
     let mut readings: Vec<String> = Vec::new();
     for c in compares {
-        let comparisons = at(c, "comparisons")
-            .and_then(Value::as_array)
-            .map(Vec::as_slice)
-            .unwrap_or_default();
-        let Some(x) = comparisons
-            .iter()
-            .find(|x| text(x, "placement") == OURS_DEFAULT)
-        else {
+        let comparisons = array(c, "comparisons");
+        let Some(x) = ours_comparison(c) else {
             continue;
         };
         // Ours placed again at a rival's count (`METHOD@COUNT`): each rival
@@ -569,20 +578,10 @@ fn diffuse_summary(compares: &[Value]) -> String {
     let mut t = Table::new(&columns);
     let (mut scenes, mut half_grid, mut leak_quarter) = (0, 0, 0);
     for c in compares {
-        let comparisons = at(c, "comparisons")
-            .and_then(Value::as_array)
-            .map(Vec::as_slice)
-            .unwrap_or_default();
-        let Some(x) = comparisons
-            .iter()
-            .find(|x| text(x, "placement") == OURS_DEFAULT)
-        else {
+        let Some(x) = ours_comparison(c) else {
             continue;
         };
-        let placements = at(c, "placements")
-            .and_then(Value::as_array)
-            .map(Vec::as_slice)
-            .unwrap_or_default();
+        let placements = array(c, "placements");
         let diffuse_of = |name: &str| {
             placements
                 .iter()
@@ -598,11 +597,7 @@ fn diffuse_summary(compares: &[Value]) -> String {
             pct(num(ours, "sh_tetrahedra.surface_indirect"), 1),
             pct(num(ours, "sh_tetrahedra.leak_fraction"), 1)
         );
-        let ratios = at(x, "ratios")
-            .and_then(Value::as_array)
-            .map(Vec::as_slice)
-            .unwrap_or_default();
-        for r in ratios
+        for r in array(x, "ratios")
             .iter()
             .filter(|r| text(r, "tracer") == "hiz+svo" && text(r, "family") != "ours")
         {

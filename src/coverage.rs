@@ -845,10 +845,26 @@ impl CoverageReference {
 /// under any seed), in voxels the run's SDF calls solid or outside the
 /// scene, and outside the domain.
 pub fn probe_health(bvh: &SceneBvh, sdf: &Sdf, domain: &Bounds, probes: &[Vec3]) -> ProbeHealth {
-    let free: Vec<bool> = probes
+    probe_health_of(
+        &probes_free(bvh, sdf.voxel_size, probes),
+        sdf,
+        domain,
+        probes,
+    )
+}
+
+/// [`stands_free`] of every probe, in parallel: the validity a lookup
+/// that drops probes in solid reads (`stages::diffuse`).
+pub fn probes_free(bvh: &SceneBvh, voxel_size: f32, probes: &[Vec3]) -> Vec<bool> {
+    probes
         .par_iter()
-        .map(|&p| stands_free(bvh, sdf.voxel_size, p))
-        .collect();
+        .map(|&p| stands_free(bvh, voxel_size, p))
+        .collect()
+}
+
+/// [`probe_health`] with each probe's [`stands_free`] verdict given
+/// (`free`, from [`probes_free`]), for a caller that needs them too.
+pub fn probe_health_of(free: &[bool], sdf: &Sdf, domain: &Bounds, probes: &[Vec3]) -> ProbeHealth {
     let mut h = ProbeHealth {
         probes_in_solid: free.iter().filter(|&&f| !f).count(),
         probes_in_solid_sdf: 0,

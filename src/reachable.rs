@@ -48,6 +48,13 @@ impl Reachable {
         sdf.voxel_at(p).is_some_and(|i| self.mask[i])
     }
 
+    /// Whether `p` lies in open space that is not reached (a sealed void,
+    /// a region cut off): `false` in solid and beyond the grid.
+    pub fn excludes(&self, sdf: &Sdf, p: Vec3) -> bool {
+        sdf.voxel_at(p)
+            .is_some_and(|i| !self.mask[i] && sdf.class[i] != VoxelClass::Solid)
+    }
+
     /// Share of the open voxels that no seed reaches: sealed voids and
     /// regions cut off by geometry.
     pub fn excluded_fraction(&self) -> f64 {

@@ -277,9 +277,9 @@ impl ShLookup {
         let mix = |f: fn(&ProbeSh) -> &ShL2, weights: &[(u32, f32)]| {
             ShL2::blend(weights.iter().map(|&(i, w)| (f(&self.sh[i as usize]), w))).irradiance(r.n)
         };
-        let weights: Vec<(u32, f32)> = match &self.blend {
+        let weights: [(u32, f32); 4] = match &self.blend {
             Blend::None => return Irradiance::default(),
-            Blend::Tetrahedra(t) => t.weights(r.p).to_vec(),
+            Blend::Tetrahedra(t) => t.weights(r.p),
             Blend::Nearest(points) => {
                 let i = (0..points.len())
                     .min_by(|&a, &b| {
@@ -287,8 +287,8 @@ impl ShLookup {
                             .distance_squared(r.p)
                             .total_cmp(&points[b].distance_squared(r.p))
                     })
-                    .unwrap_or(0);
-                vec![(i as u32, 1.0)]
+                    .unwrap_or(0) as u32;
+                [(i, 1.0), (i, 0.0), (i, 0.0), (i, 0.0)]
             }
         };
         Irradiance {

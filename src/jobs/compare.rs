@@ -110,6 +110,10 @@ pub fn compare(options: &RunOptions) -> Result<Outcome> {
     validate::check_reference(&job.config, 1, 1.0).map_err(|e| job.config_error(e))?;
     validate::check_reference(&job.config, cameras.len() + chosen, COMPARE_WORK_FACTOR)
         .map_err(|e| job.config_error(e))?;
+    // The receivers' references, and the SH of a thousand probes (more
+    // than the placements of a comparison usually hold together).
+    stages::diffuse::check(&job.config, 1000, COMPARE_WORK_FACTOR)
+        .map_err(|e| job.config_error(e))?;
     let mut prepared = job.prepare()?;
     if let Materials::AllGlossy(alpha) = job.config.compare.materials {
         crate::render::material::all_glossy(&mut prepared.scene.materials, alpha.0);
@@ -720,7 +724,8 @@ impl Bench<'_> {
         let (cov, holes) = self
             .coverage
             .evaluate_with_holes(bvh, &positions, &self.progress);
-        let health = crate::coverage::probe_health(bvh, sdf, domain, &positions);
+        let free = crate::coverage::probes_free(bvh, sdf.voxel_size, &positions);
+        let health = crate::coverage::probe_health_of(&free, sdf, domain, &positions);
         let views_png = report::encode_png(
             &report::placement_views(scene, domain, &positions, &holes, VIEW_SIZE),
             "placement views",
@@ -753,6 +758,7 @@ impl Bench<'_> {
                 self.prepared,
                 bench,
                 &positions,
+                &free,
                 &field,
                 &svo,
                 lattice.as_ref(),

@@ -22,6 +22,27 @@ pub struct Bench {
     pub reachable: Reachable,
 }
 
+/// Refuses, before any work, a diffuse evaluation whose references and
+/// probe projections together would run past `limits` work limits
+/// ([`crate::limits`]; the error names `compare.diffuse.reference_rays`,
+/// unprefixed): `receivers × reference_rays` paths, and `probe_rays` per
+/// probe for at most `probes` probes over all placements, of `1 + bounces`
+/// vertices each.
+pub fn check(config: &Config, probes: usize, limits: f64) -> crate::error::Result<()> {
+    let d = &config.compare.diffuse;
+    let receivers = (d.surface_receivers.0 + d.free_receivers.0) as f64;
+    let paths = receivers * d.reference_rays.0 as f64 + probes as f64 * d.probe_rays.0 as f64;
+    crate::limits::check_work(
+        "compare.diffuse.reference_rays",
+        &format!(
+            "the diffuse evaluation ({} receivers at {} paths, {} rays per probe)",
+            receivers, d.reference_rays.0, d.probe_rays.0
+        ),
+        paths * (1.0 + config.bake.bounces.0 as f64) * super::bake::light_factor(config),
+        crate::limits::rate::PATH_VERTICES * limits,
+    )
+}
+
 /// The diffuse evaluation's fixed inputs: free space reached from the
 /// config's `cameras`, the surface receivers of `views` shared evenly
 /// among them, the free receivers, and the reference at each. `None` when
@@ -111,27 +132,27 @@ pub struct Placement {
     pub unreachable_probes: usize,
 }
 
-/// Measures the placement whose probes stand at `positions`, baked into
+/// Measures the placement whose probes stand at `positions` (`valid`:
+/// each one's [`crate::coverage::probes_free`] verdict), baked into
 /// `field`, with SVO `svo` (and `lattice` when a grid) against `bench`.
 ///
-/// Contract: deterministic whatever the thread count.
+/// Contract: `valid` as long as `positions`; deterministic whatever the
+/// thread count.
+#[allow(clippy::too_many_arguments)]
 pub fn measure(
     config: &Config,
     prepared: &Prepared,
     bench: &Bench,
     positions: &[Vec3],
+    valid: &[bool],
     field: &LightField,
     svo: &Svo,
     lattice: Option<&Lattice>,
 ) -> Placement {
     let d = &config.compare.diffuse;
     let renderer = renderer(config, prepared);
-    let valid: Vec<bool> = positions
-        .par_iter()
-        .map(|&p| crate::coverage::stands_free(&prepared.bvh, prepared.sdf.voxel_size, p))
-        .collect();
     let sh = diffuse::bake_sh(&renderer, positions, d.probe_rays.0, config.seed ^ 0x5A5A);
-    let lookup = ShLookup::new(positions, &sh, &valid);
+    let lookup = ShLookup::new(positions, &sh, valid);
     let r = &bench.receivers;
     let both = |f: &(dyn Fn(&diffuse::Receiver) -> Irradiance + Sync), indirect: bool| {
         let at = |rs: &[diffuse::Receiver]| -> Vec<Irradiance> { rs.par_iter().map(f).collect() };
@@ -151,11 +172,7 @@ pub fn measure(
     };
     let unreachable_probes = positions
         .iter()
-        .filter(|&&p| {
-            prepared.sdf.voxel_at(p).is_some_and(|i| {
-                prepared.sdf.class[i] != crate::sdf::VoxelClass::Solid && !bench.reachable.mask[i]
-            })
-        })
+        .filter(|&&p| bench.reachable.excludes(&prepared.sdf, p))
         .count();
     Placement {
         sh: both(&|x| lookup.irradiance(x), true),

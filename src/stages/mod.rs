@@ -73,11 +73,7 @@ impl Prepared {
             let mut points =
                 crate::coverage::free_points(&self.bvh, &self.sdf, &self.domain, count as usize);
             if let Some(reach) = &self.reachable {
-                points.retain(|&p| {
-                    self.sdf.voxel_at(p).is_none_or(|v| {
-                        reach.mask[v] || self.sdf.class[v] == sdf::VoxelClass::Solid
-                    })
-                });
+                points.retain(|&p| !reach.excludes(&self.sdf, p));
             }
             points
         };

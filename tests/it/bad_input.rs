@@ -230,6 +230,38 @@ fn medial_axis_mistakes_name_their_field() {
     }
 }
 
+/// A diffuse evaluation of hours is refused before any work, naming the
+/// field, and writes nothing.
+#[test]
+fn compare_refuses_a_diffuse_evaluation_past_the_work_limit() {
+    let d = tempfile::tempdir().unwrap();
+    obj(d.path(), "room.obj", CUBE_ROOM);
+    let p = raw_config(
+        d.path(),
+        "df.ron",
+        "(scene: \"room.obj\", voxel_size: 0.1, compare: (views: 1, diffuse: (surface_receivers: 65536, free_receivers: 65536, reference_rays: 65536)))",
+    );
+    let out = d.path().join("out");
+    let r = refused_in(
+        d.path(),
+        &[
+            "compare",
+            p.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ],
+        &[],
+    );
+    assert!(
+        r.line.contains("df.ron:1:")
+            && r.line.contains("compare.diffuse.reference_rays")
+            && r.line.contains("limit"),
+        "{}",
+        r.line
+    );
+    assert!(!out.exists());
+}
+
 #[test]
 fn refine_mistakes_name_their_field() {
     let d = tempfile::tempdir().unwrap();
