@@ -1797,7 +1797,8 @@ fn generality_section(md: &mut String, rows: &mut [Value]) -> String {
         .collect::<std::collections::BTreeSet<_>>()
         .len();
     let readme = format!(
-        "On placement alone, the stock config (nothing but the scene) needs fewer probes \
+        "On placement alone, the stock config (nothing but the scene; the coverage \
+         objective, before the diffuse step) needs fewer probes \
          than the smallest uniform grid reaching the same coverage (validation coverage: \
          samples the placer never saw), or no grid of the sweep \
          (up to 16 cells along the longest axis) reaches it, on **{} of the {n} rows** of \

@@ -755,6 +755,53 @@ pub struct RefineParams {
     /// No probe moves or is added nearer than this to a surface (world
     /// units). `None`: the placement method's own threshold.
     pub min_clearance: Option<Positive>,
+    /// What the refined set is made to serve (`crate::refine::diffuse`).
+    pub objective: Objective,
+    /// The diffuse step's training set and stopping rule.
+    pub diffuse: DiffuseFill,
+}
+
+/// What refinement makes the probe set serve.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, serde::Serialize)]
+pub enum Objective {
+    /// Every surface seen by a probe (Wang et al. 2019 §3.2–3.3): the
+    /// light-field tracer's need.
+    Coverage,
+    /// Coverage first, then probes added where blending the probes' SH
+    /// over Delaunay tetrahedra, as engines do, misses the diffuse light
+    /// (`crate::refine::diffuse`).
+    Both,
+}
+
+/// `refine.diffuse`: the diffuse step of [`Objective::Both`].
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct DiffuseFill {
+    /// Training points on surfaces that reachable free space faces.
+    pub surface_points: Whole<65536>,
+    /// Training points in reachable free space.
+    pub free_points: Whole<65536>,
+    /// Paths per training point's reference, and directions per probe's
+    /// SH projection.
+    pub rays: Count<65536>,
+    /// A training point whose blended irradiance is off by more than this
+    /// share of its own (with a floor at 5% of the mean) asks for a probe.
+    pub tolerance: Fraction,
+    /// Most probes the step adds, as a share of the probes coverage
+    /// placed (`max_probes` bounds the total as well).
+    pub growth: NonNegative,
+}
+
+impl Default for DiffuseFill {
+    fn default() -> Self {
+        DiffuseFill {
+            surface_points: Whole(2048),
+            free_points: Whole(1024),
+            rays: Count(128),
+            tolerance: Fraction(0.25),
+            growth: NonNegative(1.0),
+        }
+    }
 }
 
 impl Default for RefineParams {
@@ -777,6 +824,8 @@ impl Default for RefineParams {
             fill: true,
             fill_candidates: Count(8192),
             min_clearance: None,
+            objective: Objective::Both,
+            diffuse: DiffuseFill::default(),
         }
     }
 }
@@ -1044,6 +1093,9 @@ pub struct BakeParams {
     /// Exponent of the cosine-power lobe that filters the distance moments
     /// (McGuire §5.2).
     pub moment_exponent: Positive,
+    /// Directions per probe's SH L2 projection (`sh.json`), and paths per
+    /// axis of the reference irradiance beside it.
+    pub sh_rays: Count<65536>,
 }
 
 impl Default for BakeParams {
@@ -1054,6 +1106,7 @@ impl Default for BakeParams {
             samples: Count(4),
             bounces: Whole(2),
             moment_exponent: Positive(50.0),
+            sh_rays: Count(1024),
         }
     }
 }

@@ -9,6 +9,9 @@
 //! [`crate::placement::cubic_grid_sweep`] (up to [`GRID_SWEEP_CELLS`] cells
 //! along the longest axis) for the smallest one that reaches the same
 //! coverage, by the same coverage measure (same samples, same seed).
+//! The claim is coverage's, so the run keeps to `refine.objective:
+//! Coverage`: the diffuse step, which the stock config runs after it on a
+//! lit scene, adds probes for diffuse light that `compare` scores.
 //! `tests/it/generality.rs` asserts on its rows; `cargo run --release
 //! --example generality` writes them as JSON, which `examples/results.rs` turns into docs/results.md.
 
@@ -140,11 +143,12 @@ impl GeneralityRow {
 /// grid coverages come from the coverage reference the run was scored by.
 pub fn run(
     name: &str,
-    config: Config,
+    mut config: Config,
     config_path: &Path,
     out: &Path,
     whole_sweep: bool,
 ) -> Result<GeneralityRow> {
+    config.refine.objective = crate::config::Objective::Coverage;
     let options = RunOptions {
         config: Some(config_path.to_path_buf()),
         loaded: Some(config),

@@ -28,6 +28,7 @@ using System;
 using System.IO;
 using UnityEditor;
 using UnityEngine;
+using UnityEngine.Rendering;
 
 namespace Probeplace
 {
@@ -44,7 +45,9 @@ namespace Probeplace
         public string method;
         public string frame;
         public int count;
+        public string sh_convention;
         public float[] positions;
+        public float[] sh;
     }
 
     /// <summary>Reads probes.unity.json into a LightProbeGroup.</summary>
@@ -99,6 +102,76 @@ namespace Probeplace
             return group;
         }
 
+        [MenuItem("Tools/probeplace/Apply Baked SH…")]
+        static void ApplyFromMenu()
+        {
+            string path = EditorUtility.OpenFilePanel("probeplace probes.unity.json (of a bake)", "", "json");
+            if (string.IsNullOrEmpty(path))
+            {
+                return;
+            }
+            try
+            {
+                int n = ApplyBakedSH(path);
+                EditorUtility.DisplayDialog("probeplace", $"{n} baked light probes now hold probeplace's light", "OK");
+            }
+            catch (Exception e)
+            {
+                EditorUtility.DisplayDialog("probeplace", e.Message, "OK");
+            }
+        }
+
+        /// <summary>
+        /// Replaces the light of the scene's baked light probes
+        /// (LightmapSettings.lightProbes, made by Unity's bake of the group
+        /// Import created) with the file's SH: each baked probe takes the
+        /// file's probe at its position (within a millimetre), since Unity
+        /// orders bakedProbes its own way. Returns how many were set;
+        /// throws when the file holds no SH or a baked probe has no match.
+        /// </summary>
+        public static int ApplyBakedSH(string path)
+        {
+            ProbesUnityFile file = Read(File.ReadAllText(path), path);
+            if (file.sh == null || file.sh.Length == 0)
+            {
+                throw new InvalidDataException($"{path}: holds no SH; export it from a bake (probeplace bake, then export --format unity)");
+            }
+            LightProbes probes = LightmapSettings.lightProbes;
+            if (probes == null || probes.count == 0)
+            {
+                throw new InvalidOperationException("no baked light probes: import the probes, bake the lighting once, then apply");
+            }
+            Vector3[] baked = probes.positions;
+            SphericalHarmonicsL2[] sh = probes.bakedProbes;
+            for (int j = 0; j < baked.Length; j++)
+            {
+                int match = -1;
+                for (int i = 0; i < file.count; i++)
+                {
+                    Vector3 p = ToUnity(file.positions[3 * i], file.positions[3 * i + 1], file.positions[3 * i + 2]);
+                    if ((p - baked[j]).sqrMagnitude < 1e-6f)
+                    {
+                        match = i;
+                        break;
+                    }
+                }
+                if (match < 0)
+                {
+                    throw new InvalidDataException($"{path}: baked probe {j} at {baked[j]} is not one of the file's probes");
+                }
+                for (int c = 0; c < 3; c++)
+                {
+                    for (int k = 0; k < 9; k++)
+                    {
+                        sh[j][c, k] = file.sh[27 * match + 9 * c + k];
+                    }
+                }
+            }
+            probes.bakedProbes = sh;
+            EditorUtility.SetDirty(probes);
+            return baked.Length;
+        }
+
         /// <summary>Parses and checks the text of a probes.unity.json.</summary>
         public static ProbesUnityFile Read(string json, string path)
         {
@@ -114,6 +187,10 @@ namespace Probeplace
             if (file.positions == null || file.count < 1 || file.positions.Length != 3 * file.count)
             {
                 throw new InvalidDataException($"{path}: count {file.count} does not match {file.positions?.Length ?? 0} position numbers");
+            }
+            if (file.sh != null && file.sh.Length != 0 && file.sh.Length != 27 * file.count)
+            {
+                throw new InvalidDataException($"{path}: count {file.count} does not match {file.sh.Length} SH numbers (27 a probe)");
             }
             return file;
         }

@@ -52,6 +52,17 @@ pub const DARK_FLOOR: f64 = 0.05;
 /// counts as a leak (light through a wall, or a probe's shadow spilled).
 pub const LEAK_RATIO: f64 = 2.0;
 
+/// The six axes, in the order +x, −x, +y, −y, +z, −z: the normals a
+/// point in free space is judged along.
+pub const AXES: [Vec3; 6] = [
+    Vec3::X,
+    Vec3::NEG_X,
+    Vec3::Y,
+    Vec3::NEG_Y,
+    Vec3::Z,
+    Vec3::NEG_Z,
+];
+
 /// Receivers per group of free-space receivers that the intervals resample
 /// as one cluster.
 pub const FREE_GROUP: usize = 32;
@@ -408,6 +419,46 @@ mod tests {
             intensity: Rgb([20.0, 20.0, 20.0]),
         };
         (scene, bvh, vec![light])
+    }
+
+    #[test]
+    fn a_probe_under_a_uniform_sky_gives_unitys_ambient_coefficients() {
+        // One known light, the published answer: a probe that sees only a
+        // sky of radiance L has Unity coefficients [L, 0, …] (what
+        // SphericalHarmonicsL2.AddAmbientLight(L) holds) and irradiance πL
+        // facing any way. The scene is one small triangle far below.
+        let scene = crate::scene::Scene::from_triangles(
+            "speck".into(),
+            [(
+                [
+                    Vec3::new(0.0, -100.0, 0.0),
+                    Vec3::new(0.01, -100.0, 0.0),
+                    Vec3::new(0.0, -100.0, 0.01),
+                ],
+                0,
+            )]
+            .into_iter(),
+            vec![crate::scene::Material::fallback()],
+        )
+        .unwrap();
+        let bvh = SceneBvh::new(&scene);
+        let sky = [Light::Sky {
+            radiance: Rgb([0.25, 0.5, 1.0]),
+        }];
+        let r = Renderer::new(&scene, &bvh, &sky, 2);
+        let sh = bake_sh(&r, &[Vec3::ZERO], 1024, 3)[0];
+        let u = sh.total.unity_coefficients();
+        for (c, want) in [0.25f32, 0.5, 1.0].into_iter().enumerate() {
+            assert!((u[c][0] - want).abs() < 1e-3 * want, "{:?}", u[c]);
+            assert!(
+                u[c][1..].iter().all(|v| v.abs() < 1e-3 * want),
+                "{:?}",
+                u[c]
+            );
+        }
+        assert_eq!(sh.indirect, ShL2::ZERO, "nothing reflects");
+        let e = sh.total.irradiance(Vec3::new(0.6, 0.0, 0.8));
+        assert!((e.z - std::f32::consts::PI).abs() < 2e-3, "{e}");
     }
 
     #[test]

@@ -99,6 +99,38 @@ impl ShL2 {
     pub fn is_finite(&self) -> bool {
         self.coefficients.iter().all(|c| c.is_finite())
     }
+
+    /// The coefficients as Unity's `SphericalHarmonicsL2` holds them,
+    /// `[channel][coefficient]` (`sh[channel, coefficient]` in C#), for
+    /// radiance given in the world frame (right-handed, +Y up) and a probe
+    /// used in Unity's left-handed frame, `(-x, y, z)`.
+    ///
+    /// Unity stores irradiance over π, already multiplied by each basis
+    /// function's constant, so that its shader evaluates a normal with
+    /// bare polynomials (Unity Manual, "Light Probes: Technical
+    /// information"; `ShadeSH9` in UnityCG.cginc packs `unity_SHA*` as the
+    /// x, y, z and constant terms, `unity_SHB*` as xy, yz, z², xz and
+    /// `unity_SHC` as x² − y²): coefficient `k` is `Â_l · L_k · c_k / π`
+    /// with [`COSINE_LOBE`]'s `Â_l` and `c_k` the constant of [`basis`]
+    /// function `k`, whose order (y, z, x in band 1) Unity shares. A
+    /// uniform sky of radiance `L` gives `[L, 0, …]`, which is what
+    /// `SphericalHarmonicsL2.AddAmbientLight(L)` adds. The mirror
+    /// `x → −x` flips the terms odd in x (x, xy, xz).
+    pub fn unity_coefficients(&self) -> [[f32; COEFFICIENTS]; 3] {
+        const C: [f32; COEFFICIENTS] = [
+            0.282_095, 0.488_603, 0.488_603, 0.488_603, 1.092_548, 1.092_548, 0.315_392, 1.092_548,
+            0.546_274,
+        ];
+        const MIRROR: [f32; COEFFICIENTS] = [1.0, 1.0, 1.0, -1.0, -1.0, 1.0, 1.0, -1.0, 1.0];
+        let mut out = [[0.0; COEFFICIENTS]; 3];
+        for k in 0..COEFFICIENTS {
+            let f = COSINE_LOBE[BAND[k]] * C[k] / PI * MIRROR[k];
+            for (c, row) in out.iter_mut().enumerate() {
+                row[k] = self.coefficients[k][c] * f;
+            }
+        }
+        out
+    }
 }
 
 #[cfg(test)]
@@ -114,6 +146,41 @@ mod tests {
             sh.add_sample(d, radiance(d), w);
         }
         sh
+    }
+
+    /// Unity's shader evaluation of one channel at its normal `n` (in
+    /// Unity's frame): `ShadeSH9`'s polynomials over the stored
+    /// coefficients, as UnityCG.cginc packs them.
+    fn shade_sh9(sh: &[f32; COEFFICIENTS], n: Vec3) -> f32 {
+        let sha = glam::Vec4::new(sh[3], sh[1], sh[2], sh[0] - sh[6]);
+        let shb = glam::Vec4::new(sh[4], sh[5], 3.0 * sh[6], sh[7]);
+        sha.dot(n.extend(1.0))
+            + shb.dot(glam::Vec4::new(n.x * n.y, n.y * n.z, n.z * n.z, n.x * n.z))
+            + sh[8] * (n.x * n.x - n.y * n.y)
+    }
+
+    #[test]
+    fn unity_coefficients_follow_unitys_convention() {
+        // A uniform sky: AddAmbientLight's coefficients.
+        let sky = project(4096, |_| Vec3::new(0.5, 1.0, 2.0));
+        let u = sky.unity_coefficients();
+        for (c, want) in [0.5, 1.0, 2.0].into_iter().enumerate() {
+            assert!((u[c][0] - want).abs() < 1e-3 * want, "{:?}", u[c]);
+            assert!(u[c][1..].iter().all(|v| v.abs() < 1e-3), "{:?}", u[c]);
+        }
+        // Light from one side (+x, and a little +y): Unity's shader at the
+        // mirrored normal gives E/π of ours at the world normal.
+        let lobe = project(4096, |d| {
+            Vec3::splat((d.dot(Vec3::new(0.8, 0.6, 0.0)) - 0.5).max(0.0) * 3.0)
+        });
+        let u = lobe.unity_coefficients();
+        for n in crate::sampling::fibonacci_sphere(64) {
+            let ours = lobe.irradiance(n).x / PI;
+            let unity = shade_sh9(&u[0], Vec3::new(-n.x, n.y, n.z));
+            assert!((ours - unity).abs() < 1e-4, "{n}: {ours} vs {unity}");
+        }
+        // And the light lands on Unity's side: brightest facing -x there.
+        assert!(shade_sh9(&u[0], Vec3::NEG_X) > 5.0 * shade_sh9(&u[0], Vec3::X).max(0.01));
     }
 
     #[test]

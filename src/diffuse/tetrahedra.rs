@@ -53,6 +53,109 @@ pub struct Tetrahedralization {
     /// ([`Tetrahedralization::spanning`]) and [`Tetrahedralization::weights`]
     /// folds them back.
     originals: u32,
+    /// The finite tetrahedra bucketed by bounding box, for point location.
+    buckets: Buckets,
+}
+
+/// A uniform grid over the points' bounding box listing, per cell, the
+/// tetrahedra whose bounding boxes overlap it: a point is looked for in
+/// its cell's list only, instead of in every tetrahedron.
+#[derive(Debug, Clone, Default)]
+struct Buckets {
+    lo: DVec3,
+    /// Cells per unit length along each axis.
+    scale: DVec3,
+    dims: [usize; 3],
+    /// Cell `c`'s tetrahedra are `items[start[c]..start[c + 1]]`.
+    start: Vec<u32>,
+    items: Vec<u32>,
+}
+
+impl Buckets {
+    fn new(points: &[DVec3], tets: &[[u32; 4]]) -> Buckets {
+        let Some((lo, hi)) =
+            points
+                .iter()
+                .fold(None, |acc: Option<(DVec3, DVec3)>, &p| match acc {
+                    None => Some((p, p)),
+                    Some((lo, hi)) => Some((lo.min(p), hi.max(p))),
+                })
+        else {
+            return Buckets::default();
+        };
+        let extent = (hi - lo).max(DVec3::splat(1e-12));
+        // About one cell per tetrahedron, shaped like the box.
+        let side = (tets.len().max(1) as f64 / (extent.x * extent.y * extent.z)).cbrt();
+        let dims = (extent * side)
+            .ceil()
+            .clamp(DVec3::ONE, DVec3::splat(64.0))
+            .as_uvec3();
+        let dims = [dims.x as usize, dims.y as usize, dims.z as usize];
+        let scale = DVec3::new(dims[0] as f64, dims[1] as f64, dims[2] as f64) / extent;
+        let mut b = Buckets {
+            lo,
+            scale,
+            dims,
+            start: vec![0; dims[0] * dims[1] * dims[2] + 1],
+            items: Vec::new(),
+        };
+        let ranges: Vec<([usize; 3], [usize; 3])> = tets
+            .iter()
+            .map(|t| {
+                let (a, z) = t
+                    .iter()
+                    .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(a, z), &i| {
+                        (a.min(points[i as usize]), z.max(points[i as usize]))
+                    });
+                (b.cell(a), b.cell(z))
+            })
+            .collect();
+        let each = |(a, z): &([usize; 3], [usize; 3]), f: &mut dyn FnMut(usize)| {
+            for k in a[2]..=z[2] {
+                for j in a[1]..=z[1] {
+                    for i in a[0]..=z[0] {
+                        f(i + dims[0] * (j + dims[1] * k));
+                    }
+                }
+            }
+        };
+        for r in &ranges {
+            each(r, &mut |c| b.start[c + 1] += 1);
+        }
+        for c in 1..b.start.len() {
+            b.start[c] += b.start[c - 1];
+        }
+        let mut fill = b.start.clone();
+        b.items = vec![0; *b.start.last().unwrap_or(&0) as usize];
+        for (t, r) in ranges.iter().enumerate() {
+            each(r, &mut |c| {
+                b.items[fill[c] as usize] = t as u32;
+                fill[c] += 1;
+            });
+        }
+        b
+    }
+
+    /// The cell holding `p`, clamped to the grid.
+    fn cell(&self, p: DVec3) -> [usize; 3] {
+        let q = (p - self.lo) * self.scale;
+        [0, 1, 2].map(|a| (q[a].max(0.0) as usize).min(self.dims[a] - 1))
+    }
+
+    /// The tetrahedra that may hold `p` (none outside the box).
+    fn near(&self, p: DVec3) -> &[u32] {
+        if self.start.is_empty() {
+            return &[];
+        }
+        let q = (p - self.lo) * self.scale;
+        let d = self.dims;
+        if (0..3).any(|a| !(q[a] >= -1e-9 && q[a] <= d[a] as f64 + 1e-9)) {
+            return &[];
+        }
+        let [i, j, k] = self.cell(p);
+        let c = i + d[0] * (j + d[1] * k);
+        &self.items[self.start[c] as usize..self.start[c + 1] as usize]
+    }
 }
 
 fn c(p: DVec3) -> Coord3D<f64> {
@@ -296,6 +399,7 @@ impl Tetrahedralization {
         }
         Some(Tetrahedralization {
             originals: pts.len() as u32,
+            buckets: Buckets::new(&pts, &tetrahedra),
             points: pts,
             tetrahedra,
             hull,
@@ -356,7 +460,8 @@ impl Tetrahedralization {
     pub fn weights(&self, p: Vec3) -> [(u32, f32); 4] {
         let q = p.as_dvec3();
         const SLACK: f64 = -1e-9;
-        for t in &self.tetrahedra {
+        for &t in self.buckets.near(q) {
+            let t = &self.tetrahedra[t as usize];
             let w = self.barycentric(t, q);
             if w.iter().all(|&x| x >= SLACK) {
                 let w = w.map(|x| x.max(0.0));

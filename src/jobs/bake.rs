@@ -23,6 +23,9 @@ pub(crate) const FILES: [&str; 7] = [
 ];
 
 /// The reference's files.
+/// Each probe's SH L2 and reference irradiance ([`crate::report::sh`]).
+pub(crate) const SH_FILE: &str = "sh.json";
+
 pub(crate) const REFERENCE_FILES: [&str; 4] = [
     "reference.exr",
     "reference.png",
@@ -114,7 +117,15 @@ pub(crate) fn bake_stage(
             None
         }
     };
+    let light = watch.time("sh", || {
+        stages::bake::probe_light(config, prepared, &positions)
+    });
     add_files(job, &field, reference.as_ref())?;
+    let rays = job.config.bake.sh_rays.0;
+    job.set.add(
+        SH_FILE,
+        crate::report::sh::encode(&job.provenance, rays, &light),
+    );
     let timings = watch.to_map_with_total();
     job.watch.record("bake", timings["total"]);
     let r = &job.config.reference;
@@ -128,6 +139,8 @@ pub(crate) fn bake_stage(
         area_lights: baked.area_lights,
         config_lights: job.config.lights.len(),
         tracer,
+        sh_rays: rays,
+        sh_axis_error: crate::report::bake::sh_axis_error(&light),
         reference: reference.as_ref().map(|image| ReferenceReport {
             width: image.width,
             height: image.height,
@@ -199,6 +212,7 @@ pub(crate) fn load(
     if !placed_there
         || !baked_there
         || !e.has("lightfield.bin")
+        || !e.has(SH_FILE)
         || (has_camera && !e.has("reference.exr"))
     {
         return Ok(None);
@@ -219,7 +233,12 @@ pub(crate) fn load(
     } else {
         None
     };
+    let sh_path = e.path(SH_FILE);
+    let bytes = crate::input::read(&sh_path, SH_FILE, crate::limits::memory_budget())?;
+    crate::report::sh::decode(&bytes, &job.provenance, placement.probes.probes.len())
+        .map_err(|m| Error::user_file(&sh_path, m.trim_start_matches("sh.json: ")))?;
     job.carry(&FILES);
+    job.carry(&[SH_FILE]);
     job.carry(&REFERENCE_FILES);
     Ok(Some(Bake { field, reference }))
 }

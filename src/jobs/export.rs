@@ -114,10 +114,16 @@ pub fn export(options: &ExportOptions) -> Result<Outcome> {
         crate::input::read(&path, name, crate::limits::memory_budget())
     };
     let (probes, svo) = (read("probes.json")?, read("svo.bin")?);
-    let source = Source::read(&probes, &report, &svo).map_err(|m| match m.split_once(": ") {
-        Some((file, why)) => Error::user_file(&dir.join(file), why),
-        None => Error::user_file(&dir, m),
-    })?;
+    let sh = match dir.join(super::bake::SH_FILE).is_file() {
+        true => Some(read(super::bake::SH_FILE)?),
+        false => None,
+    };
+    let source = Source::read(&probes, &report, &svo)
+        .and_then(|s| s.with_light(sh.as_deref()))
+        .map_err(|m| match m.split_once(": ") {
+            Some((file, why)) => Error::user_file(&dir.join(file), why),
+            None => Error::user_file(&dir, m),
+        })?;
     if exports.contains(&Export::Ddgi) && !encode::ddgi::has_volume(&source.method) {
         // Before the scene is read: the cheap refusal first.
         let why = encode::ddgi::encode(&source).err().unwrap_or_default();
@@ -256,7 +262,10 @@ pub(crate) fn add_configured(job: &mut Job, report: &Value, scene: &Scene) -> Re
         .set
         .contents("svo.bin")?
         .ok_or_else(|| missing("svo.bin"))?;
-    let source = Source::read(&probes, report, &svo).map_err(Error::Internal)?;
+    let sh = job.set.contents(super::bake::SH_FILE)?;
+    let source = Source::read(&probes, report, &svo)
+        .and_then(|s| s.with_light(sh.as_deref()))
+        .map_err(Error::Internal)?;
     let exports = job.config.export.clone();
     add(job, &exports, &source, Some(scene))
         .map(|_| ())

@@ -425,8 +425,12 @@ fn summary(r: &Value) -> Vec<String> {
     let train = r["coverage_train"]
         .as_f64()
         .map_or(String::new(), |t| format!(" (training {:.2}%)", 100.0 * t));
+    // Probes the diffuse step added, beside the count.
+    let diffuse = r["diffuse"]["probes_added"]
+        .as_u64()
+        .map_or(String::new(), |n| format!(" ({n} for diffuse light)"));
     let mut line = format!(
-        "{}: {} probes, coverage {:.2}% ± {:.2}% on unseen samples{train}, {} in solid, {} near surfaces; voxel {:.4} ({})",
+        "{}: {} probes{diffuse}, coverage {:.2}% ± {:.2}% on unseen samples{train}, {} in solid, {} near surfaces; voxel {:.4} ({})",
         r["method"].as_str().unwrap_or("?"),
         r["probe_count"],
         100.0 * f(&r["coverage"]),

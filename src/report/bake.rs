@@ -30,11 +30,50 @@ pub struct BakeReport {
     /// The CPU light-field tracer against exact ray casts, one random ray
     /// from each of 4096 random free points, probes chosen by the SVO.
     pub tracer: Agreement,
+    /// Directions of each probe's SH L2 in `sh.json`, and paths of each
+    /// axis's reference irradiance.
+    pub sh_rays: u32,
+    /// Mean relative error of the SH's irradiance along the six axes
+    /// against the path-traced reference at the probe
+    /// ([`sh_axis_error`]): what band 2 and the sampling lose.
+    pub sh_axis_error: Option<f64>,
     /// The reference image; `null` without a camera.
     pub reference: Option<ReferenceReport>,
     /// Wall time per step in milliseconds: `geometry`, `radiance`,
     /// `pyramid`, `irradiance`, `tracer_check`, `reference`.
     pub timings_ms: BTreeMap<String, f64>,
+}
+
+/// The mean, over probes and the six axes, of `|E_sh − E_ref| / max(E_ref,
+/// 5% of the mean E_ref)` in luminance: the SH's own error at the probe
+/// (the floor of [`crate::diffuse::DARK_FLOOR`]); `None` without probes
+/// or light.
+pub fn sh_axis_error(light: &[crate::stages::bake::ProbeLight]) -> Option<f64> {
+    use crate::render::lights::luminance;
+    let pairs: Vec<(f64, f64)> = light
+        .iter()
+        .flat_map(|l| {
+            crate::stages::bake::AXES
+                .iter()
+                .zip(l.irradiance_axes)
+                .map(|(&n, e)| {
+                    let got = l.sh.total.irradiance(n).max(glam::Vec3::ZERO);
+                    (luminance(got) as f64, luminance(e) as f64)
+                })
+        })
+        .collect();
+    let mean = pairs.iter().map(|p| p.1).sum::<f64>() / pairs.len().max(1) as f64;
+    if pairs.is_empty() || mean <= 0.0 {
+        return None;
+    }
+    let floor = crate::diffuse::DARK_FLOOR * mean;
+    Some(
+        pairs
+            .iter()
+            .map(|(g, w)| (g - w).abs() / w.max(floor))
+            .sum::<f64>()
+            / pairs.len() as f64,
+    )
 }
 
 /// `report.bake.reference`.

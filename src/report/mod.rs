@@ -19,6 +19,7 @@ pub mod html;
 pub mod preview;
 pub mod render;
 pub mod run_html;
+pub mod sh;
 pub mod view3d;
 
 use crate::config::UpAxis;
@@ -290,6 +291,9 @@ pub struct Report {
     pub placement_params: BTreeMap<&'static str, f64>,
     /// What refinement did; `null` when it was off.
     pub refine: Option<RefineReport>,
+    /// What the diffuse step added (`refine.objective: Both`; its errors
+    /// are training scores); `null` when it did not run.
+    pub diffuse: Option<crate::refine::diffuse::DiffuseReport>,
     /// What the artist controls (`fixed_probes`, `exclude`, `max_probes`,
     /// `probe_density`) did.
     pub controls: crate::placement::controls::ControlsReport,
@@ -389,6 +393,7 @@ impl Report {
             placement_stats: probes.stats.clone(),
             placement_params: probes.params.clone(),
             refine,
+            diffuse: placed.diffuse.clone(),
             controls: placed.controls.clone(),
             svo: Some(svo),
             bake: None,

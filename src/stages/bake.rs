@@ -20,6 +20,24 @@ use glam::Vec3;
 /// the reference image's even under the same config seed.
 const BAKE_STREAMS: u64 = 0x1F_BA4E;
 
+/// Seed offset of the SH projections' and their references' streams.
+const SH_STREAMS: u64 = 0x5_4A12;
+
+/// The six axes the reference irradiance at a probe is given for, in
+/// `sh.json` order.
+pub use crate::diffuse::AXES;
+
+/// A probe's diffuse light as engines store it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ProbeLight {
+    /// Its incident radiance in SH L2, total and indirect
+    /// ([`crate::diffuse::bake_sh`]).
+    pub sh: crate::diffuse::ProbeSh,
+    /// Path-traced irradiance (total) at the probe for a surface facing
+    /// each of [`AXES`]: what the SH's irradiance should be near.
+    pub irradiance_axes: [Vec3; 6],
+}
+
 /// Free points whose random rays check the tracer in every bake.
 pub const TRACER_CHECK_RAYS: usize = 4096;
 
@@ -27,6 +45,7 @@ pub const TRACER_CHECK_RAYS: usize = 4096;
 pub struct Baked {
     /// The probes' maps.
     pub field: LightField,
+
     /// Area lights (emissive triangles) the radiance saw.
     pub area_lights: usize,
     /// Warnings for the report.
@@ -91,8 +110,9 @@ pub fn core_seconds(config: &Config, probes: usize) -> f64 {
     let b = &config.bake;
     let (n, m) = (b.resolution.0 as f64, b.irradiance_resolution.0 as f64);
     let p = probes as f64;
-    let vertices =
-        p * n * n * b.samples.0 as f64 * (1.0 + b.bounces.0 as f64) * light_factor(config);
+    // The maps' paths, then the SH's directions and the six axes' paths.
+    let paths = p * (n * n * b.samples.0 as f64 + 7.0 * b.sh_rays.0 as f64);
+    let vertices = paths * (1.0 + b.bounces.0 as f64) * light_factor(config);
     let convolution = p * m * m * n * n;
     vertices / limits::rate::PATH_VERTICES + convolution / limits::rate::CONVOLUTION_TERMS
 }
@@ -140,6 +160,37 @@ pub fn bake(
         warnings,
         timings,
     }
+}
+
+/// Each probe's SH L2 from `bake.sh_rays` directions and its reference
+/// irradiance along the six axes from as many cosine-weighted paths each
+/// (delta lights' direct light excluded from both, as engines shade it
+/// analytically: [`crate::diffuse`]).
+///
+/// Contract: deterministic for a config and positions, whatever the
+/// thread count.
+pub fn probe_light(config: &Config, prepared: &Prepared, positions: &[Vec3]) -> Vec<ProbeLight> {
+    let renderer = &Renderer::new(
+        &prepared.scene,
+        &prepared.bvh,
+        &config.lights,
+        config.bake.bounces.0,
+    );
+    let rays = config.bake.sh_rays.0;
+    let seed = config.seed ^ SH_STREAMS;
+    let sh = crate::diffuse::bake_sh(renderer, positions, rays, seed);
+    let receivers: Vec<crate::diffuse::Receiver> = positions
+        .iter()
+        .flat_map(|&p| AXES.map(|n| crate::diffuse::Receiver { p, n, group: 0 }))
+        .collect();
+    let reference = crate::diffuse::reference(renderer, &receivers, rays, seed ^ 0xA4E5);
+    sh.into_iter()
+        .zip(reference.chunks(AXES.len()))
+        .map(|(sh, e)| ProbeLight {
+            sh,
+            irradiance_axes: std::array::from_fn(|k| e[k].total),
+        })
+        .collect()
 }
 
 /// The CPU light-field tracer (Hi-Z march, SVO selection) against exact

@@ -3,7 +3,7 @@
 //! of the result (§2, §3.2) and the SVO of probe indices (§4.1).
 
 use super::Prepared;
-use crate::config::{short, Config};
+use crate::config::{short, Config, Objective};
 use crate::coverage::{self, Coverage, CoverageReference, ProbeHealth, Stream};
 use crate::error::{Error, Result};
 use crate::limits;
@@ -34,6 +34,9 @@ pub struct Placed {
     pub svo: (Svo, SvoReport),
     /// What the artist controls did.
     pub controls: ControlsReport,
+    /// What the diffuse step did (`refine.objective: Both`); `None` when
+    /// it did not run.
+    pub diffuse: Option<refine::diffuse::DiffuseReport>,
     /// Warnings for the report.
     pub warnings: Vec<String>,
     /// `placement`, `refine`, `coverage`, `svo`.
@@ -167,6 +170,34 @@ pub fn place(
             _ => (probes, None),
         }
     };
+    let (probes, diffuse) = if refine_it && config.refine.objective == Objective::Both {
+        let renderer = crate::render::integrator::Renderer::new(
+            &prepared.scene,
+            &prepared.bvh,
+            &config.lights,
+            config.bake.bounces.0,
+        );
+        let budget = controls.max_probes.unwrap_or(limits::MAX_PROBES);
+        // Probes for diffuse light stand as near surfaces as the coverage
+        // measure's reference points (one voxel), or the user's pin.
+        let min_clearance = config
+            .refine
+            .min_clearance
+            .map_or(placement::grid_min_clearance(&prepared.sdf), |c| c.0);
+        let (p, r) = timings.time("diffuse", || {
+            refine::diffuse::insert(
+                &config.refine.diffuse,
+                probes,
+                &input,
+                &renderer,
+                min_clearance,
+                budget,
+            )
+        });
+        (p, Some(r))
+    } else {
+        (probes, None)
+    };
     report.fixed_probes = probes.fixed;
     check_probes(config, prepared, probes.probes.len())?;
     let positions = probes.positions();
@@ -192,6 +223,7 @@ pub fn place(
         health,
         svo,
         controls: report,
+        diffuse,
         warnings,
         timings,
     })

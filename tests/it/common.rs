@@ -322,8 +322,9 @@ pub fn luminance(v: &serde_json::Value) -> f64 {
 // at any quality.
 
 /// The test-quality bake: 16² maps (8² irradiance), one path per texel, one
-/// bounce. `BakeParams` allows maps down to 8².
-pub const TEST_BAKE: &str = "(resolution: 16, irradiance_resolution: 8, samples: 1, bounces: 1)";
+/// bounce, 64 directions per probe's SH. `BakeParams` allows maps down to 8².
+pub const TEST_BAKE: &str =
+    "(resolution: 16, irradiance_resolution: 8, samples: 1, bounces: 1, sh_rays: 64)";
 
 /// The test-quality reference image, set inside the config's own
 /// `reference` (so its camera stays).
@@ -352,8 +353,15 @@ pub const TEST_DIFFUSE: &str =
 pub const TEST_COVERAGE: [(&str, &str); 2] = [("samples", "4000"), ("reference_points", "1024")];
 
 /// Test-quality refinement: a quarter of the sweeps, then filling and
-/// pruning as usual; set inside the config's own `refine`.
-pub const TEST_REFINE: [(&str, &str); 1] = [("iterations", "5")];
+/// pruning as usual, and a quarter of the diffuse step's training set at
+/// half its rays; set inside the config's own `refine`.
+pub const TEST_REFINE: [(&str, &str); 2] = [
+    ("iterations", "5"),
+    (
+        "diffuse",
+        "(surface_points: 512, free_points: 256, rays: 64)",
+    ),
+];
 
 /// A config written for one test into a temporary directory, which lives as
 /// long as this value.

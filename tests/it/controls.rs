@@ -255,7 +255,9 @@ fn max_probes_keeps_the_probes_that_cover_the_most() {
         .iter()
         .map(|r| r["added"].as_u64().unwrap())
         .sum();
-    let before_rounds = base["probe_count"].as_u64().unwrap() - rounds_added
+    // (Coverage's own count: the diffuse step adds after it, and under a
+    // budget it reaches adds none.)
+    let before_rounds = refine["probes_final"].as_u64().unwrap() - rounds_added
         + refine["probes_dropped_in_solid"].as_u64().unwrap();
     assert_eq!(
         r["controls"]["probes_before_budget"].as_u64(),
@@ -318,12 +320,17 @@ fn max_probes_cuts_an_unrefined_grid_and_keeps_the_fixed_probe() {
 /// warning and changes nothing.
 #[test]
 fn min_probes_spends_the_budget_and_with_max_probes_places_exactly_that_many() {
-    let base = &shared_job("place", "configs/cornell.ron", &[]);
-    let base_probes = probes_of(&base.dir);
+    // Coverage alone: the diffuse step would add probes past the floor.
+    let coverage_only = ("refine", "(objective: Coverage)");
+    let (_base_out, base_report, base_probes) =
+        place_into(&overlay("configs/cornell.ron", &[coverage_only]), &[]);
     let n = base_probes.len();
     let more = (n + 4).to_string();
     let (_o, r, probes) = place_into(
-        &overlay("configs/cornell.ron", &[("min_probes", &more)]),
+        &overlay(
+            "configs/cornell.ron",
+            &[("min_probes", &more), coverage_only],
+        ),
         &[],
     );
     assert_eq!(probes.len(), n + 4);
@@ -332,10 +339,10 @@ fn min_probes_spends_the_budget_and_with_max_probes_places_exactly_that_many() {
     assert_eq!(r["refine"]["probes_before_minimum"], n as u64);
     let coverage = |r: &Value| r["coverage"].as_f64().unwrap();
     assert!(
-        coverage(&r) >= coverage(&base.report),
+        coverage(&r) >= coverage(&base_report),
         "{} < {}",
         coverage(&r),
-        coverage(&base.report)
+        coverage(&base_report)
     );
     assert!(
         r["warnings"].as_array().unwrap().is_empty(),

@@ -536,16 +536,30 @@ fn a_relocated_grid_exports_its_ddgi_volume() {
     ]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     assert!(baked.join("lightfield.bin").is_file());
+    // The bake's exports carry its SH (sh.json) where the format holds it;
+    // `probeplace export` of the baked directory writes the same bytes.
+    let rebaked = tmp.path().join("rebaked");
+    export(&[
+        baked.to_str().unwrap(),
+        "--format",
+        "ddgi,unity,tscn,glb",
+        "--out",
+        rebaked.to_str().unwrap(),
+    ]);
     for name in names {
         let a = std::fs::read(out.join(name)).unwrap();
         assert!(
             a == std::fs::read(again.join(name)).unwrap(),
             "{name}: place and export wrote different bytes"
         );
+        let b = std::fs::read(baked.join(name)).unwrap();
         assert!(
-            a == std::fs::read(baked.join(name)).unwrap(),
-            "{name}: place and bake wrote different bytes"
+            b == std::fs::read(rebaked.join(name)).unwrap(),
+            "{name}: bake and export wrote different bytes"
         );
+        let has_sh = String::from_utf8_lossy(&b).contains("\"sh");
+        assert_eq!(has_sh, name != "probes.tscn", "{name}");
+        assert_eq!(a == b, name == "probes.tscn", "{name}");
     }
 
     let d = read_json(&out.join("ddgi.json"));
@@ -817,4 +831,98 @@ fn config_exports_are_checked_before_any_stage() {
     let e = refused_in(tmp.path(), &["place", "room.ron"], &[]).line;
     assert!(e.starts_with("error: room.ron:3:19: export[1]: "), "{e}");
     assert!(e.contains("Fbx") && e.contains("GlbWithScene"), "{e}");
+}
+
+/// `bake` writes each probe's SH L2 and the path-traced irradiance at the
+/// probe (`sh.json`); the exports hand it on: the Unity file as
+/// `SphericalHarmonicsL2` coefficients in Unity's frame and convention,
+/// glTF nodes and the file's own rows in the world frame. Before a bake
+/// the Unity file's `sh` is empty.
+#[test]
+fn a_bake_hands_its_sh_to_the_exports() {
+    let bake = shared_job("bake", "configs/cornell.ron", &[]);
+    let sh = read_json(&bake.dir.join("sh.json"));
+    assert_eq!(sh["format"], "probeplace.sh");
+    assert_eq!(sh["provenance"], bake.report["provenance"]);
+    let probes = sh["probes"].as_array().unwrap();
+    let n = bake.report["probe_count"].as_u64().unwrap() as usize;
+    assert_eq!(probes.len(), n);
+    let rgb = |v: &Value| -> [f64; 3] { serde_json::from_value(v.clone()).unwrap() };
+    // The SH's irradiance along each axis is near the reference at the
+    // probe (band 2 and noise: the report's own figure says how near).
+    let err = bake.report["bake"]["sh_axis_error"].as_f64().unwrap();
+    assert!((0.0..0.25).contains(&err), "sh_axis_error {err}");
+    for p in probes {
+        assert_eq!(p["total"].as_array().unwrap().len(), 9);
+        let axes = p["irradiance_axes"].as_array().unwrap();
+        assert_eq!(axes.len(), 6);
+        assert!(axes
+            .iter()
+            .all(|a| rgb(a).iter().all(|v| v.is_finite() && *v >= 0.0)));
+    }
+
+    let out = tempfile::tempdir().unwrap();
+    let o = out.path().to_str().unwrap();
+    export(&[
+        bake.dir.to_str().unwrap(),
+        "--format",
+        "unity,glb",
+        "--out",
+        o,
+    ]);
+    let unity = read_json(&out.path().join("probes.unity.json"));
+    let u: Vec<f64> = serde_json::from_value(unity["sh"].clone()).unwrap();
+    assert_eq!(u.len(), 27 * n);
+    // Unity's convention, from the published constants: irradiance over
+    // π (band factors π, 2π/3, π/4) times each basis function's constant,
+    // band 1 in y, z, x order, and x negated for Unity's frame.
+    let pi = std::f64::consts::PI;
+    let band = [
+        pi,
+        2.0 * pi / 3.0,
+        2.0 * pi / 3.0,
+        2.0 * pi / 3.0,
+        pi / 4.0,
+        pi / 4.0,
+        pi / 4.0,
+        pi / 4.0,
+        pi / 4.0,
+    ];
+    let constant = [
+        0.282095, 0.488603, 0.488603, 0.488603, 1.092548, 1.092548, 0.315392, 1.092548, 0.546274,
+    ];
+    let mirror = [1.0, 1.0, 1.0, -1.0, -1.0, 1.0, 1.0, -1.0, 1.0];
+    for (i, p) in probes.iter().enumerate() {
+        let total = p["total"].as_array().unwrap();
+        for c in 0..3 {
+            for k in 0..9 {
+                let want = rgb(&total[k])[c] * band[k] * constant[k] / pi * mirror[k];
+                let got = u[27 * i + 9 * c + k];
+                assert!(
+                    (got - want).abs() <= 1e-4 * want.abs().max(1e-3),
+                    "probe {i} channel {c} coefficient {k}: {got} vs {want}"
+                );
+            }
+        }
+    }
+    let glb = read_back(&out.path().join("probes.glb"));
+    assert_eq!(glb.extras.len(), n);
+    for (i, extras) in glb.extras.iter().enumerate() {
+        assert_eq!(extras["sh_l2"], probes[i]["total"], "probe {i}");
+    }
+
+    // A place run has no SH to hand on.
+    let placed = shared_job("place", "configs/cornell.ron", &[]);
+    assert!(!placed.dir.join("sh.json").exists());
+    let out = tempfile::tempdir().unwrap();
+    let o = out.path().to_str().unwrap();
+    export(&[
+        placed.dir.to_str().unwrap(),
+        "--format",
+        "unity",
+        "--out",
+        o,
+    ]);
+    let unity = read_json(&out.path().join("probes.unity.json"));
+    assert_eq!(unity["sh"], serde_json::json!([]));
 }

@@ -12,12 +12,16 @@ fn cornell_default_run_meets_the_acceptance_bar() {
     assert!(out.path().join("svo.bin").is_file());
     assert_svo_sound(r, "cornell");
     // Issue 4's bar: refinement on by default, full coverage with no more
-    // probes than a 2×2×2 grid (the paper places 7).
+    // probes than a 2×2×2 grid (the paper places 7); the diffuse step then
+    // adds its own for diffuse light, at most as many again.
     assert_eq!(r["method"], "sdf-skeleton+refine");
     assert_eq!(r["probes_in_solid"], 0);
     assert_eq!(r["probes_outside_domain"], 0);
-    let n = r["probe_count"].as_u64().unwrap();
-    assert!((1..=8).contains(&n), "probe_count {n}");
+    let n = r["refine"]["probes_final"].as_u64().unwrap();
+    assert!((1..=8).contains(&n), "coverage's probe count {n}");
+    let added = r["diffuse"]["probes_added"].as_u64().unwrap();
+    assert!(added <= n, "{}", r["diffuse"]);
+    assert_eq!(r["probe_count"].as_u64().unwrap(), n + added);
     // The validation figure, on samples the placer never saw, meets the
     // target within its interval.
     let cov = r["coverage"].as_f64().unwrap();
@@ -64,7 +68,7 @@ fn cornell_default_run_meets_the_acceptance_bar() {
         );
     }
     let probes = read_json(&out.path().join("probes.json"));
-    assert_eq!(probes["probes"].as_array().unwrap().len() as u64, n);
+    assert_eq!(probes["probes"].as_array().unwrap().len() as u64, n + added);
     assert_eq!(probes["format"], "probeplace.probes");
     // position_file is the OBJ's millimetres: world metres × 1000.
     let p = &probes["probes"][0];
@@ -359,4 +363,43 @@ fn no_probe_stands_in_a_sealed_void() {
             assert!(r["reachable"].is_null());
         }
     }
+}
+
+/// `refine.objective: Both` (the default) adds probes where blending the
+/// probes' SH over tetrahedra misses the diffuse light, after coverage,
+/// and says so in `report.json`; `Coverage` leaves the refined set alone.
+#[test]
+fn the_diffuse_step_adds_probes_after_coverage_and_reports_them() {
+    let both = &shared_job("place", "configs/holodeck.ron", &[]).report;
+    let d = &both["diffuse"];
+    let added = d["probes_added"].as_u64().unwrap();
+    let refined = both["refine"]["probes_final"].as_u64().unwrap();
+    assert!(added >= 1, "{d}");
+    assert!(added <= refined, "growth 1 at most doubles: {d}");
+    assert_eq!(both["probe_count"].as_u64().unwrap(), refined + added);
+    let (before, after) = (
+        d["error_before"].as_f64().unwrap(),
+        d["error_after"].as_f64().unwrap(),
+    );
+    assert!(after < before, "the training error falls: {d}");
+    assert!(
+        ["tolerance", "budget", "no gain", "no candidate"]
+            .contains(&d["stopped"].as_str().unwrap()),
+        "{d}"
+    );
+    assert_eq!(both["probes_in_solid"], 0, "{both}");
+    let cov = both["coverage"].as_f64().unwrap();
+    assert!(
+        cov >= 0.999 - both["coverage_ci95"].as_f64().unwrap(),
+        "{cov}"
+    );
+
+    let o = overlay(
+        "configs/holodeck.ron",
+        &[("refine", "(objective: Coverage)")],
+    );
+    let out = tempfile::tempdir().unwrap();
+    let r = place(o.path(), out.path(), &[]);
+    assert!(r["diffuse"].is_null(), "{}", r["diffuse"]);
+    assert_eq!(r["probe_count"], both["refine"]["probes_final"]);
 }

@@ -137,9 +137,15 @@ pub fn encode(source: &Source) -> Result<Vec<u8>, String> {
             for x in 0..n[0] {
                 let coords = [x, y, z];
                 entries.push(match slots[rtxgi(coords)] {
-                    Some((i, offset)) => json!({
-                        "coords": coords, "state": "active", "offset": offset, "probe": i,
-                    }),
+                    Some((i, offset)) => {
+                        let mut e = json!({
+                            "coords": coords, "state": "active", "offset": offset, "probe": i,
+                        });
+                        if let Some(light) = &source.light {
+                            e["sh_l2"] = super::gltf::sh_rows(&light[i].sh.total);
+                        }
+                        e
+                    }
                     None => json!({
                         "coords": coords, "state": "inactive", "offset": [0.0, 0.0, 0.0], "probe": Value::Null,
                     }),

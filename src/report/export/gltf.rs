@@ -130,7 +130,7 @@ pub fn encode(source: &Source, scene: Option<&Scene>) -> Vec<u8> {
         .iter()
         .enumerate()
         .map(|(i, p)| {
-            json!({
+            let mut node = json!({
                 "name": format!("probe {i}"),
                 "translation": p.position,
                 "mesh": 0,
@@ -140,7 +140,13 @@ pub fn encode(source: &Source, scene: Option<&Scene>) -> Vec<u8> {
                     "influence_box": p.influence,
                     "fixed": p.fixed,
                 },
-            })
+            });
+            // After a bake: the probe's light as `sh.json` gives it (glTF's
+            // frame is the run's world frame).
+            if let Some(light) = &source.light {
+                node["extras"]["sh_l2"] = sh_rows(&light[i].sh.total);
+            }
+            node
         })
         .collect();
     let mut nodes = vec![json!({
@@ -248,6 +254,15 @@ fn glb(json: &[u8], bin: &[u8]) -> Vec<u8> {
     }
     debug_assert_eq!(out.len(), total);
     out
+}
+
+/// SH L2 coefficients as nine `[r, g, b]` rows ([`crate::report::sh`]).
+pub(crate) fn sh_rows(sh: &crate::diffuse::ShL2) -> Value {
+    json!(sh
+        .coefficients
+        .iter()
+        .map(|c| c.to_array())
+        .collect::<Vec<_>>())
 }
 
 #[cfg(test)]

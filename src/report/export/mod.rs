@@ -83,6 +83,9 @@ pub struct Source {
     pub probes: Vec<SourceProbe>,
     /// `report.json`'s `placement_stats`.
     pub stats: serde_json::Map<String, Value>,
+    /// Each probe's diffuse light (`sh.json`, written by `bake`); `None`
+    /// for a run that did not bake.
+    pub light: Option<Vec<crate::stages::bake::ProbeLight>>,
 }
 
 /// The fields of `probes.json` the exports read.
@@ -176,7 +179,23 @@ impl Source {
                 .as_object()
                 .cloned()
                 .unwrap_or_default(),
+            light: None,
         })
+    }
+
+    /// This source with the probes' light of `sh_json` (`sh.json`'s bytes)
+    /// when given. The error is the reason alone, led by `sh.json:`.
+    ///
+    /// Contract: the file must be of this run and hold every probe.
+    pub fn with_light(mut self, sh_json: Option<&[u8]>) -> Result<Source, String> {
+        if let Some(bytes) = sh_json {
+            self.light = Some(crate::report::sh::decode(
+                bytes,
+                &self.provenance,
+                self.probes.len(),
+            )?);
+        }
+        Ok(self)
     }
 
     /// The diagonal of the domain.
@@ -237,31 +256,46 @@ pub(crate) fn provenance_summary(p: &Provenance) -> Value {
 /// except that its array `rows` (its last field) is written `per_line`
 /// elements a line: a file of 65 536 probes stays readable and small.
 pub(crate) fn json_rows(value: &Value, rows: &str, per_line: usize) -> Vec<u8> {
+    json_tables(value, &[(rows, per_line)])
+}
+
+/// [`json_rows`] for several arrays, written last in the order given, each
+/// with its own `per_line`.
+pub(crate) fn json_tables(value: &Value, tables: &[(&str, usize)]) -> Vec<u8> {
     let mut head = value.clone();
-    let items = head
-        .as_object_mut()
-        .and_then(|o| o.remove(rows))
-        .and_then(|v| v.as_array().cloned())
-        .unwrap_or_default();
-    let mut text = serde_json::to_string_pretty(&head).expect("a JSON value serializes");
-    text.truncate(text.trim_end_matches('}').trim_end().len());
-    let lines: Vec<String> = items
-        .chunks(per_line.max(1))
-        .map(|line| {
-            let cells: Vec<String> = line
-                .iter()
-                .map(|v| serde_json::to_string(v).expect("a JSON value serializes"))
-                .collect();
-            format!("    {}", cells.join(", "))
+    let columns: Vec<(&str, usize, Vec<Value>)> = tables
+        .iter()
+        .map(|&(key, per_line)| {
+            let items = head
+                .as_object_mut()
+                .and_then(|o| o.remove(key))
+                .and_then(|v| v.as_array().cloned())
+                .unwrap_or_default();
+            (key, per_line, items)
         })
         .collect();
-    let key = serde_json::to_string(rows).expect("a string serializes");
-    let sep = if text.ends_with('{') { "" } else { "," };
-    if lines.is_empty() {
-        text += &format!("{sep}\n  {key}: []\n}}\n");
-    } else {
-        text += &format!("{sep}\n  {key}: [\n{}\n  ]\n}}\n", lines.join(",\n"));
+    let mut text = serde_json::to_string_pretty(&head).expect("a JSON value serializes");
+    text.truncate(text.trim_end_matches('}').trim_end().len());
+    for (rows, per_line, items) in columns {
+        let lines: Vec<String> = items
+            .chunks(per_line.max(1))
+            .map(|line| {
+                let cells: Vec<String> = line
+                    .iter()
+                    .map(|v| serde_json::to_string(v).expect("a JSON value serializes"))
+                    .collect();
+                format!("    {}", cells.join(", "))
+            })
+            .collect();
+        let key = serde_json::to_string(rows).expect("a string serializes");
+        let sep = if text.ends_with('{') { "" } else { "," };
+        if lines.is_empty() {
+            text += &format!("{sep}\n  {key}: []");
+        } else {
+            text += &format!("{sep}\n  {key}: [\n{}\n  ]", lines.join(",\n"));
+        }
     }
+    text += "\n}\n";
     text.into_bytes()
 }
 

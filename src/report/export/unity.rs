@@ -4,8 +4,9 @@
 //!
 //! Unity's `JsonUtility` reads only what maps onto a `[Serializable]`
 //! class: no nulls, no nested arrays, no 64-bit unsigned numbers. So this
-//! file is flat: strings, two whole numbers and one array of floats,
-//! `positions`, three per probe in `probes.json` order. Its schema is
+//! file is flat: strings, two whole numbers and two arrays of floats,
+//! `positions`, three per probe in `probes.json` order, and `sh`, each
+//! probe's `SphericalHarmonicsL2` (27 floats) after a bake, empty before. Its schema is
 //! `integrations/unity/probes.unity.schema.json`, and the importer's class
 //! declares the same fields (tests/it/export.rs checks both).
 //!
@@ -24,7 +25,16 @@ pub const FORMAT: &str = "probeplace.unity";
 pub fn encode(source: &Source) -> Vec<u8> {
     let p = &source.provenance;
     let positions: Vec<f64> = source.probes.iter().flat_map(|q| q.position).collect();
-    super::json_rows(
+    // Each probe's SphericalHarmonicsL2, channel by channel, in Unity's
+    // convention and frame ([`crate::diffuse::ShL2::unity_coefficients`]); empty before a
+    // bake (JsonUtility has no null).
+    let sh: Vec<f32> = source
+        .light
+        .iter()
+        .flatten()
+        .flat_map(|l| l.sh.total.unity_coefficients().into_iter().flatten())
+        .collect();
+    super::json_tables(
         &json!({
             "format": FORMAT,
             "version": 1,
@@ -36,9 +46,10 @@ pub fn encode(source: &Source) -> Vec<u8> {
             "method": source.method,
             "frame": "world: right-handed, +Y up; Unity (left-handed) = (-x, y, z)",
             "count": source.probes.len(),
+            "sh_convention": "SphericalHarmonicsL2[channel, coefficient]: 27 floats a probe, r0..r8 g0..g8 b0..b8, in Unity's frame (x negated) and convention (irradiance over pi, basis constants folded in), for LightProbes.bakedProbes; empty before a bake",
             "positions": positions,
+            "sh": sh,
         }),
-        "positions",
-        3,
+        &[("positions", 3), ("sh", 27)],
     )
 }

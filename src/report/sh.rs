@@ -1,0 +1,164 @@
+//! `sh.json`: each probe's diffuse light as engines store it (`bake`):
+//! SH L2 of its incident radiance, total and indirect, and the
+//! path-traced irradiance at the probe along the six axes.
+//!
+//! The coefficients are plain projections `L_lm = ∫ L Y_lm dω` on the real
+//! basis of [`crate::diffuse::sh`] (Sloan 2008, order `Y00, Y1-1 (y),
+//! Y10 (z), Y11 (x), Y2-2 (xy), Y2-1 (yz), Y20, Y21 (xz), Y22`), in the
+//! run's world frame; the irradiance at normal `n` is `Σ Â_l L_lm Y_lm(n)`
+//! with `Â = π, 2π/3, π/4`. The exports convert them to each engine's
+//! convention (`report::export`).
+
+use crate::diffuse::sh::{ShL2, COEFFICIENTS};
+use crate::diffuse::ProbeSh;
+use crate::provenance::Provenance;
+use crate::stages::bake::ProbeLight;
+use glam::Vec3;
+use serde::Deserialize;
+use serde_json::json;
+
+/// The `format` of `sh.json`.
+pub const FORMAT: &str = "probeplace.sh";
+
+/// `sh.json` for `light`, one entry per probe in `probes.json` order.
+pub fn encode(provenance: &Provenance, rays: u32, light: &[ProbeLight]) -> Vec<u8> {
+    let rows =
+        |sh: &ShL2| -> Vec<[f32; 3]> { sh.coefficients.iter().map(|c| c.to_array()).collect() };
+    let probes: Vec<_> = light
+        .iter()
+        .map(|l| {
+            json!({
+                "total": rows(&l.sh.total),
+                "indirect": rows(&l.sh.indirect),
+                "irradiance_axes": l.irradiance_axes.map(|e| e.to_array()),
+            })
+        })
+        .collect();
+    super::export::json_rows(
+        &json!({
+            "format": FORMAT,
+            "version": 1,
+            "provenance": provenance,
+            "basis": "real SH L2 (Sloan 2008): Y00, Y1-1 (y), Y10 (z), Y11 (x), Y2-2 (xy), Y2-1 (yz), Y20 (3z²-1), Y21 (xz), Y22 (x²-y²); coefficients ∫ L Y dω of incident radiance, RGB",
+            "frame": "world: right-handed, +Y up",
+            "axes": "+x, -x, +y, -y, +z, -z",
+            "rays": rays,
+            "count": light.len(),
+            "probes": probes,
+        }),
+        "probes",
+        1,
+    )
+}
+
+#[derive(Deserialize)]
+struct File {
+    format: String,
+    version: u32,
+    provenance: Provenance,
+    probes: Vec<ProbeIn>,
+}
+
+#[derive(Deserialize)]
+struct ProbeIn {
+    total: Vec<[f32; 3]>,
+    indirect: Vec<[f32; 3]>,
+    irradiance_axes: [[f32; 3]; 6],
+}
+
+/// The probes' light of `sh.json` bytes, checked to be of the run of
+/// `provenance` (its config and scene hashes) and to hold `probes` probes. The error is the reason
+/// alone, led by `sh.json:`.
+pub fn decode(
+    bytes: &[u8],
+    provenance: &Provenance,
+    probes: usize,
+) -> Result<Vec<ProbeLight>, String> {
+    let f: File = serde_json::from_slice(bytes)
+        .map_err(|e| format!("sh.json: not a probeplace SH file: {e}"))?;
+    if f.format != FORMAT || f.version != 1 {
+        return Err(format!(
+            "sh.json: format {:?} version {}, expected {FORMAT:?} version 1",
+            f.format, f.version
+        ));
+    }
+    // The run's identity (config and scene hashes), as the binary files
+    // carry it: a `bake --from` names its config otherwise than the
+    // `place` whose probes it bakes.
+    if f.provenance.to_bytes() != provenance.to_bytes() || f.probes.len() != probes {
+        return Err(
+            "sh.json: comes from another run than report.json beside it; run the job again".into(),
+        );
+    }
+    let sh = |rows: &[[f32; 3]], i: usize| -> Result<ShL2, String> {
+        if rows.len() != COEFFICIENTS || rows.iter().flatten().any(|v| !v.is_finite()) {
+            return Err(format!(
+                "sh.json: probe {i} has not 9 finite RGB coefficients"
+            ));
+        }
+        Ok(ShL2 {
+            coefficients: std::array::from_fn(|k| Vec3::from(rows[k])),
+        })
+    };
+    f.probes
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            Ok(ProbeLight {
+                sh: ProbeSh {
+                    total: sh(&p.total, i)?,
+                    indirect: sh(&p.indirect, i)?,
+                },
+                irradiance_axes: p.irradiance_axes.map(Vec3::from),
+            })
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn light(k: f32) -> ProbeLight {
+        let mut sh = ShL2::ZERO;
+        for (i, c) in sh.coefficients.iter_mut().enumerate() {
+            *c = Vec3::new(k, 2.0 * k, i as f32 * 0.25);
+        }
+        ProbeLight {
+            sh: ProbeSh {
+                total: sh,
+                indirect: ShL2::ZERO,
+            },
+            irradiance_axes: [Vec3::splat(k); 6],
+        }
+    }
+
+    #[test]
+    fn sh_json_reads_back_and_refuses_another_run() {
+        let p = Provenance {
+            tool: crate::provenance::TOOL.into(),
+            config_hash: "00000000000000aa".into(),
+            seed: 1,
+            scene_hash: "0000000000000001".into(),
+            config_given: "c.ron".into(),
+            cwd: Default::default(),
+            config_text: String::new(),
+            overrides: Default::default(),
+        };
+        let probes = [light(0.5), light(1.5)];
+        let bytes = encode(&p, 64, &probes);
+        let back = decode(&bytes, &p, 2).unwrap();
+        assert_eq!(back, probes);
+        let e = decode(&bytes, &p, 3).unwrap_err();
+        assert!(e.starts_with("sh.json: comes from another run"), "{e}");
+        let mut other = p.clone();
+        other.config_hash = "00000000000000ab".into();
+        assert!(decode(&bytes, &other, 2).is_err());
+        let e = decode(b"{\"format\": 1}", &p, 2).unwrap_err();
+        assert!(e.starts_with("sh.json: not a probeplace SH file"), "{e}");
+        let text = String::from_utf8(bytes)
+            .unwrap()
+            .replacen("[0.5,1.0,0.0]", "[0.5,1.0]", 1);
+        assert!(decode(text.as_bytes(), &p, 2).is_err());
+    }
+}
