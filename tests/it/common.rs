@@ -857,6 +857,8 @@ fn test_quality_overlays_change_only_what_they_set() {
         (c.coverage.samples, c.coverage.reference_points) =
             (shipped.coverage.samples, shipped.coverage.reference_points);
         c.refine.iterations = shipped.refine.iterations;
+        assert_eq!(c.refine.diffuse.rays.0, 64, "{name}");
+        c.refine.diffuse = shipped.refine.diffuse;
         assert_eq!(c, shipped, "{name}");
     }
 }
