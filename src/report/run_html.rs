@@ -56,6 +56,7 @@ pub fn page(r: &Value, set: &OutputSet, view: &View) -> Result<String> {
         "The scene with the run's probes, coloured by clearance, and its coverage holes.",
     );
     placement_tables(&mut h, r);
+    diffuse_table(&mut h, r);
     controls_table(&mut h, r);
     svo_table(&mut h, r);
     bake_table(&mut h, r);
@@ -330,6 +331,51 @@ fn placement_tables(h: &mut String, r: &Value) {
         ),
     ];
     figures_table(h, "refine-table", "Refinement", rows);
+}
+
+/// What the diffuse step added, when it ran (`report.json`'s `diffuse`;
+/// its errors are training scores).
+fn diffuse_table(h: &mut String, r: &Value) {
+    let d = &r["diffuse"];
+    if !d.is_object() {
+        return;
+    }
+    let rows = vec![
+        row(
+            "probes added",
+            num(&d["probes_added"]),
+            "probes the diffuse step added after coverage, where SH blended over tetrahedra missed the diffuse light",
+        ),
+        row(
+            "training points",
+            format!(
+                "{} on surfaces, {} in free space",
+                num(&d["surface_points"]),
+                num(&d["free_points"])
+            ),
+            "the points the step fitted, drawn from the seed",
+        ),
+        row(
+            "training error",
+            format!("{} → {}", pct(&d["error_before"]), pct(&d["error_after"])),
+            "mean relative irradiance error of the blend at the training points, before and after: a training score",
+        ),
+        row(
+            "above tolerance",
+            format!(
+                "{} → {}",
+                pct(&d["above_tolerance_before"]),
+                pct(&d["above_tolerance_after"])
+            ),
+            "share of the training points off by more than refine.diffuse.tolerance",
+        ),
+        row(
+            "stopped",
+            escape(d["stopped"].as_str().unwrap_or("?")),
+            "tolerance, budget (growth or max_probes), no gain, no candidate or no light",
+        ),
+    ];
+    figures_table(h, "diffuse-table", "Diffuse step", rows);
 }
 
 /// What the artist controls did, when the config set any

@@ -31,9 +31,10 @@ o.textContent=info.textContent;document.body.appendChild(o);})();</script>";
 }
 
 /// The figures Sponza's page must hold: the run's tables.
-const PLACE_TABLES: [&str; 4] = [
+const PLACE_TABLES: [&str; 5] = [
     "summary-table",
     "refine-table",
+    "diffuse-table",
     "svo-table",
     "timings-table",
 ];
