@@ -309,6 +309,22 @@ impl ShLookup {
     }
 }
 
+/// The floor of the relative error over a set of reference irradiances:
+/// [`DARK_FLOOR`] of their mean luminance (at least 1e-12, so that a dark
+/// set divides by no zero).
+pub fn dark_floor(reference: impl IntoIterator<Item = Vec3>) -> f64 {
+    let (sum, n) = reference.into_iter().fold((0.0f64, 0usize), |(s, n), e| {
+        (s + luminance(e) as f64, n + 1)
+    });
+    (DARK_FLOOR * sum / n.max(1) as f64).max(1e-12)
+}
+
+/// `|L(got) − L(want)| / max(L(want), floor)` in luminance: a receiver's
+/// relative error against its reference (module docs).
+pub fn relative_error(got: Vec3, want: Vec3, floor: f64) -> f64 {
+    (luminance(got) as f64 - luminance(want) as f64).abs() / (luminance(want) as f64).max(floor)
+}
+
 /// One lookup's errors at every receiver of one set (surface or free).
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Errors {
@@ -333,23 +349,14 @@ impl Errors {
         got: &[Irradiance],
         indirect: bool,
     ) -> Errors {
-        let floor_of = |f: fn(&Irradiance) -> Vec3| {
-            let mean = reference
-                .iter()
-                .map(|e| luminance(f(e)) as f64)
-                .sum::<f64>()
-                / reference.len().max(1) as f64;
-            (DARK_FLOOR * mean).max(1e-12)
-        };
-        let (ft, fi) = (floor_of(|e| e.total), floor_of(|e| e.indirect));
-        let rel = |a: Vec3, b: Vec3, floor: f64| {
-            (luminance(a) as f64 - luminance(b) as f64).abs() / (luminance(b) as f64).max(floor)
-        };
+        let ft = dark_floor(reference.iter().map(|e| e.total));
+        let fi = dark_floor(reference.iter().map(|e| e.indirect));
         let mut out = Errors::default();
         for ((r, want), g) in receivers.iter().zip(reference).zip(got) {
-            out.total.push(rel(g.total, want.total, ft));
+            out.total.push(relative_error(g.total, want.total, ft));
             if indirect {
-                out.indirect.push(rel(g.indirect, want.indirect, fi));
+                out.indirect
+                    .push(relative_error(g.indirect, want.indirect, fi));
             }
             let ratio =
                 (luminance(g.total) as f64).max(ft) / (luminance(want.total) as f64).max(ft);
@@ -436,8 +443,7 @@ mod tests {
                     Vec3::new(0.0, -100.0, 0.01),
                 ],
                 0,
-            )]
-            .into_iter(),
+            )],
             vec![crate::scene::Material::fallback()],
         )
         .unwrap();

@@ -428,7 +428,8 @@ impl Tetrahedralization {
                 (lo.min(p), hi.max(p))
             });
         let extent = (hi - lo).max_element();
-        if !(extent > 0.0) {
+        // Also false for NaN.
+        if extent.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
             return None;
         }
         let d = 1e-3 * extent;

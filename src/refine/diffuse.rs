@@ -22,7 +22,7 @@
 //!   there: the leave-one-out test of Vardis et al.).
 //! * **Error** of a training point: the largest relative luminance error
 //!   of its total and indirect irradiance, against a floor of
-//!   [`DARK_FLOOR`] of the mean, the measure `compare` reports.
+//!   [`crate::diffuse::DARK_FLOOR`] of the mean, the measure `compare` reports.
 //! * **Rounds**: blend the probes' SH at every training point; among points
 //!   off by more than `tolerance`, take the worst first, each one's
 //!   candidate unless a probe stands within two voxels, and no two in a
@@ -36,10 +36,11 @@
 //! on the points the step fitted. `compare` judges on receivers of its own.
 
 use crate::config::DiffuseFill;
-use crate::diffuse::{self, bake_sh, Irradiance, ProbeSh, Receiver, ShLookup, AXES, DARK_FLOOR};
+use crate::diffuse::{
+    self, bake_sh, dark_floor, relative_error, Irradiance, ProbeSh, Receiver, ShLookup, AXES,
+};
 use crate::probes::{PlacementInput, Probe, ProbeSet};
 use crate::render::integrator::Renderer;
-use crate::render::lights::luminance;
 use crate::sampling::hash2;
 use crate::sdf::VoxelClass;
 use glam::Vec3;
@@ -57,7 +58,7 @@ const BAKE_BATCH: usize = 16;
 /// What the diffuse step did; its errors are training scores.
 #[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
 pub struct DiffuseReport {
-    /// Training points on surfaces and in free space.
+    /// Training points on surfaces.
     pub surface_points: usize,
     /// Training points in free space.
     pub free_points: usize,
@@ -271,11 +272,11 @@ impl Training {
                     .map(|k| {
                         let got = lookup.irradiance(&self.receivers[k]);
                         let want = &self.reference[k];
-                        let rel = |a: Vec3, b: Vec3, floor: f64| {
-                            (luminance(a) as f64 - luminance(b) as f64).abs()
-                                / (luminance(b) as f64).max(floor)
-                        };
-                        rel(got.total, want.total, ft).max(rel(got.indirect, want.indirect, fi))
+                        relative_error(got.total, want.total, ft).max(relative_error(
+                            got.indirect,
+                            want.indirect,
+                            fi,
+                        ))
                     })
                     .fold(0.0, f64::max)
             })
@@ -363,15 +364,10 @@ fn training(
             sh: Some(sh),
         });
     }
-    let floor = |f: fn(&Irradiance) -> Vec3| {
-        let mean = reference
-            .iter()
-            .map(|e| luminance(f(e)) as f64)
-            .sum::<f64>()
-            / reference.len().max(1) as f64;
-        DARK_FLOOR * mean
-    };
-    let floor = (floor(|e| e.total), floor(|e| e.indirect).max(1e-12));
+    let floor = (
+        dark_floor(reference.iter().map(|e| e.total)),
+        dark_floor(reference.iter().map(|e| e.indirect)),
+    );
     Training {
         points,
         receivers,

@@ -49,28 +49,23 @@ pub struct BakeReport {
 /// (the floor of [`crate::diffuse::DARK_FLOOR`]); `None` without probes
 /// or light.
 pub fn sh_axis_error(light: &[crate::stages::bake::ProbeLight]) -> Option<f64> {
-    use crate::render::lights::luminance;
-    let pairs: Vec<(f64, f64)> = light
+    use crate::diffuse::{dark_floor, relative_error, AXES};
+    let pairs: Vec<(glam::Vec3, glam::Vec3)> = light
         .iter()
         .flat_map(|l| {
-            crate::stages::bake::AXES
-                .iter()
+            AXES.iter()
                 .zip(l.irradiance_axes)
-                .map(|(&n, e)| {
-                    let got = l.sh.total.irradiance(n).max(glam::Vec3::ZERO);
-                    (luminance(got) as f64, luminance(e) as f64)
-                })
+                .map(|(&n, e)| (l.sh.total.irradiance(n).max(glam::Vec3::ZERO), e))
         })
         .collect();
-    let mean = pairs.iter().map(|p| p.1).sum::<f64>() / pairs.len().max(1) as f64;
-    if pairs.is_empty() || mean <= 0.0 {
+    let floor = dark_floor(pairs.iter().map(|p| p.1));
+    if pairs.is_empty() || floor <= 1e-12 {
         return None;
     }
-    let floor = crate::diffuse::DARK_FLOOR * mean;
     Some(
         pairs
             .iter()
-            .map(|(g, w)| (g - w).abs() / w.max(floor))
+            .map(|&(g, w)| relative_error(g, w, floor))
             .sum::<f64>()
             / pairs.len() as f64,
     )

@@ -9,7 +9,6 @@ use crate::error::Result;
 use crate::lightfield::LightField;
 use crate::limits;
 use crate::progress::{Progress, Stopwatch};
-use crate::render::Renderer;
 use crate::sampling::Sampler;
 use crate::svo::{self, Svo};
 use crate::trace::check::{self, Agreement};
@@ -23,10 +22,6 @@ const BAKE_STREAMS: u64 = 0x1F_BA4E;
 /// Seed offset of the SH projections' and their references' streams.
 const SH_STREAMS: u64 = 0x5_4A12;
 
-/// The six axes the reference irradiance at a probe is given for, in
-/// `sh.json` order.
-pub use crate::diffuse::AXES;
-
 /// A probe's diffuse light as engines store it.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ProbeLight {
@@ -34,7 +29,7 @@ pub struct ProbeLight {
     /// ([`crate::diffuse::bake_sh`]).
     pub sh: crate::diffuse::ProbeSh,
     /// Path-traced irradiance (total) at the probe for a surface facing
-    /// each of [`AXES`]: what the SH's irradiance should be near.
+    /// each of [`crate::diffuse::AXES`]: what the SH's irradiance should be near.
     pub irradiance_axes: [Vec3; 6],
 }
 
@@ -129,7 +124,7 @@ pub fn bake(
     progress: &Progress,
 ) -> Baked {
     let (scene, bvh) = (&prepared.scene, &prepared.bvh);
-    let renderer = Renderer::new(scene, bvh, &config.lights, config.bake.bounces.0);
+    let renderer = prepared.renderer(config);
     let mut warnings = Vec::new();
     if renderer.lights().is_empty() {
         warnings.push(
@@ -170,22 +165,17 @@ pub fn bake(
 /// Contract: deterministic for a config and positions, whatever the
 /// thread count.
 pub fn probe_light(config: &Config, prepared: &Prepared, positions: &[Vec3]) -> Vec<ProbeLight> {
-    let renderer = &Renderer::new(
-        &prepared.scene,
-        &prepared.bvh,
-        &config.lights,
-        config.bake.bounces.0,
-    );
+    let renderer = &prepared.renderer(config);
     let rays = config.bake.sh_rays.0;
     let seed = config.seed ^ SH_STREAMS;
     let sh = crate::diffuse::bake_sh(renderer, positions, rays, seed);
     let receivers: Vec<crate::diffuse::Receiver> = positions
         .iter()
-        .flat_map(|&p| AXES.map(|n| crate::diffuse::Receiver { p, n, group: 0 }))
+        .flat_map(|&p| crate::diffuse::AXES.map(|n| crate::diffuse::Receiver { p, n, group: 0 }))
         .collect();
     let reference = crate::diffuse::reference(renderer, &receivers, rays, seed ^ 0xA4E5);
     sh.into_iter()
-        .zip(reference.chunks(AXES.len()))
+        .zip(reference.chunks(crate::diffuse::AXES.len()))
         .map(|(sh, e)| ProbeLight {
             sh,
             irradiance_axes: std::array::from_fn(|k| e[k].total),

@@ -7,7 +7,6 @@ use crate::config::{CameraParams, Config};
 use crate::diffuse::{self, Errors, Irradiance, Receivers, ShLookup};
 use crate::lightfield::LightField;
 use crate::reachable::{self, Reachable};
-use crate::render::integrator::Renderer;
 use crate::stages::validate::View;
 use crate::svo::Svo;
 use crate::trace::{gather, Lattice, Selection};
@@ -80,7 +79,7 @@ pub fn bench(
         d.free_receivers.0 as usize,
         config.seed ^ 0xD1FF,
     );
-    let renderer = renderer(config, prepared);
+    let renderer = prepared.renderer(config);
     let rays = d.reference_rays.0;
     let surface_reference = diffuse::reference(&renderer, &surface, rays, config.seed ^ 0x5EF);
     let free_reference = diffuse::reference(&renderer, &free, rays, config.seed ^ 0xF4EE);
@@ -93,17 +92,6 @@ pub fn bench(
         },
         reachable,
     })
-}
-
-/// The light transport of the bake (its bounces), which probes record and
-/// the references follow.
-fn renderer<'a>(config: &Config, prepared: &'a Prepared) -> Renderer<'a> {
-    Renderer::new(
-        &prepared.scene,
-        &prepared.bvh,
-        &config.lights,
-        config.bake.bounces.0,
-    )
 }
 
 /// One lookup's errors at the surface and the free receivers.
@@ -150,7 +138,7 @@ pub fn measure(
     lattice: Option<&Lattice>,
 ) -> Placement {
     let d = &config.compare.diffuse;
-    let renderer = renderer(config, prepared);
+    let renderer = prepared.renderer(config);
     let sh = diffuse::bake_sh(&renderer, positions, d.probe_rays.0, config.seed ^ 0x5A5A);
     let lookup = ShLookup::new(positions, &sh, valid);
     let r = &bench.receivers;

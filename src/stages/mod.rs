@@ -94,6 +94,18 @@ impl Prepared {
         )
     }
 
+    /// The light transport of the bake for `config` (its lights and
+    /// bounces): what probes record, and what the diffuse references and
+    /// the diffuse step follow.
+    pub fn renderer<'a>(&'a self, config: &crate::config::Config) -> crate::render::Renderer<'a> {
+        crate::render::Renderer::new(
+            &self.scene,
+            &self.bvh,
+            &config.lights,
+            config.bake.bounces.0,
+        )
+    }
+
     /// The input of a placement method over this scene.
     pub fn placement_input<'a>(&'a self, seed: u64, progress: &'a Progress) -> PlacementInput<'a> {
         PlacementInput {

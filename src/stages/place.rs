@@ -171,12 +171,7 @@ pub fn place(
         }
     };
     let (probes, diffuse) = if refine_it && config.refine.objective == Objective::Both {
-        let renderer = crate::render::integrator::Renderer::new(
-            &prepared.scene,
-            &prepared.bvh,
-            &config.lights,
-            config.bake.bounces.0,
-        );
+        let renderer = prepared.renderer(config);
         let budget = controls.max_probes.unwrap_or(limits::MAX_PROBES);
         // Probes for diffuse light stand as near surfaces as the coverage
         // measure's reference points (one voxel), or the user's pin.
