@@ -911,6 +911,35 @@ fn a_bake_hands_its_sh_to_the_exports() {
         assert_eq!(extras["sh_l2"], probes[i]["total"], "probe {i}");
     }
 
+    // An sh.json of another run, or damaged, is refused in one line naming
+    // it, by export and by a bake reusing the directory; nothing written.
+    let work = tempfile::tempdir().unwrap();
+    let copy = work.path().join("baked");
+    copy_dir(&bake.dir, &copy);
+    let other = sh["probes"].as_array().unwrap()[..n - 1].to_vec();
+    let mut short = sh.clone();
+    short["probes"] = Value::Array(other);
+    std::fs::write(copy.join("sh.json"), short.to_string()).unwrap();
+    let c = copy.to_str().unwrap();
+    for args in [
+        vec!["export", c, "--format", "unity", "--out", "out"],
+        vec!["bake", "--from", c, "--out", "out"],
+    ] {
+        let r = refused_in(work.path(), &args, &[]);
+        assert!(r.line.contains("sh.json"), "{args:?}: {}", r.line);
+    }
+    std::fs::write(copy.join("sh.json"), "{\"format\": \"probeplace.sh\"").unwrap();
+    let r = refused_in(
+        work.path(),
+        &["export", c, "--format", "glb", "--out", "out"],
+        &[],
+    );
+    assert!(
+        r.line.contains("sh.json: not a probeplace SH file"),
+        "{}",
+        r.line
+    );
+
     // A place run has no SH to hand on.
     let placed = shared_job("place", "configs/cornell.ron", &[]);
     assert!(!placed.dir.join("sh.json").exists());
