@@ -1259,6 +1259,11 @@ pub struct Config {
     /// given points reach, or everywhere.
     #[serde(default)]
     pub reachable: Reach,
+    /// The radius of a viewer that must fit through a passage for the
+    /// space beyond to count as reached (world units; [`crate::reachable`]).
+    /// `None`: one SDF voxel.
+    #[serde(default)]
+    pub viewer_radius: Option<NonNegative>,
     /// Edge length of an SDF voxel, in world units, or `Auto` (the
     /// default) to derive it from the scene.
     #[serde(default)]
@@ -1342,6 +1347,12 @@ fn non_empty_path<'de, D: serde::Deserializer<'de>>(d: D) -> Result<PathBuf, D::
 }
 
 impl Config {
+    /// The viewer's radius the reachable space is flooded with
+    /// (`viewer_radius`, else one voxel of `voxel_size`).
+    pub fn viewer_radius(&self, voxel_size: f32) -> f32 {
+        self.viewer_radius.map_or(voxel_size, |r| r.0)
+    }
+
     /// Parses `text` (the contents of `file`). Relative paths stay relative;
     /// [`Config::load`] resolves them against the config's directory.
     ///

@@ -468,6 +468,10 @@ pub struct CoverageReference {
     pub references: Vec<Vec3>,
     /// The parameters it was built with.
     pub params: CoverageParams,
+    /// The reachable voxels ([`crate::reachable`]), when the run has them:
+    /// a sample is coverable only when the first open voxel in front of it
+    /// is reached ([`faces_reach`]).
+    reach: Option<std::sync::Arc<Vec<bool>>>,
     /// Reference points that must see a sample for it to be coverable.
     need: usize,
     min_cos: f32,
@@ -544,6 +548,24 @@ pub fn sample_surface(scene: &Scene, n: usize, seed: u64) -> Vec<SurfaceSample> 
         .collect()
 }
 
+/// Whether `sample` faces reached space: the first voxel along its
+/// normal (half a voxel, then one and a half) that is not solid is in
+/// `reach` ([`crate::reachable::Reachable::mask`]); `true` when both are
+/// solid or beyond the grid, where the rays alone decide. A surface seen
+/// from a reached point only through a gap too narrow for a viewer (the
+/// ceiling of a roof space seen through a slit) faces the space beyond
+/// the gap, and is not coverable: no viewer stands by it.
+pub(crate) fn faces_reach(sdf: &Sdf, reach: &[bool], sample: &SurfaceSample) -> bool {
+    for k in [0.5f32, 1.5] {
+        let p = sample.position + sample.normal * (k * sdf.voxel_size);
+        match sdf.voxel_at(p) {
+            Some(v) if sdf.class[v] != VoxelClass::Solid => return reach[v],
+            _ => {}
+        }
+    }
+    true
+}
+
 impl CoverageReference {
     /// Samples the surface and decides which samples are coverable, by
     /// free voxel centres of the SDF (module docs) each able to make a
@@ -575,7 +597,7 @@ impl CoverageReference {
                 .partial_cmp(&b.to_array())
                 .unwrap_or(std::cmp::Ordering::Equal)
         });
-        CoverageReference::build(scene, bvh, sdf, params, seed, (refs, 1), progress)
+        CoverageReference::build(scene, bvh, sdf, params, seed, (refs, 1), None, progress)
     }
 
     /// The measure whose denominator does not depend on the SDF's verdicts:
@@ -593,7 +615,7 @@ impl CoverageReference {
         progress: &Progress,
     ) -> CoverageReference {
         let refs = free_points(bvh, sdf, domain, params.reference_points.0 as usize);
-        CoverageReference::on_free_points(scene, bvh, sdf, params, seed, refs, progress)
+        CoverageReference::on_free_points(scene, bvh, sdf, params, seed, refs, None, progress)
     }
 
     /// [`CoverageReference::by_rays`] on reference points `refs` that
@@ -607,6 +629,7 @@ impl CoverageReference {
         params: &CoverageParams,
         seed: u64,
         refs: Vec<Vec3>,
+        reach: Option<std::sync::Arc<Vec<bool>>>,
         progress: &Progress,
     ) -> CoverageReference {
         CoverageReference::build(
@@ -616,13 +639,14 @@ impl CoverageReference {
             params,
             seed,
             (refs, MIN_REFERENCE_VIEWS),
+            reach,
             progress,
         )
     }
 
-    /// The same measure (reference points, and views a sample needs) on
-    /// fresh samples over `input`'s scene: those of `stream` of
-    /// `input.seed`, as many as `params` asks.
+    /// The same measure (reference points, reached space, and views a
+    /// sample needs) on fresh samples over `input`'s scene: those of
+    /// `stream` of `input.seed`, as many as `params` asks.
     pub(crate) fn resampled(
         &self,
         input: &crate::placement::PlacementInput,
@@ -636,12 +660,15 @@ impl CoverageReference {
             params,
             stream.seed(input.seed),
             (self.references.clone(), self.need),
+            self.reach.clone(),
             input.progress,
         )
     }
 
     /// The samples of `seed` and their coverability by `refs`, each
-    /// coverable when `need` of them see it.
+    /// coverable when `need` of them see it and it faces `reach` (when
+    /// given).
+    #[allow(clippy::too_many_arguments)]
     fn build(
         scene: &Scene,
         bvh: &SceneBvh,
@@ -649,6 +676,7 @@ impl CoverageReference {
         params: &CoverageParams,
         seed: u64,
         (refs, need): (Vec<Vec3>, usize),
+        reach: Option<std::sync::Arc<Vec<bool>>>,
         progress: &Progress,
     ) -> CoverageReference {
         let mut reference = CoverageReference {
@@ -657,6 +685,7 @@ impl CoverageReference {
             reference_points: refs.len(),
             references: Vec::new(),
             params: *params,
+            reach,
             need,
             min_cos: params.max_incidence_deg.0.to_radians().cos(),
             eps: 1e-3 * sdf.voxel_size,
@@ -669,7 +698,12 @@ impl CoverageReference {
         for round in 0..MAX_ROUNDS {
             bar.set_length((reference.samples.len() + batch) as u64);
             let samples = sample_surface(scene, batch, hash2(seed, 0xC0FE + round));
-            let coverable = reference.seen_by_all(bvh, &samples, &refs, need, &bar);
+            let mut coverable = reference.seen_by_all(bvh, &samples, &refs, need, &bar);
+            if let Some(reach) = &reference.reach {
+                for (c, s) in coverable.iter_mut().zip(&samples) {
+                    *c = *c && faces_reach(sdf, reach, s);
+                }
+            }
             reference.samples.extend(samples);
             reference.coverable.extend(coverable);
             let have = reference.coverable.iter().filter(|&&c| c).count();

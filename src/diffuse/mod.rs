@@ -535,7 +535,7 @@ mod tests {
     fn free_receivers_stand_in_reached_free_space() {
         let (scene, bvh, _) = lit_room();
         let (_, sdf) = crate::scene::testing::bvh_and_sdf(&scene, 0.25, 1);
-        let reach = crate::reachable::reachable(&sdf, &bvh, &[Vec3::new(3.0, 2.0, 3.0)]);
+        let reach = crate::reachable::reachable(&sdf, &bvh, &[Vec3::new(3.0, 2.0, 3.0)], 0.0);
         let rs = free_receivers(&sdf, &reach, 200, 4);
         assert_eq!(rs.len(), 200);
         for r in &rs {

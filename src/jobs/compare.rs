@@ -155,7 +155,8 @@ pub fn compare(options: &RunOptions) -> Result<Outcome> {
     let views = views(&mut job, &prepared, &cameras)?;
     // The diffuse evaluation's receivers, their reference, and the space
     // the config's cameras reach (chosen views are not seeds: they are
-    // drawn from all free space, sealed voids included).
+    // drawn from the free voxels, which keep to that space when the config
+    // restricts placement to it).
     let given: Vec<CameraParams> = cameras.iter().filter(|c| !c.1).map(|c| c.0).collect();
     let diffuse = job.watch.time("diffuse reference", || {
         stages::diffuse::bench(&job.config, &prepared, &views, &given)

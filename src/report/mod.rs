@@ -210,6 +210,9 @@ pub struct ReachRecord {
     /// geometry, space outside): no probe and no coverage reference point
     /// stands there.
     pub excluded_fraction: f64,
+    /// The viewer's radius the flood moved (world units): passages
+    /// narrower than about twice it join nothing; 0 when a point's.
+    pub viewer_radius: f32,
 }
 
 impl From<&crate::reachable::Reachable> for ReachRecord {
@@ -219,6 +222,7 @@ impl From<&crate::reachable::Reachable> for ReachRecord {
             open_voxels: r.open_voxels,
             reached_voxels: r.reached_voxels,
             excluded_fraction: r.excluded_fraction(),
+            viewer_radius: r.radius,
         }
     }
 }

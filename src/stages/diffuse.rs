@@ -65,7 +65,12 @@ pub fn bench(
             .iter()
             .map(|c| prepared.scene.to_local(DVec3::from(c.position.0)))
             .collect();
-        reachable::reachable(&prepared.sdf, &prepared.bvh, &seeds)
+        reachable::reachable(
+            &prepared.sdf,
+            &prepared.bvh,
+            &seeds,
+            config.viewer_radius(prepared.sdf.voxel_size),
+        )
     });
     let per_view = (d.surface_receivers.0 as usize).div_ceil(views.len().max(1));
     let surface: Vec<_> = views

@@ -90,6 +90,9 @@ impl Prepared {
             params,
             stream.seed(seed),
             refs,
+            self.reachable
+                .as_ref()
+                .map(|r| std::sync::Arc::new(r.mask.clone())),
             progress,
         )
     }
@@ -208,7 +211,7 @@ fn restrict_to_reach(
     sdf: &mut Sdf,
 ) -> Option<crate::reachable::Reachable> {
     let seeds = reach_seeds(config, scene).filter(|s| !s.is_empty())?;
-    let reach = crate::reachable::reachable(sdf, bvh, &seeds);
+    let reach = crate::reachable::reachable(sdf, bvh, &seeds, config.viewer_radius(sdf.voxel_size));
     for (class, &reached) in sdf.class.iter_mut().zip(&reach.mask) {
         if *class == sdf::VoxelClass::Free && !reached {
             *class = sdf::VoxelClass::Outside;
