@@ -397,6 +397,11 @@ mod tests {
     /// A closed room (0..4)³ split at x = 2 by a wall 0.2 thick with a
     /// square hole of side `hole` centred at y = z = 2.
     fn split_room(hole: f32) -> (SceneBvh, Sdf) {
+        let (_, bvh, sdf) = split_room_scene(hole);
+        (bvh, sdf)
+    }
+
+    fn split_room_scene(hole: f32) -> (Scene, SceneBvh, Sdf) {
         let mut tris = Vec::new();
         add_box(&mut tris, Vec3::ZERO, Vec3::splat(4.0), true);
         let (a, b) = (2.0 - 0.5 * hole, 2.0 + 0.5 * hole);
@@ -415,7 +420,50 @@ mod tests {
             vec![crate::scene::Material::fallback()],
         )
         .unwrap();
-        bvh_and_sdf(&scene, 0.25, 3)
+        let (bvh, sdf) = bvh_and_sdf(&scene, 0.25, 3);
+        (scene, bvh, sdf)
+    }
+
+    #[test]
+    fn surfaces_seen_only_through_a_slit_are_not_coverable() {
+        let (scene, bvh, sdf) = split_room_scene(0.3);
+        let reach = reachable(&sdf, &bvh, &[Vec3::new(1.0, 2.0, 2.0)], 0.25);
+        let mut refs = crate::coverage::free_points(&bvh, &sdf, &scene.bounds, 400);
+        refs.retain(|&p| !reach.excludes(&sdf, p));
+        assert!(
+            refs.iter().all(|p| p.x < 1.9),
+            "reference points keep to the seed's room"
+        );
+        let build = |mask: Option<Vec<bool>>| {
+            crate::coverage::CoverageReference::on_free_points(
+                &scene,
+                &bvh,
+                &sdf,
+                &crate::config::CoverageParams::default(),
+                7,
+                refs.clone(),
+                mask.map(std::sync::Arc::new),
+                &crate::progress::Progress::hidden(),
+            )
+        };
+        let beyond = |c: &crate::coverage::CoverageReference| {
+            c.samples
+                .iter()
+                .zip(&c.coverable)
+                .filter(|(s, &k)| k && s.position.x > 2.2)
+                .count()
+        };
+        // Seen through the slit from the room, the far room's walls count
+        // without the reached space, and not with it.
+        assert!(beyond(&build(None)) > 0);
+        let with = build(Some(reach.mask.clone()));
+        assert_eq!(beyond(&with), 0);
+        // The seed room's own surfaces stay coverable.
+        assert!(with
+            .samples
+            .iter()
+            .zip(&with.coverable)
+            .any(|(s, &k)| k && s.position.x < 0.01));
     }
 
     #[test]

@@ -436,6 +436,19 @@ pub fn grid_sweep(domain: &crate::scene::Bounds, count: usize) -> Vec<GridParams
     out.into_iter().map(|(_, g)| g).collect()
 }
 
+/// The grid of `grids` whose probe count (`count`) is nearest `ours`
+/// (ties: the larger).
+fn nearest_count(
+    grids: &[GridParams],
+    ours: usize,
+    count: impl Fn(&GridParams) -> usize,
+) -> Option<GridParams> {
+    grids
+        .iter()
+        .min_by_key(|g| (count(g).abs_diff(ours), usize::MAX - count(g)))
+        .copied()
+}
+
 /// The view of every camera; camera 0's reference is the one `bake`
 /// renders (same seed), reused from `--from DIR` when it holds it.
 fn views(
@@ -589,18 +602,33 @@ impl Bench<'_> {
         given: Option<&Vec<GridParams>>,
         ours_count: usize,
     ) -> Result<Vec<(usize, GridParams)>> {
+        let count = |g: &GridParams| (g.cells.0 .0 * g.cells.1 .0 * g.cells.2 .0) as usize;
         let grids = match (given, self.config.compare.grids.is_empty()) {
             (Some(g), _) => g.clone(),
             (None, false) => self.config.compare.grids.clone(),
-            (None, true) => grid_sweep(&self.prepared.domain, ours_count),
+            (None, true) => {
+                // The sweep's own grids, without those whose bake alone
+                // would run past the work limit (the largest, 4× ours):
+                // named grids are the user's and refuse instead.
+                let sweep = grid_sweep(&self.prepared.domain, ours_count);
+                let near = nearest_count(&sweep, ours_count, count);
+                let (kept, over): (Vec<GridParams>, Vec<GridParams>) =
+                    sweep.into_iter().partition(|g| {
+                        Some(*g) == near || stages::bake::check(&self.config, count(g)).is_ok()
+                    });
+                for g in over {
+                    self.warnings.push(format!(
+                        "compare: grid:{} ({} probes) left out of the sweep: its bake would run past the work limit (name it with --grids and set PROBEPLACE_WORK_LIMIT to bake it)",
+                        Placement::Grid(g).name().trim_start_matches("grid:"),
+                        count(&g)
+                    ));
+                }
+                kept
+            }
         };
         check_grids(&self.config, &grids)
             .map_err(|e| e.in_config(&self.config_path, &self.config_text))?;
-        let count = |g: &GridParams| (g.cells.0 .0 * g.cells.1 .0 * g.cells.2 .0) as usize;
-        let nearest = grids
-            .iter()
-            .min_by_key(|g| (count(g).abs_diff(ours_count), usize::MAX - count(g)))
-            .copied();
+        let nearest = nearest_count(&grids, ours_count, count);
         let mut out = Vec::new();
         for g in &grids {
             let t = std::time::Instant::now();

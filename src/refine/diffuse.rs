@@ -424,6 +424,23 @@ mod tests {
     use crate::progress::Progress;
     use crate::scene::testing::{input_over, room_sdf};
 
+    #[test]
+    fn the_training_error_weighs_too_bright_and_too_dark_alike() {
+        let e = |l: f32| Vec3::splat(l);
+        let f = 0.01;
+        let over = log_error(e(2.0), e(1.0), f);
+        let under = log_error(e(0.5), e(1.0), f);
+        assert!((over - under).abs() < 1e-2, "{over} {under}");
+        assert!((over - 2f64.ln()).abs() < 2e-2);
+        assert_eq!(log_error(e(1.0), e(1.0), f), 0.0);
+        // Black against black is no error; the floor bounds a dark one.
+        assert_eq!(log_error(e(0.0), e(0.0), f), 0.0);
+        assert!(log_error(e(1.0), e(0.0), f) <= (1.0 / f + 1.0).ln() + 1e-9);
+        // compare's relative error is not symmetric: that is why.
+        let r = |g: f32| diffuse::relative_error(e(g), e(1.0), f);
+        assert!(r(2.0) > 1.5 * r(0.5));
+    }
+
     fn params() -> DiffuseFill {
         DiffuseFill {
             surface_points: Whole(256),
