@@ -345,8 +345,13 @@ mod tests {
         let mut tris = Vec::new();
         add_box(&mut tris, Vec3::ZERO, Vec3::splat(4.0), true);
         add_box(&mut tris, Vec3::splat(0.75), Vec3::splat(2.25), true);
+        scene_of("void", tris)
+    }
+
+    /// The scene of `tris`, its BVH and its SDF at a quarter-unit voxel.
+    fn scene_of(name: &str, tris: Vec<[Vec3; 3]>) -> (Scene, SceneBvh, Sdf) {
         let scene = Scene::from_triangles(
-            "void".into(),
+            name.into(),
             tris.into_iter().map(|t| (t, 0)),
             vec![crate::scene::Material::fallback()],
         )
@@ -414,14 +419,7 @@ mod tests {
         ] {
             add_box(&mut tris, lo, hi, false);
         }
-        let scene = Scene::from_triangles(
-            "split".into(),
-            tris.into_iter().map(|t| (t, 0)),
-            vec![crate::scene::Material::fallback()],
-        )
-        .unwrap();
-        let (bvh, sdf) = bvh_and_sdf(&scene, 0.25, 3);
-        (scene, bvh, sdf)
+        scene_of("split", tris)
     }
 
     #[test]
