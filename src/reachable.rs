@@ -158,10 +158,12 @@ pub fn reachable(sdf: &Sdf, bvh: &SceneBvh, seeds: &[Vec3], radius: f32) -> Reac
     let mut radius = radius;
     let mut core = room(radius);
     let mut starts = starts_in(&core, radius);
-    if starts.is_empty() && radius > 0.0 && !starts_in(&open, 0.0).is_empty() {
-        radius = 0.0;
-        core = open.clone();
-        starts = starts_in(&core, 0.0);
+    if starts.is_empty() && radius > 0.0 {
+        starts = starts_in(&open, 0.0);
+        if !starts.is_empty() {
+            radius = 0.0;
+            core = open.clone();
+        }
     }
     let seeds_used = starts.len();
     let mask: Vec<bool> = if starts.is_empty() {
@@ -221,43 +223,20 @@ fn between_core(sdf: &Sdf, passable: &[u8], core: &[bool]) -> Vec<u8> {
 /// within the centre's SDF distance and half a voxel diagonal of it.
 fn balls(sdf: &Sdf, passable: &[u8], core: &[bool], centres: Vec<bool>) -> Vec<bool> {
     let slack = 0.5 * 3f32.sqrt() * sdf.voxel_size;
-    let dims = sdf.dims;
     let mut mask = centres;
     let mut queue: VecDeque<(usize, usize)> = (0..sdf.len())
         .filter(|&i| mask[i])
         .map(|i| (i, i))
         .collect();
     while let Some((i, origin)) = queue.pop_front() {
-        let v = sdf.coords(i);
         let o = sdf.center(origin);
         let reach = sdf.distance[origin] + slack;
-        for axis in 0..3 {
-            for forward in [true, false] {
-                let j = if forward {
-                    if v[axis] + 1 >= dims[axis] || passable[i] & (1 << axis) == 0 {
-                        continue;
-                    }
-                    let mut w = v;
-                    w[axis] += 1;
-                    sdf.index(w)
-                } else {
-                    if v[axis] == 0 {
-                        continue;
-                    }
-                    let mut w = v;
-                    w[axis] -= 1;
-                    let j = sdf.index(w);
-                    if passable[j] & (1 << axis) == 0 {
-                        continue;
-                    }
-                    j
-                };
-                if !mask[j] && !core[j] && sdf.center(j).distance(o) <= reach {
-                    mask[j] = true;
-                    queue.push_back((j, origin));
-                }
+        passable_neighbours(sdf, passable, i, |j| {
+            if !mask[j] && !core[j] && sdf.center(j).distance(o) <= reach {
+                mask[j] = true;
+                queue.push_back((j, origin));
             }
-        }
+        });
     }
     mask
 }
@@ -290,6 +269,27 @@ fn seed_voxel(sdf: &Sdf, room: &[bool], p: Vec3, window: i32) -> Option<usize> {
     best.map(|(_, j)| j)
 }
 
+/// Calls `f` with every neighbour of voxel `i` joined to it by a passable
+/// edge: forward edges are `i`'s bits, backward ones the neighbour's.
+fn passable_neighbours(sdf: &Sdf, passable: &[u8], i: usize, mut f: impl FnMut(usize)) {
+    let v = sdf.coords(i);
+    for axis in 0..3 {
+        if v[axis] + 1 < sdf.dims[axis] && passable[i] & (1 << axis) != 0 {
+            let mut w = v;
+            w[axis] += 1;
+            f(sdf.index(w));
+        }
+        if v[axis] > 0 {
+            let mut w: UVec3 = v;
+            w[axis] -= 1;
+            let j = sdf.index(w);
+            if passable[j] & (1 << axis) != 0 {
+                f(j);
+            }
+        }
+    }
+}
+
 /// Labels with `id` every voxel joined to `starts` through passable
 /// edges; returns how many it labelled.
 fn flood(sdf: &Sdf, passable: &[u8], label: &mut [u32], starts: &[usize], id: u32) -> usize {
@@ -302,32 +302,14 @@ fn flood(sdf: &Sdf, passable: &[u8], label: &mut [u32], starts: &[usize], id: u3
             count += 1;
         }
     }
-    let dims = sdf.dims;
     while let Some(i) = queue.pop_front() {
-        let v = sdf.coords(i);
-        for axis in 0..3 {
-            // Forward edge: this voxel's bit; backward: the neighbour's.
-            if v[axis] + 1 < dims[axis] && passable[i] & (1 << axis) != 0 {
-                let mut w = v;
-                w[axis] += 1;
-                let j = sdf.index(w);
-                if label[j] == u32::MAX {
-                    label[j] = id;
-                    queue.push_back(j);
-                    count += 1;
-                }
+        passable_neighbours(sdf, passable, i, |j| {
+            if label[j] == u32::MAX {
+                label[j] = id;
+                queue.push_back(j);
+                count += 1;
             }
-            if v[axis] > 0 {
-                let mut w: UVec3 = v;
-                w[axis] -= 1;
-                let j = sdf.index(w);
-                if passable[j] & (1 << axis) != 0 && label[j] == u32::MAX {
-                    label[j] = id;
-                    queue.push_back(j);
-                    count += 1;
-                }
-            }
-        }
+        });
     }
     count
 }

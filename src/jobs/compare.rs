@@ -436,19 +436,6 @@ pub fn grid_sweep(domain: &crate::scene::Bounds, count: usize) -> Vec<GridParams
     out.into_iter().map(|(_, g)| g).collect()
 }
 
-/// The grid of `grids` whose probe count (`count`) is nearest `ours`
-/// (ties: the larger).
-fn nearest_count(
-    grids: &[GridParams],
-    ours: usize,
-    count: impl Fn(&GridParams) -> usize,
-) -> Option<GridParams> {
-    grids
-        .iter()
-        .min_by_key(|g| (count(g).abs_diff(ours), usize::MAX - count(g)))
-        .copied()
-}
-
 /// The view of every camera; camera 0's reference is the one `bake`
 /// renders (same seed), reused from `--from DIR` when it holds it.
 fn views(
@@ -611,7 +598,7 @@ impl Bench<'_> {
                 // would run past the work limit (the largest, 4× ours):
                 // named grids are the user's and refuse instead.
                 let sweep = grid_sweep(&self.prepared.domain, ours_count);
-                let near = nearest_count(&sweep, ours_count, count);
+                let near = nearest_by_cells(&sweep, ours_count);
                 let (kept, over): (Vec<GridParams>, Vec<GridParams>) =
                     sweep.into_iter().partition(|g| {
                         Some(*g) == near || stages::bake::check(&self.config, count(g)).is_ok()
@@ -628,7 +615,7 @@ impl Bench<'_> {
         };
         check_grids(&self.config, &grids)
             .map_err(|e| e.in_config(&self.config_path, &self.config_text))?;
-        let nearest = nearest_count(&grids, ours_count, count);
+        let nearest = nearest_by_cells(&grids, ours_count);
         let mut out = Vec::new();
         for g in &grids {
             let t = std::time::Instant::now();
@@ -923,6 +910,16 @@ fn nearest_grid(grids: &[(usize, GridParams)], count: usize) -> Option<&(usize, 
     grids
         .iter()
         .min_by_key(|(n, _)| (n.abs_diff(count), usize::MAX - n))
+}
+
+/// [`nearest_grid`] among `grids` by their cell counts, before any is
+/// placed.
+fn nearest_by_cells(grids: &[GridParams], count: usize) -> Option<GridParams> {
+    let counted: Vec<(usize, GridParams)> = grids
+        .iter()
+        .map(|g| ((g.cells.0 .0 * g.cells.1 .0 * g.cells.2 .0) as usize, *g))
+        .collect();
+    nearest_grid(&counted, count).map(|&(_, g)| g)
 }
 
 /// The method of ours the comparison headlines: the config's, when it is
