@@ -18,7 +18,7 @@ use std::path::Path;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    if args.is_empty() || args.len() % 2 != 0 {
+    if args.is_empty() || !args.len().is_multiple_of(2) {
         return Err("usage: coverable CONFIG PROBES.json [CONFIG PROBES.json ...]".into());
     }
     for pair in args.chunks(2) {

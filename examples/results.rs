@@ -1,7 +1,7 @@
 //! docs/results.md, generated from the JSON the runs wrote:
 //!
 //! ```sh
-//! cargo run --release --example results -- out/results out/compare out/generality
+//! cargo run --release --example results -- out/results out/compare out/generality --lit out/lit
 //! ```
 //!
 //! reads every `report.json` (`probeplace place`, `bake`, `render`) and
@@ -14,7 +14,10 @@
 //!
 //! Options: `--output FILE` writes the Markdown there instead (the plots go
 //! beside it); `--check` writes nothing and exits with status 1 when the
-//! files on disk differ from what the JSON gives.
+//! files on disk differ from what the JSON gives; `--lit DIR` reads the
+//! `compare.json` files under DIR as the lit generated scenes at seeds
+//! outside the suite (`gen_scenes --lit --seeds`), summarised in a section
+//! of their own rather than one section per scene.
 //!
 //! The output depends on the JSON alone: rows are sorted, floats have fixed
 //! formats, and nothing that varies between runs (timings, `gpu_ms`, input
@@ -41,7 +44,11 @@ for n in cornell-glossy two-rooms pillared-hall holodeck sponza; do
     ./target/release/probeplace compare \"configs/$n.ron\" --cpu --out \"out/compare/$n\" --quiet
 done
 cargo run --release --example generality -- out/generality
-cargo run --release --example results -- out/results out/compare out/generality
+cargo run --release --example gen_scenes -- out/lit --lit --seeds 71
+for c in out/lit/*-71.ron; do
+    ./target/release/probeplace compare \"$c\" --cpu --out \"out/lit/$(basename \"$c\" .ron)\" --quiet
+done
+cargo run --release --example results -- out/results out/compare out/generality --lit out/lit
 ";
 
 const DASH: &str = "–";
@@ -57,13 +64,15 @@ fn run() -> Result<(), Error> {
     let mut output: Option<PathBuf> = None;
     let mut check = false;
     let mut dirs: Vec<PathBuf> = Vec::new();
+    let mut lit: Vec<PathBuf> = Vec::new();
     let mut args = std::env::args_os().skip(1);
     while let Some(a) = args.next() {
         match a.to_str() {
             Some("--output") => output = Some(args.next().ok_or("--output needs a file")?.into()),
             Some("--check") => check = true,
+            Some("--lit") => lit.push(args.next().ok_or("--lit needs a directory")?.into()),
             Some("-h" | "--help") => {
-                println!("usage: cargo run --release --example results -- [--output FILE] [--check] DIR...");
+                println!("usage: cargo run --release --example results -- [--output FILE] [--check] [--lit DIR] DIR...");
                 return Ok(());
             }
             _ => dirs.push(a.into()),
@@ -71,7 +80,7 @@ fn run() -> Result<(), Error> {
     }
     if dirs.is_empty() {
         return Err(
-            "usage: cargo run --release --example results -- [--output FILE] [--check] DIR..."
+            "usage: cargo run --release --example results -- [--output FILE] [--check] [--lit DIR] DIR..."
                 .into(),
         );
     }
@@ -84,6 +93,17 @@ fn run() -> Result<(), Error> {
             return Err(format!("{}: not a directory", dir.display()).into());
         }
         inputs.collect(dir)?;
+    }
+    for dir in &lit {
+        if !dir.is_dir() {
+            return Err(format!("{}: not a directory", dir.display()).into());
+        }
+        let mut held_out = Inputs::default();
+        held_out.collect(dir)?;
+        if held_out.compares.is_empty() {
+            return Err(format!("--lit {}: no compare.json under it", dir.display()).into());
+        }
+        inputs.lit.append(&mut held_out.compares);
     }
     if inputs.reports.is_empty() && inputs.compares.is_empty() && inputs.generality.is_empty() {
         return Err(
@@ -145,6 +165,8 @@ struct Inputs {
     reports: Vec<Value>,
     compares: Vec<Value>,
     generality: Vec<Value>,
+    /// `compare.json` of the lit generated scenes at held-out seeds.
+    lit: Vec<Value>,
 }
 
 impl Inputs {
@@ -577,6 +599,8 @@ fn diffuse_summary(compares: &[Value]) -> String {
     ];
     let mut t = Table::new(&columns);
     let (mut scenes, mut half_grid, mut leak_quarter) = (0, 0, 0);
+    let mut floors: Vec<String> = Vec::new();
+    let (mut below_half, mut floor_scenes) = (0, 0);
     for c in compares {
         let Some(x) = ours_comparison(c) else {
             continue;
@@ -592,6 +616,41 @@ fn diffuse_summary(compares: &[Value]) -> String {
             continue;
         };
         scenes += 1;
+        // The lowest indirect surface error any placement of the run reached
+        // (every grid of the sweep, every rival, ours at every count), over
+        // the equal-count grid's: how far below that grid the blend allows
+        // any placement to go.
+        let equal_grid = array(x, "ratios")
+            .iter()
+            .find(|r| text(r, "tracer") == "hiz+svo" && text(r, "family") == "grid")
+            .and_then(|r| {
+                let name = text(r, "against");
+                let p = diffuse_of(&name)?;
+                Some((name, num(p, "sh_tetrahedra.surface_indirect")?))
+            });
+        let lowest = placements
+            .iter()
+            .filter(|p| text(p, "tracer") == "hiz+svo")
+            .filter_map(|p| {
+                let e = at(p, "diffuse").and_then(|d| num(d, "sh_tetrahedra.surface_indirect"))?;
+                Some((e, text(p, "name"), num(p, "probes")))
+            })
+            .min_by(|a, b| a.0.total_cmp(&b.0).then_with(|| a.1.cmp(&b.1)));
+        if let (Some((grid, g)), Some((e, name, probes))) = (equal_grid, lowest) {
+            if g > 0.0 {
+                floor_scenes += 1;
+                if e <= 0.5 * g {
+                    below_half += 1;
+                }
+                floors.push(format!(
+                    "- `{}`: {} of `{grid}`'s {} (`{name}`, {} probes)",
+                    config_name(c),
+                    ratio(Some(e / g)),
+                    pct(Some(g), 1),
+                    int(probes)
+                ));
+            }
+        }
         let ours_cell = format!(
             "{} · {}",
             pct(num(ours, "sh_tetrahedra.surface_indirect"), 1),
@@ -656,6 +715,19 @@ fn diffuse_summary(compares: &[Value]) -> String {
          the interval excluding 1, in **{half_grid} of {scenes}** comparisons, and at most \
          a quarter of its leaks in **{leak_quarter} of {scenes}** (issue 44's bars).\n"
     );
+    if !floors.is_empty() {
+        let _ = writeln!(
+            md,
+            "The lowest indirect surface error that any placement of each run reached (every \
+             grid of the sweep, up to several times ours in count, every rival, ours at \
+             every count), as a share of the equal-count grid's: at or below half in \
+             **{below_half} of {floor_scenes}**.\n"
+        );
+        for f in &floors {
+            let _ = writeln!(md, "{f}");
+        }
+        md.push('\n');
+    }
     md
 }
 
@@ -737,10 +809,12 @@ fn render(inputs: &mut Inputs) -> Files {
     );
     let _ = writeln!(
         md,
-        "Inputs: {} `report.json`, {} `compare.json`, {} generality rows.\n",
+        "Inputs: {} `report.json`, {} `compare.json`, {} generality rows, {} lit generated \
+         `compare.json`.\n",
         inputs.reports.len(),
         inputs.compares.len(),
-        inputs.generality.len()
+        inputs.generality.len(),
+        inputs.lit.len()
     );
 
     inputs.reports.sort_by(|a, b| {
@@ -762,6 +836,21 @@ fn render(inputs: &mut Inputs) -> Files {
     if !diffuse.is_empty() {
         md.push_str("## Diffuse light at a glance\n\n");
         md.push_str(&diffuse);
+    }
+    inputs.lit.sort_by(|a, b| {
+        natural(&config_name(a), &config_name(b)).then_with(|| a.to_string().cmp(&b.to_string()))
+    });
+    let lit_diffuse = diffuse_summary(&inputs.lit);
+    if !lit_diffuse.is_empty() {
+        md.push_str("## Lit generated scenes at seeds outside the suite\n\n");
+        md.push_str(
+            "Every kind of generated scene at a seed no test or default was tuned on, with \
+             the generator's sun and sky (`gen_scenes --lit --seeds`; their own lamps \
+             too, where they have them), compared with the stock config: diffuse light, \
+             the columns of the table above. Their materials are matte, so the glossy \
+             measure is zero for every placement and is not shown.\n\n",
+        );
+        md.push_str(&lit_diffuse);
     }
     let mut plots = Vec::new();
     if !inputs.reports.is_empty() {

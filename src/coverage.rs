@@ -350,7 +350,7 @@ impl NearViewers {
                         .nearest_n::<SquaredEuclidean<f32>>(n)
                         .execute()
                         .into_iter()
-                        .map(|r| r.item as u32)
+                        .map(|r| r.item)
                 })
                 .collect(),
             // Too few viewers for a tree: each cell lists them all.
@@ -622,6 +622,7 @@ impl CoverageReference {
     /// [`free_points`] found for this scene, domain and
     /// `params.reference_points` (which depend on no seed, so one run
     /// finds them once for all its streams).
+    #[allow(clippy::too_many_arguments)]
     pub(crate) fn on_free_points(
         scene: &Scene,
         bvh: &SceneBvh,

@@ -11,7 +11,7 @@
 //! releases, which would silently change every figure. The crates were
 //! declared and unused, and are removed (docs/method.md, "Random numbers").
 
-use glam::{Mat3, Quat, Vec3};
+use glam::{DVec3, Mat3, Quat, Vec3};
 use std::f32::consts::PI;
 
 /// SplitMix64 finalizer: a good 64-bit mix of `seed` and `index`, used to give
@@ -74,6 +74,92 @@ pub fn point_in_triangle(t: &[Vec3; 3], u: f32, v: f32) -> Vec3 {
     let b0 = 1.0 - su;
     let b1 = v * su;
     t[0] * b0 + t[1] * b1 + t[2] * (1.0 - b0 - b1)
+}
+
+/// Solid angle (steradians) that triangle `t` subtends at `p`, by Van
+/// Oosterom and Strackee's formula (1983): `tan(Ω/2) = |a·(b×c)| /
+/// (1 + a·b + b·c + c·a)` with `a`, `b`, `c` the unit directions to the
+/// corners. 0 when `p` lies on a corner.
+pub fn solid_angle(p: DVec3, t: &[DVec3; 3]) -> f64 {
+    let [a, b, c] = t.map(|v| (v - p).normalize_or_zero());
+    if a == DVec3::ZERO || b == DVec3::ZERO || c == DVec3::ZERO {
+        return 0.0;
+    }
+    let num = a.dot(b.cross(c)).abs();
+    let den = 1.0 + a.dot(b) + b.dot(c) + c.dot(a);
+    2.0 * num.atan2(den)
+}
+
+/// `∫ cos θ dω` over the directions from `p` into triangle `t`, against
+/// normal `n` (the irradiance a unit-radiance emitter gives, over π the form
+/// factor): Lambert's formula `½ |Σ Θᵢ n·Γᵢ|` over the edges, `Θᵢ` the
+/// angle an edge subtends at `p` and `Γᵢ` the unit normal of the plane
+/// through `p` and that edge (pbrt-v4 §4.5.1's polygonal emitter).
+///
+/// Contract: exact when the whole triangle lies on the side of `n`.
+pub fn projected_solid_angle(p: DVec3, n: DVec3, t: &[DVec3; 3]) -> f64 {
+    let a = t.map(|v| (v - p).normalize());
+    let mut sum = 0.0;
+    for i in 0..3 {
+        let (x, y) = (a[i], a[(i + 1) % 3]);
+        let theta = x.cross(y).length().atan2(x.dot(y));
+        sum += theta * n.dot(x.cross(y).normalize_or_zero());
+    }
+    0.5 * sum.abs()
+}
+
+/// A direction from `p` uniformly distributed over the solid angle that
+/// triangle `t` subtends, from two uniforms in [0,1), with that solid angle
+/// (the direction's density is its inverse): Arvo's stratified sampling of
+/// spherical triangles (Arvo 1995, "Stratified Sampling of Spherical
+/// Triangles", §2; pbrt-v4 §6.5.4 `SampleSphericalTriangle`).
+///
+/// Why: next-event estimation that picks a point uniformly by area weighs
+/// it by `cos θ_light / d²`, which has no bound near the emitter. A lamp
+/// set a centimetre under a ceiling lights the ceiling beside it with
+/// samples thousands of times the mean, and one such path in a probe's
+/// bake decided a scene's diffuse figures (docs/method.md, "Fireflies").
+/// Drawn by solid angle, a sample's weight is `cos θ · Ω`, at most `2π`.
+///
+/// Returns `None` when the triangle subtends less than `min_solid_angle`
+/// (where area sampling is as good and the trigonometry loses precision),
+/// nearly a hemisphere (above `2π − 1e-3`), or is degenerate seen from `p`.
+///
+/// Contract: the direction is unit and points into the triangle (up to
+/// rounding); deterministic.
+pub fn sample_spherical_triangle(
+    p: DVec3,
+    t: &[DVec3; 3],
+    u: [f64; 2],
+    min_solid_angle: f64,
+) -> Option<(DVec3, f64)> {
+    let omega = solid_angle(p, t);
+    if !(omega >= min_solid_angle && omega <= 2.0 * std::f64::consts::PI - 1e-3) {
+        return None;
+    }
+    let [a, b, c] = t.map(|v| (v - p).normalize());
+    // The spherical angle at corner `a`, between the great circles to `b`
+    // and to `c`.
+    let (nab, nac) = (a.cross(b), a.cross(c));
+    let alpha = nab.cross(nac).length().atan2(nab.dot(nac));
+    let (sin_alpha, cos_alpha) = alpha.sin_cos();
+    // Arvo §2: the sub-triangle of area u₀·Ω fixes the third corner ĉ on the
+    // arc from a to c ...
+    let (s, co) = (u[0] * omega - alpha).sin_cos();
+    let uu = co - cos_alpha;
+    let vv = s + sin_alpha * a.dot(b);
+    let den = (vv * s + uu * co) * sin_alpha;
+    if den == 0.0 || !den.is_finite() {
+        return None;
+    }
+    let q = (((vv * co - uu * s) * cos_alpha - vv) / den).clamp(-1.0, 1.0);
+    let c_hat = q * a + (1.0 - q * q).max(0.0).sqrt() * (c - c.dot(a) * a).normalize_or_zero();
+    // ... and u₁ places the direction on the arc from b to ĉ, uniformly in
+    // the cosine about b.
+    let z = 1.0 - u[1] * (1.0 - c_hat.dot(b));
+    let w = z * b + (1.0 - z * z).max(0.0).sqrt() * (c_hat - c_hat.dot(b) * b).normalize_or_zero();
+    let w = w.normalize_or_zero();
+    (w != DVec3::ZERO).then_some((w, omega))
 }
 
 /// A counter-based stream of uniform numbers: the `i`-th draw is a pure
@@ -175,6 +261,99 @@ pub(crate) fn cube_point(h: u64) -> glam::Vec3 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Where the ray from `p` along `w` meets the plane of `t`, in
+    /// barycentric coordinates.
+    fn barycentric_hit(p: DVec3, w: DVec3, t: &[DVec3; 3]) -> [f64; 3] {
+        let n = (t[1] - t[0]).cross(t[2] - t[0]);
+        let x = p + w * ((t[0] - p).dot(n) / w.dot(n));
+        let area = |a: DVec3, b: DVec3, c: DVec3| (b - a).cross(c - a).dot(n) / n.length_squared();
+        [
+            area(x, t[1], t[2]),
+            area(t[0], x, t[2]),
+            area(t[0], t[1], x),
+        ]
+    }
+
+    #[test]
+    fn spherical_triangle_samples_are_uniform_over_its_solid_angle() {
+        let tri = [
+            DVec3::new(-0.3, 1.0, -0.2),
+            DVec3::new(0.5, 1.0, -0.1),
+            DVec3::new(0.1, 1.0, 0.6),
+        ];
+        // A point far below, one close under the emitter, one a millimetre
+        // beside its edge and a centimetre above its plane (where the area
+        // density's weight has no bound).
+        for p in [
+            DVec3::new(0.0, -3.0, 0.0),
+            DVec3::new(0.1, 0.9, 0.1),
+            DVec3::new(0.1, 1.01, -0.201),
+        ] {
+            let omega = solid_angle(p, &tri);
+            let n = (tri[0] + tri[1] + tri[2]) / 3.0 - p;
+            let n = n.normalize();
+            let (mut cos_sum, mut count) = (0.0, 0usize);
+            // The four midpoint sub-triangles' shares of the samples.
+            let m = [
+                0.5 * (tri[0] + tri[1]),
+                0.5 * (tri[1] + tri[2]),
+                0.5 * (tri[2] + tri[0]),
+            ];
+            let subs = [
+                [tri[0], m[0], m[2]],
+                [m[0], tri[1], m[1]],
+                [m[2], m[1], tri[2]],
+                m,
+            ];
+            let mut hits = [0usize; 4];
+            let samples = 20_000u64;
+            for i in 0..samples {
+                let u = [
+                    unit_f32(hash2(3, 2 * i)) as f64,
+                    unit_f32(hash2(3, 2 * i + 1)) as f64,
+                ];
+                let (w, o) =
+                    sample_spherical_triangle(p, &tri, u, 1e-6).expect("a proper triangle");
+                assert!((o - omega).abs() < 1e-12 && (w.length() - 1.0).abs() < 1e-9);
+                let b = barycentric_hit(p, w, &tri);
+                assert!(b.iter().all(|&x| x > -1e-6), "{p:?}: {w:?} misses, {b:?}");
+                cos_sum += n.dot(w).max(0.0);
+                count += 1;
+                let k = subs
+                    .iter()
+                    .position(|s| barycentric_hit(p, w, s).iter().all(|&x| x >= -1e-9))
+                    .unwrap();
+                hits[k] += 1;
+            }
+            let estimate = omega * cos_sum / count as f64;
+            let exact = projected_solid_angle(p, n, &tri);
+            assert!(
+                (estimate - exact).abs() < 0.01 * exact,
+                "{p:?}: {estimate} vs {exact}"
+            );
+            for (s, &h) in subs.iter().zip(&hits) {
+                let share = h as f64 / samples as f64;
+                let want = solid_angle(p, s) / omega;
+                assert!((share - want).abs() < 0.015, "{p:?}: {share} vs {want}");
+            }
+        }
+    }
+
+    #[test]
+    fn spherical_triangle_sampling_declines_the_tiny_and_the_degenerate() {
+        let tri = [DVec3::ZERO, DVec3::X, DVec3::Z];
+        // Seen edge-on from its own plane, from a corner, or subtending less
+        // than asked.
+        assert!(
+            sample_spherical_triangle(DVec3::new(2.0, 0.0, 2.0), &tri, [0.5; 2], 1e-6).is_none()
+        );
+        assert!(sample_spherical_triangle(DVec3::ZERO, &tri, [0.5; 2], 1e-6).is_none());
+        let far = DVec3::new(0.2, 1e3, 0.2);
+        assert!(solid_angle(far, &tri) < 1e-6);
+        assert!(sample_spherical_triangle(far, &tri, [0.5; 2], 1e-6).is_none());
+        assert!(sample_spherical_triangle(far, &tri, [0.5; 2], 0.0).is_some());
+    }
 
     #[test]
     fn keep_least_is_a_full_sort_cut_short() {

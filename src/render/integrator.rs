@@ -12,7 +12,9 @@
 //!   which the glossy indirect split (Wang et al. 2019 §5.1) relies on. The
 //!   price is noise on very sharp glossy reflections of small lights, and on
 //!   light reflected by glossy surfaces onto diffuse ones, which MIS (or
-//!   photon mapping) would reduce.
+//!   photon mapping) would reduce. Surfaces right beside an emitter, where
+//!   light sampling by area has no bound, are sampled by solid angle
+//!   instead ([`super::lights`]), which MIS would otherwise be needed for.
 //! * **Fixed path length, no Russian roulette.** A path has exactly
 //!   `1 + bounces` vertices (fewer only when it escapes or meets a black
 //!   surface), so the cost of a probe texel is predictable and the estimate
