@@ -112,6 +112,38 @@ impl<'de> Deserialize<'de> for VoxelSize {
     }
 }
 
+/// The last `name:` written on line `line` (1-based) before column `col`:
+/// the field a syntax error there belongs to, for the message.
+fn field_before(text: &str, line: usize, col: usize) -> Option<String> {
+    let row = text.lines().nth(line.checked_sub(1)?)?;
+    let before: String = row.chars().take(col.saturating_sub(1)).collect();
+    let bytes = before.as_bytes();
+    let mut found = None;
+    let mut i = 0;
+    while i < bytes.len() {
+        if bytes[i].is_ascii_alphabetic() || bytes[i] == b'_' {
+            let start = i;
+            while i < bytes.len() && (bytes[i].is_ascii_alphanumeric() || bytes[i] == b'_') {
+                i += 1;
+            }
+            let rest = before[i..].trim_start();
+            if rest.starts_with(':') && !rest.starts_with("::") {
+                found = Some(before[start..i].to_string());
+            }
+        } else if bytes[i] == b'"' {
+            // Skip a string: a `:` inside it is no field.
+            i += 1;
+            while i < bytes.len() && bytes[i] != b'"' {
+                i += if bytes[i] == b'\\' { 2 } else { 1 };
+            }
+            i += 1;
+        } else {
+            i += 1;
+        }
+    }
+    found
+}
+
 /// The position (line, column, 1-based) of an identifier other than `Auto`
 /// given as `voxel_size`, which RON would pass on as a nameless unit (see
 /// [`VoxelSize`]'s `Deserialize`).
@@ -1364,7 +1396,14 @@ impl Config {
             // serde_path_to_error writes `?` for a position it could not
             // name (inside a value that never began); the line says where.
             let path = path.trim_end_matches('?').trim_end_matches('.');
-            let field = if path.is_empty() || path == "." {
+            // A syntax error at the top level (`max_probes: 1.5,` reads
+            // `1`, then fails at `.5`) has no path: name the field written
+            // before it. Deeper, the path names the enclosing field.
+            let path = match path {
+                "" | "." => field_before(text, span.start.line, span.start.col).unwrap_or_default(),
+                p => p.to_string(),
+            };
+            let field = if path.is_empty() {
                 String::new()
             } else {
                 format!("{path}: ")
@@ -1765,6 +1804,24 @@ mod tests {
             Err(Error::User(m)) => m,
             other => panic!("expected a user error, got {other:?}"),
         }
+    }
+
+    #[test]
+    fn a_syntax_error_names_the_field_it_is_in() {
+        // `1.5` reads as `1`, then `.5` is a syntax error with no path.
+        let m = user_message(parse("(\n    scene: \"a.obj\",\n    max_probes: 1.5,\n)"));
+        assert!(m.starts_with("c.ron:3:18: max_probes: "), "{m}");
+        let m = user_message(parse(
+            "(\n    scene: \"a:b.obj\", refine: (iterations: 2 3),\n)",
+        ));
+        assert!(m.contains(":2:") && m.contains("refine: "), "{m}");
+        // A `:` inside a string is no field; nothing before it, no name.
+        assert_eq!(
+            field_before("    x: \"y: z\" ]", 1, 16).as_deref(),
+            Some("x")
+        );
+        assert_eq!(field_before("  ]", 1, 3), None);
+        assert_eq!(field_before("", 9, 3), None);
     }
 
     #[test]

@@ -56,7 +56,7 @@ struct RunArgs {
     #[arg(long)]
     method: Option<String>,
     /// Score the probes of FILE.json (a probes.json, or an array of [x, y, z]) instead of placing.
-    #[arg(long, value_name = "FILE.json")]
+    #[arg(long, value_name = "FILE.json", conflicts_with = "method")]
     probes: Option<PathBuf>,
     /// Random seed (default: the config's).
     #[arg(long)]

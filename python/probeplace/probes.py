@@ -2,10 +2,9 @@
 "probes.json").
 
 :func:`load_probes` accepts what probeplace's own reader accepts
-(src/placement/file.rs, ``parse_world``: a ``probes`` object, or a bare
-array of ``[x, y, z]``), with the same reasons for what it refuses, and
-one check more: a file that names its ``format`` must name
-``probeplace.probes``, version 1.
+(src/placement/file.rs, ``parse_world``: an object of ``format``
+``probeplace.probes``, version 1, with a ``probes`` array, or a bare array
+of ``[x, y, z]``), with the same reasons for what it refuses.
 """
 
 from __future__ import annotations
@@ -83,16 +82,22 @@ def from_bytes(data: bytes, path: str = "probes.json") -> Probes:
     if isinstance(value, list):
         entries, top = value, {}
     elif isinstance(value, dict):
-        entries, top = value.get("probes"), value
+        top = value
+        fmt = value.get("format")
+        if not isinstance(fmt, str):
+            raise bad(f"has no `format`: expected `{FORMAT}` (or a bare array of [x, y, z])")
+        if fmt != FORMAT:
+            raise bad(f"is a `{fmt}` file, not `{FORMAT}` (or a bare array of [x, y, z])")
+        version = value.get("version")
+        if type(version) is not int or version != VERSION:
+            shown = "(none)" if "version" not in value else json.dumps(
+                version, separators=(",", ":"), ensure_ascii=False)
+            raise bad(f"`{FORMAT}` version {shown}: this build reads version {VERSION}")
+        entries = value.get("probes")
         if not isinstance(entries, list):
             raise bad("has no `probes` array")
     else:
         raise bad("expected a `probes` object or an array of [x, y, z]")
-    version = top.get("version")
-    if "format" in top and (top["format"] != FORMAT or type(version) is not int
-                            or version != VERSION):
-        raise bad(f"format {top['format']!r} version {version!r}; "
-                  f"this reader reads {FORMAT!r} version {VERSION}")
     if not entries:
         raise bad("holds no probe")
     if len(entries) > MAX_PROBES:

@@ -229,13 +229,17 @@ def test_probes_read_both_forms_and_refuse_what_probeplace_refuses(tmp_path):
     assert len(bare) == 2 and bare.cluster_size.tolist() == [0, 0]
     assert bare.fixed.tolist() == [False, False]
     for text, reason in [
-        (b"{}", "has no `probes` array"),
+        (b"{}", "has no `format`: expected `probeplace.probes` (or a bare array of [x, y, z])"),
+        (json.dumps({"format": "probeplace.probes", "version": 1}).encode(),
+         "has no `probes` array"),
+        (json.dumps({**doc, "format": "probeplace.report"}).encode(),
+         "is a `probeplace.report` file, not `probeplace.probes` (or a bare array of [x, y, z])"),
         (b"[]", "holds no probe"),
         (b"7", "expected a `probes` object or an array of [x, y, z]"),
         (b"[[1, 2]]", "probe 0: `position` must be three numbers"),
         (b"[[1, 2, 3], [1, 2, 1e400]]", "probe 1: the position is not finite"),
         (json.dumps({**doc, "version": 2}).encode(),
-         "format 'probeplace.probes' version 2; this reader reads 'probeplace.probes' version 1"),
+         "`probeplace.probes` version 2: this build reads version 1"),
     ]:
         with pytest.raises(pp.ProbeplaceError) as raised:
             pp.probes.from_bytes(text, "p.json")

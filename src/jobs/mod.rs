@@ -240,6 +240,11 @@ impl Job {
         apply(&mut config, &overrides)?;
         let files = provenance::input_files(&config, &overrides);
         let provenance = Provenance::of_files(&config, &config_path, &text, &overrides, &files)?;
+        // A `--probes` file that is not ours, or not probes, is refused here,
+        // before the first stage, not after the scene's SDF and coverage.
+        if let Some(path) = &overrides.probes {
+            crate::placement::file::read_world(path)?;
+        }
         if let Some(e) = &earlier {
             if let Some(why) = provenance.mismatch(&e.provenance) {
                 return Err(Error::user_file(

@@ -54,6 +54,9 @@ pub fn read(path: &Path, scene: &Scene, method: &str) -> Result<ProbeSet> {
     })
 }
 
+/// The `format` of a `probes.json` ([`crate::report`] writes it).
+const PROBES_FORMAT: &str = "probeplace.probes";
+
 /// The probes of `path` in world coordinates, with their cluster sizes (0
 /// where the file has none), in file order: what a renderer loads beside
 /// `svo.bin` and `lightfield.bin`, whose indices refer to this order.
@@ -75,10 +78,40 @@ pub fn parse_world(bytes: &[u8], path: &Path) -> Result<Vec<(DVec3, u32)>> {
         .map_err(|e| Error::user_file(path, format!("not JSON: {e}")))?;
     let entries = match &value {
         Value::Array(a) => a,
-        Value::Object(o) => match o.get("probes") {
-            Some(Value::Array(a)) => a,
-            _ => return Err(Error::user_file(path, "has no `probes` array")),
-        },
+        Value::Object(o) => {
+            // Our own format, strictly: a report, a world index or a file
+            // of another version read as probes would place the wrong set.
+            let format = o.get("format").and_then(Value::as_str);
+            if format != Some(PROBES_FORMAT) {
+                return Err(Error::user_file(
+                    path,
+                    match format {
+                        Some(f) => format!(
+                            "is a `{f}` file, not `{PROBES_FORMAT}` (or a bare array of [x, y, z])"
+                        ),
+                        None => format!(
+                            "has no `format`: expected `{PROBES_FORMAT}` (or a bare array of [x, y, z])"
+                        ),
+                    },
+                ));
+            }
+            let version = o.get("version").and_then(Value::as_u64);
+            if version != Some(crate::report::FORMAT_VERSION as u64) {
+                return Err(Error::user_file(
+                    path,
+                    format!(
+                        "`{PROBES_FORMAT}` version {}: this build reads version {}",
+                        o.get("version")
+                            .map_or("(none)".to_string(), |v| v.to_string()),
+                        crate::report::FORMAT_VERSION
+                    ),
+                ));
+            }
+            match o.get("probes") {
+                Some(Value::Array(a)) => a,
+                _ => return Err(Error::user_file(path, "has no `probes` array")),
+            }
+        }
         _ => {
             return Err(Error::user_file(
                 path,
@@ -145,7 +178,10 @@ mod tests {
             .collect();
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("p.json");
-        let text = serde_json::to_string(&serde_json::json!({ "probes": entries })).unwrap();
+        let text = serde_json::to_string(&serde_json::json!({
+            "format": "probeplace.probes", "version": 1, "probes": entries
+        }))
+        .unwrap();
         std::fs::write(&path, text).unwrap();
         let set = read(&path, &scene, "file").unwrap();
         let back: Vec<glam::Vec3> = set.positions();
@@ -162,5 +198,37 @@ mod tests {
         assert!(e.contains("probe 1"), "{e}");
         std::fs::write(&path, "[]").unwrap();
         assert!(read(&path, &scene, "file").is_err());
+    }
+
+    #[test]
+    fn only_our_probes_format_at_our_version_is_read() {
+        let scene = room_with_box();
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("p.json");
+        let probes = serde_json::json!([{"position": [1.0, 1.0, 1.0]}]);
+        let cases = [
+            (
+                serde_json::json!({"format": "probeplace.report", "version": 1, "probes": probes}),
+                "probeplace.report",
+            ),
+            (
+                serde_json::json!({"format": "probeplace.probes", "version": 9, "probes": probes}),
+                "version 9",
+            ),
+            (
+                serde_json::json!({"format": "probeplace.probes", "probes": probes}),
+                "version (none)",
+            ),
+            (serde_json::json!({"probes": probes}), "no `format`"),
+        ];
+        for (value, says) in cases {
+            std::fs::write(&path, value.to_string()).unwrap();
+            let e = read(&path, &scene, "file").unwrap_err().to_string();
+            assert!(e.contains("p.json") && e.contains(says), "{value}: {e}");
+        }
+        let good =
+            serde_json::json!({"format": "probeplace.probes", "version": 1, "probes": probes});
+        std::fs::write(&path, good.to_string()).unwrap();
+        assert_eq!(read(&path, &scene, "file").unwrap().probes.len(), 1);
     }
 }

@@ -528,6 +528,72 @@ fn probe_files_that_are_not_regular_files_are_refused() {
 }
 
 #[test]
+fn probe_files_of_another_format_or_version_are_refused_before_any_stage() {
+    // Issue 45: a report, a probes.json of a future version, or an object
+    // that says nothing of its format was read as probes.
+    let s = Scratch::new();
+    let probes = r#"[{"position": [1, 1, 1]}]"#;
+    for (name, text, says) in [
+        (
+            "report.json",
+            format!(r#"{{"format": "probeplace.report", "version": 1, "probes": {probes}}}"#),
+            "is a `probeplace.report` file",
+        ),
+        (
+            "v9.json",
+            format!(r#"{{"format": "probeplace.probes", "version": 9, "probes": {probes}}}"#),
+            "version 9",
+        ),
+        (
+            "bare.json",
+            format!(r#"{{"probes": {probes}}}"#),
+            "has no `format`",
+        ),
+    ] {
+        s.write(name, &text);
+        let o = Command::new(env!("CARGO_BIN_EXE_probeplace"))
+            .args(["place", "run.ron", "--probes", name])
+            .current_dir(s.dir.path())
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{name}: {stderr}");
+        assert!(
+            !stderr.contains(" done in "),
+            "{name}: a stage ran first: {stderr}"
+        );
+        let e = refused(&s, &["place", "run.ron", "--probes", name]);
+        assert!(e.contains(name) && e.contains(says), "{e}");
+    }
+    // Our own file at our version is read.
+    s.write(
+        "ok.json",
+        &format!(r#"{{"format": "probeplace.probes", "version": 1, "probes": {probes}}}"#),
+    );
+    let o = Command::new(env!("CARGO_BIN_EXE_probeplace"))
+        .args([
+            "place", "run.ron", "--probes", "ok.json", "--out", "given", "--quiet",
+        ])
+        .current_dir(s.dir.path())
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    // `--method` beside `--probes` was ignored without a word.
+    let e = refused(
+        &s,
+        &[
+            "place",
+            "run.ron",
+            "--probes",
+            "ok.json",
+            "--method",
+            "grid:2x2x2",
+        ],
+    );
+    assert!(e.contains("--method") && e.contains("--probes"), "{e}");
+}
+
+#[test]
 fn thousands_of_shadow_casting_lights_enter_the_bake_estimate() {
     let s = Scratch::new();
     let lights = vec!["Point(position: (1, 1, 1), intensity: (1, 1, 1))"; 20_000].join(", ");

@@ -801,19 +801,23 @@ fn probes_variants(good: &[u8]) -> Vec<(String, Vec<u8>)> {
         ("not-json", "{"),
         ("nan", "[[0, NaN, 1]]"),
         ("bare-empty", "[]"),
-        ("no-probes", "{}"),
-        ("probes-not-array", "{\"probes\": 3}"),
+        ("no-format", "{}"),
+        ("no-probes", "{\"format\": \"probeplace.probes\", \"version\": 1}"),
+        ("probes-not-array", "{\"format\": \"probeplace.probes\", \"version\": 1, \"probes\": 3}"),
+        ("a-report", "{\"format\": \"probeplace.report\", \"version\": 1, \"probes\": [[0, 1, 2]]}"),
+        ("version-9", "{\"format\": \"probeplace.probes\", \"version\": 9, \"probes\": [[0, 1, 2]]}"),
+        ("version-string", "{\"format\": \"probeplace.probes\", \"version\": \"1\", \"probes\": [[0, 1, 2]]}"),
         ("string", "\"probes\""),
         ("two-numbers", "[[0, 1]]"),
         ("four-numbers", "[[0, 1, 2, 3]]"),
         ("a-string-among-three", "[[0, \"x\", 2]]"),
-        ("no-position", "{\"probes\": [{\"cluster_size\": 3}]}"),
-        ("position-object", "{\"probes\": [{\"position\": {\"x\": 1}}]}"),
+        ("no-position", "{\"format\": \"probeplace.probes\", \"version\": 1, \"probes\": [{\"cluster_size\": 3}]}"),
+        ("position-object", "{\"format\": \"probeplace.probes\", \"version\": 1, \"probes\": [{\"position\": {\"x\": 1}}]}"),
         ("overflow", "[[0, 0, 1e999]]"),
         // Accepted: Rust's reader keeps the numbers among the entries.
         ("bare", "[[0, 1, 2], [3.5, -4, 5e3]]"),
         ("a-string-among-four", "[[0, \"x\", 1, 2]]"),
-        ("clusters", "{\"probes\": [{\"position\": [1, 2, 3], \"cluster_size\": 7}, {\"position\": [1, 2, 4], \"cluster_size\": -1}, {\"position\": [0, 0, 0], \"cluster_size\": 99999999999}]}"),
+        ("clusters", "{\"format\": \"probeplace.probes\", \"version\": 1, \"probes\": [{\"position\": [1, 2, 3], \"cluster_size\": 7}, {\"position\": [1, 2, 4], \"cluster_size\": -1}, {\"position\": [0, 0, 0], \"cluster_size\": 99999999999}]}"),
     ]
     .into_iter()
     .map(|(name, text)| (name.to_string(), text.as_bytes().to_vec()))
