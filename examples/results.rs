@@ -89,17 +89,11 @@ fn run() -> Result<(), Error> {
 
     let mut inputs = Inputs::default();
     for dir in &dirs {
-        if !dir.is_dir() {
-            return Err(format!("{}: not a directory", dir.display()).into());
-        }
-        inputs.collect(dir)?;
+        inputs.collect_root(dir)?;
     }
     for dir in &lit {
-        if !dir.is_dir() {
-            return Err(format!("{}: not a directory", dir.display()).into());
-        }
         let mut held_out = Inputs::default();
-        held_out.collect(dir)?;
+        held_out.collect_root(dir)?;
         if held_out.compares.is_empty() {
             return Err(format!("--lit {}: no compare.json under it", dir.display()).into());
         }
@@ -170,6 +164,15 @@ struct Inputs {
 }
 
 impl Inputs {
+    /// [`Inputs::collect`] of a directory given on the command line, which
+    /// must be one.
+    fn collect_root(&mut self, dir: &Path) -> Result<(), Error> {
+        if !dir.is_dir() {
+            return Err(format!("{}: not a directory", dir.display()).into());
+        }
+        self.collect(dir)
+    }
+
     fn collect(&mut self, dir: &Path) -> Result<(), Error> {
         let generality = dir.join("generality.json");
         if generality.is_file() {

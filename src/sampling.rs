@@ -81,10 +81,18 @@ pub fn point_in_triangle(t: &[Vec3; 3], u: f32, v: f32) -> Vec3 {
 /// (1 + a·b + b·c + c·a)` with `a`, `b`, `c` the unit directions to the
 /// corners. 0 when `p` lies on a corner.
 pub fn solid_angle(p: DVec3, t: &[DVec3; 3]) -> f64 {
-    let [a, b, c] = t.map(|v| (v - p).normalize_or_zero());
-    if a == DVec3::ZERO || b == DVec3::ZERO || c == DVec3::ZERO {
-        return 0.0;
-    }
+    corners_seen_from(p, t).map_or(0.0, |[a, b, c]| solid_angle_of_units(a, b, c))
+}
+
+/// The unit directions from `p` to the corners of `t`; `None` when `p`
+/// lies on a corner.
+fn corners_seen_from(p: DVec3, t: &[DVec3; 3]) -> Option<[DVec3; 3]> {
+    let units = t.map(|v| (v - p).normalize_or_zero());
+    (!units.contains(&DVec3::ZERO)).then_some(units)
+}
+
+/// [`solid_angle`] of the spherical triangle with unit corners `a`, `b`, `c`.
+fn solid_angle_of_units(a: DVec3, b: DVec3, c: DVec3) -> f64 {
     let num = a.dot(b.cross(c)).abs();
     let den = 1.0 + a.dot(b) + b.dot(c) + c.dot(a);
     2.0 * num.atan2(den)
@@ -133,11 +141,11 @@ pub fn sample_spherical_triangle(
     u: [f64; 2],
     min_solid_angle: f64,
 ) -> Option<(DVec3, f64)> {
-    let omega = solid_angle(p, t);
+    let [a, b, c] = corners_seen_from(p, t)?;
+    let omega = solid_angle_of_units(a, b, c);
     if !(omega >= min_solid_angle && omega <= 2.0 * std::f64::consts::PI - 1e-3) {
         return None;
     }
-    let [a, b, c] = t.map(|v| (v - p).normalize());
     // The spherical angle at corner `a`, between the great circles to `b`
     // and to `c`.
     let (nab, nac) = (a.cross(b), a.cross(c));

@@ -563,11 +563,10 @@ impl Bench<'_> {
     /// The probe set of `--probes FILE.json`, scored as given (coverage,
     /// SVO, bake, render), beside ours.
     fn given(&mut self, job: &mut Job) -> Result<()> {
-        let Some(path) = job.provenance.overrides.probes.clone() else {
+        let Some(probes) = job.given_probes(&self.prepared.scene)? else {
             return Ok(());
         };
         let t = std::time::Instant::now();
-        let probes = placement::file::read(&path, &self.prepared.scene, "file")?;
         let placed = stages::place(
             &self.config,
             self.prepared,

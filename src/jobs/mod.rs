@@ -193,6 +193,9 @@ pub(crate) struct Job {
     pub reused: Vec<String>,
     /// Trace on the CPU twin.
     pub cpu: bool,
+    /// The world positions and cluster sizes of `--probes`, read (and
+    /// checked) before any stage.
+    pub given: Option<Vec<(glam::DVec3, u32)>>,
 }
 
 impl Job {
@@ -242,9 +245,10 @@ impl Job {
         let provenance = Provenance::of_files(&config, &config_path, &text, &overrides, &files)?;
         // A `--probes` file that is not ours, or not probes, is refused here,
         // before the first stage, not after the scene's SDF and coverage.
-        if let Some(path) = &overrides.probes {
-            crate::placement::file::read_world(path)?;
-        }
+        let given = match &overrides.probes {
+            Some(path) => Some(crate::placement::file::read_world(path)?),
+            None => None,
+        };
         if let Some(e) = &earlier {
             if let Some(why) = provenance.mismatch(&e.provenance) {
                 return Err(Error::user_file(
@@ -277,7 +281,21 @@ impl Job {
             set: OutputSet::new(),
             reused: Vec::new(),
             cpu: options.cpu,
+            given,
         })
+    }
+
+    /// The `--probes` set in `scene`'s coordinates, `None` without one.
+    pub fn given_probes(
+        &self,
+        scene: &crate::scene::Scene,
+    ) -> Result<Option<crate::probes::ProbeSet>> {
+        match (&self.given, &self.provenance.overrides.probes) {
+            (Some(world), Some(path)) => Ok(Some(crate::placement::file::from_world(
+                world, path, scene, "file",
+            )?)),
+            _ => Ok(None),
+        }
     }
 
     /// The stages before placement, timed.

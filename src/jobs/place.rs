@@ -136,10 +136,7 @@ fn compute_placed(job: &mut Job, prepared: &Prepared) -> Result<(CoverageReferen
             &progress,
         )
     });
-    let given = match &job.provenance.overrides.probes {
-        Some(path) => Some(placement::file::read(path, &prepared.scene, "file")?),
-        None => None,
-    };
+    let given = job.given_probes(&prepared.scene)?;
     let placed = stages::place(config, prepared, &reference, given, &progress)
         .map_err(|e| job.config_error(e))?;
     job.watch.absorb(&placed.timings);

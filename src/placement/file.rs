@@ -27,10 +27,23 @@ pub const MAX_PROBES: usize = 1 << 20;
 /// finite numbers, no probe at all, or more than [`MAX_PROBES`] is a user
 /// error naming the file (and the entry).
 pub fn read(path: &Path, scene: &Scene, method: &str) -> Result<ProbeSet> {
-    let probes = read_world(path)?
-        .into_iter()
+    from_world(&read_world(path)?, path, scene, method)
+}
+
+/// [`read`] of probes already read from `path` by [`read_world`]: their
+/// world positions taken to `scene`'s coordinates.
+///
+/// Contract: as [`read`].
+pub fn from_world(
+    world: &[(DVec3, u32)],
+    path: &Path,
+    scene: &Scene,
+    method: &str,
+) -> Result<ProbeSet> {
+    let probes = world
+        .iter()
         .enumerate()
-        .map(|(i, (world, cluster_size))| {
+        .map(|(i, &(world, cluster_size))| {
             let position = scene.to_local(world);
             if !position.is_finite() {
                 return Err(Error::user_file(
