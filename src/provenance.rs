@@ -87,6 +87,87 @@ pub struct Provenance {
     pub overrides: Overrides,
 }
 
+/// What tells runs apart, without the config text: the four facts of
+/// [`Provenance::to_bytes`], as `manifest.json` and the metadata of the
+/// PNG and EXR files record them.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Stamp {
+    /// The tool and its version.
+    pub tool: String,
+    /// The config hash, 16 hex digits.
+    pub config_hash: String,
+    /// The scene hash, 16 hex digits.
+    pub scene_hash: String,
+    /// The seed.
+    pub seed: u64,
+}
+
+impl Stamp {
+    /// The four facts of `p`.
+    pub fn of(p: &Provenance) -> Stamp {
+        Stamp {
+            tool: p.tool.clone(),
+            config_hash: p.config_hash.clone(),
+            scene_hash: p.scene_hash.clone(),
+            seed: p.seed,
+        }
+    }
+
+    /// The binary form written into `svo.bin` and `lightfield.bin`: config
+    /// hash, scene hash, seed and the FNV-1a of the tool, each a
+    /// little-endian u64.
+    pub fn to_bytes(&self) -> ProvenanceBytes {
+        let hex = |s: &str| u64::from_str_radix(s, 16).unwrap_or(0);
+        let mut out = [0u8; 32];
+        for (i, w) in [
+            hex(&self.config_hash),
+            hex(&self.scene_hash),
+            self.seed,
+            fnv1a(self.tool.as_bytes()),
+        ]
+        .iter()
+        .enumerate()
+        {
+            out[8 * i..8 * i + 8].copy_from_slice(&w.to_le_bytes());
+        }
+        out
+    }
+
+    /// The facts as key–value text, the form EXR header attributes and PNG
+    /// text chunks keep them in (`probeplace.config_hash`, …), in the order
+    /// [`Provenance::mismatch`] names a difference: seed before config, so
+    /// a file of another seed says so.
+    pub fn pairs(&self) -> [(&'static str, String); 4] {
+        [
+            ("probeplace.tool", self.tool.clone()),
+            ("probeplace.seed", self.seed.to_string()),
+            ("probeplace.scene_hash", self.scene_hash.clone()),
+            ("probeplace.config_hash", self.config_hash.clone()),
+        ]
+    }
+
+    /// Why `found` (read back from a file's metadata) is not this stamp,
+    /// in words; `None` when it is.
+    pub fn mismatch(&self, found: &[(String, String)]) -> Option<String> {
+        for (key, want) in self.pairs() {
+            match found.iter().find(|(k, _)| k == key) {
+                Some((_, v)) if *v == want => {}
+                Some((_, v)) => {
+                    return Some(format!(
+                        "its {key} is {v} where this run has {want}: it comes from another run"
+                    ))
+                }
+                None => {
+                    return Some(format!(
+                        "carries no {key}: not written by this version of probeplace"
+                    ))
+                }
+            }
+        }
+        None
+    }
+}
+
 /// The 32 provenance bytes of the binary files: config hash, scene hash,
 /// seed and the FNV-1a of [`TOOL`], each a little-endian u64.
 pub type ProvenanceBytes = [u8; 32];
@@ -163,22 +244,10 @@ impl Provenance {
         })
     }
 
-    /// The binary form written into `svo.bin` and `lightfield.bin`.
+    /// The binary form written into `svo.bin` and `lightfield.bin`
+    /// ([`Stamp::to_bytes`]).
     pub fn to_bytes(&self) -> ProvenanceBytes {
-        let hex = |s: &str| u64::from_str_radix(s, 16).unwrap_or(0);
-        let mut out = [0u8; 32];
-        for (i, w) in [
-            hex(&self.config_hash),
-            hex(&self.scene_hash),
-            self.seed,
-            fnv1a(self.tool.as_bytes()),
-        ]
-        .iter()
-        .enumerate()
-        {
-            out[8 * i..8 * i + 8].copy_from_slice(&w.to_le_bytes());
-        }
-        out
+        Stamp::of(self).to_bytes()
     }
 
     /// Why outputs of `earlier` cannot be reused by this run, in words;
@@ -317,6 +386,34 @@ mod tests {
         assert_eq!(config_hash(&a), config_hash(&b));
         b.bake.samples.0 = a.bake.samples.0 + 1;
         assert_ne!(config_hash(&a), config_hash(&b));
+    }
+
+    #[test]
+    fn a_stamp_names_the_first_fact_that_differs() {
+        let s = Stamp {
+            tool: "probeplace 0.1.0".into(),
+            config_hash: "00000000000000aa".into(),
+            scene_hash: "00000000000000bb".into(),
+            seed: 7,
+        };
+        let mut found: Vec<(String, String)> = s
+            .pairs()
+            .into_iter()
+            .map(|(k, v)| (k.to_string(), v))
+            .collect();
+        assert_eq!(s.mismatch(&found), None);
+        found[1].1 = "8".into();
+        let m = s.mismatch(&found).unwrap();
+        assert!(
+            m.contains("probeplace.seed is 8 where this run has 7"),
+            "{m}"
+        );
+        found[1].1 = "7".into();
+        found.remove(3);
+        assert!(s
+            .mismatch(&found)
+            .unwrap()
+            .contains("carries no probeplace.config_hash"));
     }
 
     #[test]

@@ -245,9 +245,16 @@ pub(crate) fn load(
 
 /// The reference images of an earlier run.
 pub(crate) fn read_reference(e: &super::Earlier) -> Result<Reference> {
+    // The manifest vouches for the bytes; the file's own header for the
+    // run, so an image copied in with its manifest entry is still refused.
     let read = |name: &str| {
         let path = e.path(name);
         let bytes = crate::input::read(&path, "reference image", crate::limits::memory_budget())?;
+        if let Some(why) =
+            crate::provenance::Stamp::of(&e.provenance).mismatch(&exr::string_attributes(&bytes))
+        {
+            return Err(Error::user_file(&path, format!("--from: {why}")));
+        }
         exr::decode_rgb(&bytes).map_err(|m| Error::user_file(&path, m))
     };
     let (width, height, full) = read("reference.exr")?;

@@ -53,6 +53,7 @@ use crate::report::compare::{
 };
 use crate::report::html::{self, Figures, PlacementFigures};
 use crate::report::{self, exr, view3d};
+use crate::stages::bake::Work;
 use crate::stages::validate::{self, Blocks, Tracer, View};
 use crate::stages::{self, Placed, Prepared};
 use crate::svo::Svo;
@@ -184,9 +185,37 @@ pub fn compare(options: &RunOptions) -> Result<Outcome> {
         figures: Vec::new(),
         sets: Vec::new(),
     };
-    let ours_count = bench.ours(&mut job)?;
+    // Ours placed first: the rivals are sized to their count, and every
+    // bake of the comparison is planned (and fitted to the work limit)
+    // before the first one runs.
+    let (ours, ours_count) = bench.place_ours(&mut job)?;
+    let (grids, sweep) = bench.grid_choice(options.grids.as_ref(), ours_count);
+    let ours_counts: Vec<usize> = ours.iter().map(|(_, c, _)| c.probes.probes.len()).collect();
+    let plan = plan(
+        &bench.config,
+        Planned {
+            ours: &ours_counts,
+            given: job.given.as_ref().map(Vec::len),
+            grids,
+            sweep,
+            ours_count,
+        },
+        rayon::current_num_threads().max(1) as f64,
+        crate::limits::work_limit_seconds(),
+        |n| stages::place::check_probes(&job.config, &prepared, n),
+    )
+    .map_err(|e| job.config_error(e))?;
+    // The diffuse evaluation's probe projections, for the probes planned
+    // (checked for a thousand before any work).
+    stages::diffuse::check(&job.config, plan.probes, COMPARE_WORK_FACTOR)
+        .map_err(|e| job.config_error(e))?;
+    bench.warnings.extend(plan.warnings(&bench.config));
+    if let Some(lowered) = plan.lowered {
+        bench.config.bake = lowered.bake;
+    }
+    bench.measure_ours(&mut job, ours)?;
     bench.given(&mut job)?;
-    let grid_rows = bench.grids(&mut job, options.grids.as_ref(), ours_count)?;
+    let grid_rows = bench.grids(&mut job, &plan.grids, ours_count)?;
     bench.ours_at_grid_count(&mut job, &grid_rows, ours_count)?;
     bench.competitors(&mut job, &grid_rows, ours_count)?;
     write(job, bench, &views, &cameras, context.as_ref())
@@ -288,7 +317,7 @@ fn check_grids(config: &Config, grids: &[GridParams]) -> Result<()> {
         .iter()
         .map(|g| {
             let (x, y, z) = g.cells;
-            stages::bake::core_seconds(config, (x.0 * y.0 * z.0) as usize)
+            stages::bake::core_seconds(config, (x.0 * y.0 * z.0) as usize, Work::Maps)
         })
         .sum();
     crate::limits::check_work(
@@ -493,6 +522,249 @@ struct Candidate {
     field: Option<LightField>,
 }
 
+/// One of ours placed, not yet measured: its method, its probes, and the
+/// milliseconds its placement took.
+type Unmeasured = (&'static str, Candidate, f64);
+
+/// What a comparison will bake, known once ours are placed.
+struct Planned<'a> {
+    /// Our placements' probe counts (reused ones too: lowered samples bake
+    /// them again).
+    ours: &'a [usize],
+    /// The `--probes` set's count.
+    given: Option<usize>,
+    /// The grids chosen ([`Bench::grid_choice`]).
+    grids: Vec<GridParams>,
+    /// Whether `grids` are the sweep.
+    sweep: bool,
+    /// The count the rivals are matched to.
+    ours_count: usize,
+}
+
+impl Planned<'_> {
+    /// The probe counts of every bake with `grids`: ours, the `--probes`
+    /// set, the grids, and the rivals sized to ours (ours again at the
+    /// nearest grid's count, that grid relocated, greedy and adaptive at
+    /// about our count: the larger of ours and the nearest grid's, since
+    /// greedy and adaptive aim at ours and land near it).
+    fn counts(&self, grids: &[GridParams]) -> Vec<usize> {
+        let nearest =
+            nearest_by_cells(&self.grids, self.ours_count).map_or(self.ours_count, |g| cells(&g));
+        let mut counts = self.ours.to_vec();
+        counts.extend(self.given);
+        counts.extend(grids.iter().map(cells));
+        if nearest != self.ours_count {
+            counts.push(nearest);
+        }
+        counts.extend([nearest.max(self.ours_count); 3]);
+        counts
+    }
+}
+
+/// The probes of grid `g`.
+fn cells(g: &GridParams) -> usize {
+    (g.cells.0 .0 * g.cells.1 .0 * g.cells.2 .0) as usize
+}
+
+/// Every bake of a comparison, fitted to the work limit before the first.
+#[derive(Debug)]
+struct Plan {
+    /// The grids to measure.
+    grids: Vec<GridParams>,
+    /// Sweep grids left out.
+    left_out: Vec<GridParams>,
+    /// The bake settings, when lowered.
+    lowered: Option<Lowered>,
+    /// The probes of all placements together.
+    probes: usize,
+}
+
+impl Plan {
+    /// The report's warnings about the plan.
+    fn warnings(&self, config: &Config) -> Vec<String> {
+        let mut out: Vec<String> = self
+            .left_out
+            .iter()
+            .map(|g| {
+                format!(
+                    "compare: grid:{} ({} probes) left out of the sweep: its octree or bake would run past the work limit (name it with --grids and set PROBEPLACE_WORK_LIMIT to measure it)",
+                    Placement::Grid(*g).name().trim_start_matches("grid:"),
+                    cells(g)
+                )
+            })
+            .collect();
+        if let Some(l) = &self.lowered {
+            out.push(l.warning(&config.bake));
+        }
+        out
+    }
+}
+
+/// Plans a comparison's bakes within the work limit (`limit` seconds on
+/// `threads`; [`fit_bake`]): the bakes every headline ratio needs
+/// (ours, the `--probes` set, the grids up to the nearest to ours, the
+/// rivals at our count; every named grid) lower `bake.samples` for every
+/// placement alike when they must; the sweep's larger grids are then kept
+/// only while they fit at those samples, and left out otherwise. The
+/// comparison thus finishes at a known cost, or is refused here, before
+/// the first bake.
+fn plan(
+    config: &Config,
+    planned: Planned,
+    threads: f64,
+    limit: f64,
+    placeable: impl Fn(usize) -> Result<()>,
+) -> Result<Plan> {
+    let rival = nearest_by_cells(&planned.grids, planned.ours_count)
+        .map_or(planned.ours_count, |g| cells(&g))
+        .max(planned.ours_count);
+    let (mut grids, optional): (Vec<GridParams>, Vec<GridParams>) = planned
+        .grids
+        .iter()
+        .partition(|g| !planned.sweep || cells(g) <= rival);
+    // The stages before the bake (coverage, the octree) of every bake
+    // needed, then the bakes.
+    let needed = planned.counts(&grids);
+    for &n in &needed {
+        placeable(n)?;
+    }
+    let lowered = fit_bake(config, &needed, threads, limit)?;
+    let mut at = config.clone();
+    if let Some(l) = &lowered {
+        at.bake = l.bake;
+    }
+    let mut left_out = Vec::new();
+    for g in optional {
+        let mut with = grids.clone();
+        with.push(g);
+        let fits = placeable(cells(&g)).is_ok()
+            && matches!(
+                fit_bake(&at, &planned.counts(&with), threads, limit),
+                Ok(None)
+            );
+        match fits {
+            true => grids = with,
+            false => left_out.push(g),
+        }
+    }
+    // In the sweep's order, by probe count.
+    grids.sort_by_key(|g| planned.grids.iter().position(|o| o == g));
+    Ok(Plan {
+        probes: planned.counts(&grids).iter().sum(),
+        grids,
+        left_out,
+        lowered,
+    })
+}
+
+/// Bake settings lowered for a whole comparison ([`fit_bake`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Lowered {
+    /// What every placement is baked with.
+    bake: crate::config::BakeParams,
+    /// The estimated seconds of all bakes at the config's settings.
+    seconds_before: f64,
+    /// The same at `bake`.
+    seconds_after: f64,
+    /// How many bakes were fitted, and the probes of the largest.
+    bakes: usize,
+    largest: usize,
+}
+
+impl Lowered {
+    /// The report's warning: what was lowered, why, and how to keep it.
+    fn warning(&self, from: &crate::config::BakeParams) -> String {
+        let mut changed = Vec::new();
+        if self.bake.samples != from.samples {
+            changed.push(format!(
+                "bake.samples from {} to {}",
+                from.samples.0, self.bake.samples.0
+            ));
+        }
+        if self.bake.resolution != from.resolution {
+            changed.push(format!(
+                "bake.resolution from {} to {}",
+                from.resolution.0, self.bake.resolution.0
+            ));
+        }
+        format!(
+            "compare: {} for every placement alike: the {} bakes ({} probes at most) would have taken about {} as configured, past the work limit for one bake or {COMPARE_WORK_FACTOR} for all; they take about {} now, and every placement's maps are noisier or coarser alike (lower the probe counts, or raise PROBEPLACE_WORK_LIMIT, to keep the config's)",
+            changed.join(" and "),
+            self.bakes,
+            self.largest,
+            crate::limits::duration_text(self.seconds_before),
+            crate::limits::duration_text(self.seconds_after),
+        )
+    }
+}
+
+/// The bake settings that let every bake of a comparison (`counts`, the
+/// probes of each) run within the work limit: each bake alone within
+/// `limit` seconds on `threads`, and all of them within
+/// [`COMPARE_WORK_FACTOR`] limits, as `bake` and `check_grids` bound them.
+/// `None` when the config's `bake` fits; else `bake.samples` halved down
+/// to 1 path per texel, then `bake.resolution` halved down to 32 (and not
+/// below `irradiance_resolution`) until they do, the same for every
+/// placement, so the rivals are not baked noisier than ours.
+///
+/// Contract: a comparison that does not fit even then, or whose largest
+/// bake does not fit the memory budget, is refused naming `bake.resolution`
+/// (or [`stages::bake::check_memory`]'s error), before any bake.
+fn fit_bake(
+    config: &Config,
+    counts: &[usize],
+    threads: f64,
+    limit: f64,
+) -> Result<Option<Lowered>> {
+    let largest = counts.iter().copied().max().unwrap_or(0);
+    let seconds = |bake: &crate::config::BakeParams| {
+        let mut c = config.clone();
+        c.bake = *bake;
+        let each: Vec<f64> = counts
+            .iter()
+            .map(|&n| stages::bake::core_seconds(&c, n, Work::Maps) / threads)
+            .collect();
+        (
+            each.iter().copied().fold(0.0, f64::max),
+            each.iter().sum::<f64>(),
+        )
+    };
+    let fits = |(one, all): (f64, f64)| one <= limit && all <= COMPARE_WORK_FACTOR * limit;
+    // The largest bake's memory (coarser maps only shrink it).
+    stages::bake::check_memory(config, largest)?;
+    let before = seconds(&config.bake);
+    if fits(before) {
+        return Ok(None);
+    }
+    let mut bake = config.bake;
+    loop {
+        if bake.samples.0 > 1 {
+            bake.samples.0 = bake.samples.0.div_ceil(2).min(bake.samples.0 - 1);
+        } else if bake.resolution.0 > 32 && bake.resolution.0 / 2 >= bake.irradiance_resolution.0 {
+            bake.resolution.0 /= 2;
+        } else {
+            break;
+        }
+        let after = seconds(&bake);
+        if fits(after) {
+            return Ok(Some(Lowered {
+                bake,
+                seconds_before: before.1,
+                seconds_after: after.1,
+                bakes: counts.len(),
+                largest,
+            }));
+        }
+    }
+    Err(Error::User(format!(
+        "bake.resolution: the comparison's {} bakes ({largest} probes at most) would take about {} even at 1 path per texel and {}² maps, past the work limit of {} for one bake or {COMPARE_WORK_FACTOR} for all (PROBEPLACE_WORK_LIMIT=0 lifts it); lower the probe counts",
+        counts.len(),
+        crate::limits::duration_text(seconds(&bake).1),
+        bake.resolution.0,
+        crate::limits::duration_text(limit),
+    )))
+}
+
 /// What every placement is measured with, and the rows so far.
 struct Bench<'a> {
     config: Config,
@@ -515,10 +787,13 @@ struct Bench<'a> {
 }
 
 impl Bench<'_> {
-    /// Ours, refined whatever the config says (§3.3); returns the probe
-    /// count the others are matched to (the config's method's).
-    fn ours(&mut self, job: &mut Job) -> Result<usize> {
+    /// Ours, placed and refined whatever the config says (§3.3), or
+    /// reused from `--from`, not yet measured, with the time each took;
+    /// and the probe count the others are matched to (the config's
+    /// method's).
+    fn place_ours(&mut self, job: &mut Job) -> Result<(Vec<Unmeasured>, usize)> {
         let mut ours_count = 0;
+        let mut out = Vec::new();
         for method in OURS {
             let t = std::time::Instant::now();
             let candidate = match reuse(job, method, self.prepared)? {
@@ -528,10 +803,25 @@ impl Bench<'_> {
             if ours_count == 0 || method == self.config.placement.name() {
                 ours_count = candidate.probes.probes.len();
             }
-            self.measure(method, Family::Ours, candidate, true)?;
-            job.watch.record(method, t.elapsed().as_secs_f64() * 1e3);
+            out.push((method, candidate, t.elapsed().as_secs_f64() * 1e3));
         }
-        Ok(ours_count)
+        Ok((out, ours_count))
+    }
+
+    /// Measures ours ([`Bench::place_ours`]); a light field reused from
+    /// `--from` is baked again when the comparison's bake samples were
+    /// lowered, so that every placement is baked alike.
+    fn measure_ours(&mut self, job: &mut Job, ours: Vec<Unmeasured>) -> Result<()> {
+        for (method, mut candidate, placed_ms) in ours {
+            let t = std::time::Instant::now();
+            if self.config.bake != job.config.bake {
+                candidate.field = None;
+            }
+            self.measure(method, Family::Ours, candidate, true)?;
+            job.watch
+                .record(method, placed_ms + t.elapsed().as_secs_f64() * 1e3);
+        }
+        Ok(())
     }
 
     /// Our default method again at the count of the grid nearest ours,
@@ -554,8 +844,15 @@ impl Bench<'_> {
         let method = ours_default(&self.config.placement);
         let name = format!("{method}@{n}");
         let t = std::time::Instant::now();
-        let candidate = self.place_refined(job, method, Some(n))?;
-        self.measure(&name, Family::Ours, candidate, false)?;
+        // An extra row: a stage that cannot take it (refinement's work at
+        // that count) is a finding, not a reason to lose the comparison.
+        match self
+            .place_refined(job, method, Some(n))
+            .and_then(|c| self.measure(&name, Family::Ours, c, false))
+        {
+            Err(Error::User(e)) => self.warnings.push(format!("compare: {name}: {e}")),
+            other => other?,
+        }
         job.watch.record(&name, t.elapsed().as_secs_f64() * 1e3);
         Ok(())
     }
@@ -580,43 +877,33 @@ impl Bench<'_> {
         Ok(())
     }
 
-    /// The sweep of uniform grids (the given ones, the config's, or a sweep
-    /// around `ours_count`); returns each grid with its probe count.
+    /// The uniform grids to compare with: the given ones, the config's, or
+    /// a sweep around `ours_count` ([`grid_sweep`]); and whether they are
+    /// the sweep (whose largest grids [`plan`] may leave out; named grids
+    /// are the user's, checked before any work).
+    fn grid_choice(
+        &self,
+        given: Option<&Vec<GridParams>>,
+        ours_count: usize,
+    ) -> (Vec<GridParams>, bool) {
+        match (given, self.config.compare.grids.is_empty()) {
+            (Some(g), _) => (g.clone(), false),
+            (None, false) => (self.config.compare.grids.clone(), false),
+            (None, true) => (grid_sweep(&self.prepared.domain, ours_count), true),
+        }
+    }
+
+    /// Places and measures the planned `grids` ([`plan`]);
+    /// returns each grid with its probe count.
     fn grids(
         &mut self,
         job: &mut Job,
-        given: Option<&Vec<GridParams>>,
+        grids: &[GridParams],
         ours_count: usize,
     ) -> Result<Vec<(usize, GridParams)>> {
-        let count = |g: &GridParams| (g.cells.0 .0 * g.cells.1 .0 * g.cells.2 .0) as usize;
-        let grids = match (given, self.config.compare.grids.is_empty()) {
-            (Some(g), _) => g.clone(),
-            (None, false) => self.config.compare.grids.clone(),
-            (None, true) => {
-                // The sweep's own grids, without those whose bake alone
-                // would run past the work limit (the largest, 4× ours):
-                // named grids are the user's and refuse instead.
-                let sweep = grid_sweep(&self.prepared.domain, ours_count);
-                let near = nearest_by_cells(&sweep, ours_count);
-                let (kept, over): (Vec<GridParams>, Vec<GridParams>) =
-                    sweep.into_iter().partition(|g| {
-                        Some(*g) == near || stages::bake::check(&self.config, count(g)).is_ok()
-                    });
-                for g in over {
-                    self.warnings.push(format!(
-                        "compare: grid:{} ({} probes) left out of the sweep: its bake would run past the work limit (name it with --grids and set PROBEPLACE_WORK_LIMIT to bake it)",
-                        Placement::Grid(g).name().trim_start_matches("grid:"),
-                        count(&g)
-                    ));
-                }
-                kept
-            }
-        };
-        check_grids(&self.config, &grids)
-            .map_err(|e| e.in_config(&self.config_path, &self.config_text))?;
-        let nearest = nearest_by_cells(&grids, ours_count);
+        let nearest = nearest_by_cells(grids, ours_count);
         let mut out = Vec::new();
-        for g in &grids {
+        for g in grids {
             let t = std::time::Instant::now();
             let method = Placement::Grid(*g);
             let name = method.name();
@@ -671,12 +958,14 @@ impl Bench<'_> {
         for (method, family) in competitors {
             let t = std::time::Instant::now();
             let name = method.name();
-            match self.place_plain(method) {
-                Ok(placed) => self.measure(&name, family, candidate_of(placed), true)?,
-                // Every probe switched off, or no candidate voxel: a finding,
-                // not a failure.
+            // Every probe switched off, no candidate voxel, or more probes
+            // than planned for at our count: a finding, not a failure.
+            match self
+                .place_plain(method)
+                .and_then(|placed| self.measure(&name, family, candidate_of(placed), true))
+            {
                 Err(Error::User(e)) => self.warnings.push(format!("compare: {name}: {e}")),
-                Err(e) => return Err(e),
+                other => other?,
             }
             job.watch.record(&name, t.elapsed().as_secs_f64() * 1e3);
         }
@@ -751,7 +1040,7 @@ impl Bench<'_> {
         let field = match candidate.field {
             Some(f) => f,
             None => {
-                stages::bake::check(&self.config, positions.len())
+                stages::bake::check_with(&self.config, positions.len(), Work::Maps)
                     .map_err(|e| e.in_config(&self.config_path, &self.config_text))?;
                 stages::bake(&self.config, self.prepared, &positions, &self.progress).field
             }
@@ -1001,6 +1290,117 @@ mod tests {
 
     fn count(g: &GridParams) -> u32 {
         g.cells.0 .0 * g.cells.1 .0 * g.cells.2 .0
+    }
+
+    #[test]
+    fn bake_settings_are_lowered_alike_until_every_bake_fits_or_refused() {
+        let mut config =
+            Config::parse("(scene: \"s.obj\")", std::path::Path::new("c.ron")).unwrap();
+        config.bake.samples = crate::config::Count(64);
+        let counts = [100, 100, 400];
+        let at = |samples: u32, resolution: u32| {
+            let mut c = config.clone();
+            c.bake.samples = crate::config::Count(samples);
+            c.bake.resolution.0 = resolution;
+            counts
+                .iter()
+                .map(|&n| stages::bake::core_seconds(&c, n, Work::Maps))
+                .collect::<Vec<f64>>()
+        };
+        let at_64 = at(64, 128);
+        // Room for everything: nothing changes.
+        assert_eq!(
+            fit_bake(&config, &counts, 1.0, at_64[2] * 1.01).unwrap(),
+            None
+        );
+        // The largest bake fits one limit at a quarter of the samples: the
+        // samples halve until it does, for every bake alike.
+        let limit = at(16, 128)[2] * 1.001;
+        let lowered = fit_bake(&config, &counts, 1.0, limit).unwrap().unwrap();
+        assert_eq!(
+            (lowered.bake.samples.0, lowered.bake.resolution.0),
+            (16, 128),
+            "{lowered:?}"
+        );
+        assert!(at(32, 128)[2] > limit);
+        assert!((lowered.seconds_before - at_64.iter().sum::<f64>()).abs() < 1e-6);
+        let w = lowered.warning(&config.bake);
+        assert!(
+            w.contains("bake.samples from 64 to 16 for every placement alike")
+                && w.contains("400 probes"),
+            "{w}"
+        );
+        // Two threads halve the seconds: one halving fewer.
+        let on_two = fit_bake(&config, &counts, 2.0, limit).unwrap().unwrap();
+        assert_eq!(on_two.bake.samples.0, 32);
+        // Below one path per texel, the maps get coarser.
+        let limit = at(1, 64)[2] * 1.001;
+        let lowered = fit_bake(&config, &counts, 1.0, limit).unwrap().unwrap();
+        assert_eq!((lowered.bake.samples.0, lowered.bake.resolution.0), (1, 64));
+        assert!(lowered
+            .warning(&config.bake)
+            .contains("bake.resolution from 128 to 64"));
+        // The sum binds too: many small bakes.
+        let many = vec![100; 64];
+        let lowered = fit_bake(&config, &many, 1.0, at_64[0] * 2.0)
+            .unwrap()
+            .unwrap();
+        assert!(lowered.bake.samples.0 < 64, "{lowered:?}");
+        // Nothing fits: refused, naming the field.
+        let e = fit_bake(&config, &counts, 1.0, 1e-3)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.starts_with("bake.resolution: the comparison's 3 bakes"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn a_plan_keeps_what_the_ratios_need_and_leaves_out_larger_sweep_grids() {
+        let config = Config::parse("(scene: \"s.obj\")", std::path::Path::new("c.ron")).unwrap();
+        let grid = |n: u32| GridParams::new([n, 1, 1]).unwrap();
+        let sweep: Vec<GridParams> = [5, 10, 20, 40].map(grid).to_vec();
+        let planned = |sweep_flag| Planned {
+            ours: &[10, 12],
+            given: None,
+            grids: sweep.clone(),
+            sweep: sweep_flag,
+            ours_count: 10,
+        };
+        // A bake's cost grows with its probes: 17 probes' worth is room
+        // for ours (12) and every bake the ratios need (67 probes in all,
+        // under the 4 limits of the sum), not for the sweep's 20 or 40.
+        let room = stages::bake::core_seconds(&config, 17, Work::Maps);
+        // Room for all: everything kept at the config's samples.
+        let p = plan(&config, planned(true), 1.0, 1e9, |_| Ok(())).unwrap();
+        assert_eq!((p.grids.len(), p.lowered), (4, None));
+        // The 20- and 40-probe grids of the sweep are left out, not the
+        // samples lowered for them.
+        let p = plan(&config, planned(true), 1.0, room, |_| Ok(())).unwrap();
+        assert_eq!(p.grids, [grid(5), grid(10)], "{p:?}");
+        assert_eq!(p.left_out, [grid(20), grid(40)]);
+        // Named grids are all kept: the samples are lowered instead.
+        let mut quarter = config.clone();
+        quarter.bake.samples = crate::config::Count(config.bake.samples.0 / 4);
+        let limit = stages::bake::core_seconds(&quarter, 40, Work::Maps) * 1.01;
+        let p = plan(&config, planned(false), 1.0, limit, |_| Ok(())).unwrap();
+        assert_eq!(p.grids.len(), 4);
+        assert_eq!(
+            p.lowered.map(|l| l.bake.samples),
+            Some(quarter.bake.samples),
+            "{p:?}"
+        );
+        // A stage before the bake that cannot take a needed count refuses
+        // the plan; one that cannot take a larger sweep grid leaves it out.
+        let small = |n: usize| match n > 15 {
+            true => Err(Error::User(format!("svo: {n} probes"))),
+            false => Ok(()),
+        };
+        let p = plan(&config, planned(true), 1.0, 1e9, small).unwrap();
+        assert_eq!(p.left_out, [grid(20), grid(40)]);
+        let e = plan(&config, planned(false), 1.0, 1e9, small).unwrap_err();
+        assert!(e.to_string().starts_with("svo: 20 probes"), "{e}");
     }
 
     #[test]

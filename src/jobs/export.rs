@@ -135,13 +135,9 @@ pub fn export(options: &ExportOptions) -> Result<Outcome> {
         })?),
         false => None,
     };
-    let mut names: Vec<String> = std::fs::read_dir(&dir)
-        .map_err(|e| Error::io(&dir, e))?
-        .flatten()
-        .filter(|e| e.file_type().is_ok_and(|t| t.is_file()))
-        .map(|e| e.file_name().to_string_lossy().into_owned())
-        .collect();
-    names.sort();
+    // The run's files as its manifest lists them (checked when the job
+    // opened the directory), not whatever else lies there.
+    let names: Vec<String> = earlier.manifest.files.keys().cloned().collect();
     let names: Vec<&str> = names.iter().map(String::as_str).collect();
     job.carry(&names);
     let written =

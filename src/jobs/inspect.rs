@@ -1,9 +1,11 @@
 //! The `inspect` job: reads an output directory's `svo.bin` (and its
 //! `lightfield.bin`), checks them, that every file of the directory comes
-//! from one run and that none of the run's data files is missing, and
-//! summarizes them.
+//! from one run and that none of the run's data files is missing, that
+//! every file is the one its `manifest.json` records (and none is there
+//! that it does not), and summarizes them.
 
 use crate::error::{Error, Result};
+use crate::report::manifest;
 use crate::svo::Svo;
 use serde_json::Value;
 use std::path::{Path, PathBuf};
@@ -154,6 +156,11 @@ pub fn inspect(path: &Path) -> Result<Inspection> {
     } else {
         None
     };
+    // Last: the checks above name what a damaged data file is; the
+    // manifest then catches every other change, and files put there.
+    if !alone {
+        check_manifest(file.parent().unwrap_or(Path::new(".")), &svo)?;
+    }
     Ok(Inspection {
         path: file,
         svo,
@@ -200,6 +207,30 @@ fn check_whole(file: &Path) -> Result<()> {
         if let Some(e) = missing(name, "though report.json lists it as reused") {
             return Err(e);
         }
+    }
+    Ok(())
+}
+
+/// Checks `dir` against its `manifest.json` ([`manifest::verify`]): every
+/// file listed is there, whole and unchanged; no file is there that the
+/// run did not write (a reference image copied in from another run would
+/// pass for this one's); and the manifest records the run `svo` does.
+fn check_manifest(dir: &Path, svo: &Svo) -> Result<()> {
+    let listing = manifest::verify(dir, "run the job again")?;
+    if let Some(stray) = manifest::unlisted(dir, &listing).first() {
+        return Err(Error::user_file(
+            stray,
+            format!(
+                "is not a file of the run ({} does not list it): remove it, or run the job again",
+                manifest::NAME
+            ),
+        ));
+    }
+    if listing.provenance.as_ref().map(|p| p.to_bytes()) != Some(svo.provenance) {
+        return Err(Error::user_file(
+            &dir.join(manifest::NAME),
+            "records another run than svo.bin: the two come from different runs",
+        ));
     }
     Ok(())
 }

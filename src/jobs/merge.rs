@@ -148,6 +148,12 @@ pub fn merge(options: &MergeOptions) -> Result<Outcome> {
             "is not a probeplace split index",
         ));
     }
+    // Where the merged world goes, checked before any work: not the split
+    // directory, nor above it, nor inside a tile.
+    let out = options.out.clone().unwrap_or_else(|| dir.join("world"));
+    let inputs = [index.config.clone(), index_path.clone()];
+    commit::check_destination(&out, &inputs)?;
+    super::split::check_outside_tiles(&out, None)?;
     let grid = index.grid();
     let mut probes: Vec<WorldProbe> = Vec::new();
     let mut placed = vec![0usize; index.tile.len()];
@@ -312,7 +318,7 @@ pub fn merge(options: &MergeOptions) -> Result<Outcome> {
     // validation figure of its core, and the rays' and the SDF's word on the
     // probes its core holds.
     let provenance = index.world.clone();
-    let mut set = OutputSet::new();
+    let mut set = OutputSet::of(&provenance);
     let mut records: Vec<Option<MergedProbe>> = (0..final_probes.len()).map(|_| None).collect();
     let mut world_tiles = Vec::new();
     // Probes in solid by their own rays, outside the scene and in solid by
@@ -516,8 +522,7 @@ pub fn merge(options: &MergeOptions) -> Result<Outcome> {
             .map_err(|e| Error::Internal(format!("serializing {name}: {e}")))?;
         set.add(name, bytes);
     }
-    let out = options.out.clone().unwrap_or_else(|| dir.join("world"));
-    commit::commit(&out, &set, std::slice::from_ref(&index.config))?;
+    commit::commit(&out, &set, &inputs)?;
     let mut summary = vec![format!(
         "{} tiles: {} probes ({} placed, {} in overlaps, {} of them kept; {} of {} positions offered), coverage {:.2}% ± {:.2}% on unseen samples (training {:.2}%), {} in solid",
         index.tile.len(),
@@ -567,6 +572,8 @@ fn tile_probes(
     };
     let report = read("report.json")?;
     let probes = read("probes.json")?;
+    crate::report::manifest::verify(&out, &format!("the tile's output is not whole; {rerun}"))
+        .map_err(|e| Error::User(format!("{}: {e}", entry.name)))?;
     let p = &report["provenance"];
     let field = |v: &Value, k: &str| v[k].as_str().unwrap_or("").to_string();
     if field(p, "config_hash") != entry.config_hash {

@@ -41,6 +41,7 @@ use crate::error::{Error, Result};
 use crate::progress::{Progress, Stopwatch};
 use crate::provenance::{self, Overrides, Provenance};
 use crate::report::commit::{self, OutputSet};
+use crate::report::manifest;
 use crate::report::view3d::View;
 use crate::stages::{self, Prepared};
 use serde_json::Value;
@@ -114,6 +115,8 @@ pub(crate) struct Earlier {
     pub provenance: Provenance,
     /// Its `report.json`; `None` when it holds a `compare` run only.
     pub report: Option<Value>,
+    /// Its `manifest.json`, every file checked against it.
+    pub manifest: manifest::Manifest,
 }
 
 impl Earlier {
@@ -142,22 +145,32 @@ impl Earlier {
                     format!("{label}: holds no report.json or compare.json of probeplace"),
                 )
             })?;
-        let provenance = serde_json::from_value(main["provenance"].clone()).map_err(|_| {
+        let provenance: Provenance = serde_json::from_value(main["provenance"].clone()).map_err(|_| {
             Error::user_file(
                 dir,
                 format!("{label}: its report has no provenance (written by an older probeplace); run it again"),
             )
         })?;
+        let manifest = manifest::verify(dir, "run the earlier job again")?;
+        if manifest.provenance.as_ref() != Some(&crate::provenance::Stamp::of(&provenance)) {
+            return Err(Error::user_file(
+                &dir.join(manifest::NAME),
+                format!("{label}: records another run than the report beside it; run the earlier job again"),
+            ));
+        }
         Ok(Earlier {
             dir: dir.to_path_buf(),
             provenance,
             report,
+            manifest,
         })
     }
 
-    /// Whether the directory holds `name`.
+    /// Whether the directory holds `name` as a file of its run (listed in
+    /// its manifest, and checked against it): a file put there since is
+    /// never reused.
     pub fn has(&self, name: &str) -> bool {
-        self.dir.join(name).is_file()
+        self.manifest.lists(name)
     }
 
     /// `name` in the directory.
@@ -268,6 +281,11 @@ impl Job {
         let mut inputs = vec![config_path.clone()];
         inputs.extend(files);
         commit::check_destination(&out_dir, &inputs)?;
+        if let Some(e) = &earlier {
+            commit::check_apart(&e.dir, &out_dir, label)?;
+        }
+        split::check_outside_tiles(&out_dir, Some(&config_path))?;
+        let set = OutputSet::of(&provenance);
         Ok(Job {
             config,
             config_path,
@@ -278,7 +296,7 @@ impl Job {
             earlier,
             progress: options.progress,
             watch: options.progress.stopwatch(),
-            set: OutputSet::new(),
+            set,
             reused: Vec::new(),
             cpu: options.cpu,
             given,

@@ -121,7 +121,10 @@ pub fn split(options: &SplitOptions) -> Result<Outcome> {
     let path = &options.config;
     let text = crate::input::read_text(path, "config", crate::config::MAX_CONFIG_BYTES)?;
     let config = Config::from_text(&text, path)?;
-    let at = |field: &str, why: &str| Error::user_file(path, format!("{field}: {why}"));
+    // Before any work: a destination that cannot hold a split.
+    check_outside_tiles(&options.out, None)?;
+    check_dir(&options.out)?;
+    let at = |field: &str, why: &str| Error::User(format!("{field}: {why}")).in_config(path, &text);
     if !config.fixed_probes.is_empty() {
         return Err(at("fixed_probes", "split cannot share fixed probes among tiles yet; place the world on one machine, or remove them"));
     }
@@ -381,24 +384,9 @@ const BASE_BYTES: f64 = 256.0 * 1024.0 * 1024.0;
 /// new one's. A directory holding other things, or a path that is not a
 /// directory, is refused.
 fn prepare_dir(dir: &Path) -> Result<()> {
-    if dir.exists() && !dir.is_dir() {
-        return Err(Error::user_file(
-            dir,
-            "--out: is not a directory; give an empty or new directory",
-        ));
-    }
-    if dir.exists() {
+    check_dir(dir)?;
+    if dir.is_dir() {
         let index = dir.join("split.json");
-        let empty = std::fs::read_dir(dir)
-            .map_err(|e| Error::io(dir, e))?
-            .next()
-            .is_none();
-        if !index.is_file() && !empty {
-            return Err(Error::user_file(
-                dir,
-                "--out: holds files but no split.json; give an empty or new directory",
-            ));
-        }
         if index.is_file() {
             let old = std::fs::read(&index).map_err(|e| Error::io(&index, e))?;
             std::fs::remove_file(&index).map_err(|e| Error::io(&index, e))?;
@@ -419,6 +407,80 @@ fn prepare_dir(dir: &Path) -> Result<()> {
         }
     }
     std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))
+}
+
+/// Refuses a split destination that is not a directory, or one that holds
+/// files but no `split.json` (not an earlier split's, so not ours to
+/// clear); [`prepare_dir`]'s checks, made before any work.
+fn check_dir(dir: &Path) -> Result<()> {
+    if dir.exists() && !dir.is_dir() {
+        return Err(Error::user_file(
+            dir,
+            "--out: is not a directory; give an empty or new directory",
+        ));
+    }
+    if dir.exists() {
+        let index = dir.join("split.json");
+        let empty = std::fs::read_dir(dir)
+            .map_err(|e| Error::io(dir, e))?
+            .next()
+            .is_none();
+        if !index.is_file() && !empty {
+            return Err(Error::user_file(
+                dir,
+                "--out: holds files but no split.json; give an empty or new directory",
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Refuses an output directory `out` inside a tile of a split (a
+/// directory above it holds `split.json`): a run there would replace a
+/// tile's placement, or lie in what the next split sweeps, and `merge`
+/// would read whatever it left. The one run allowed there is a tile's own:
+/// `out` is that tile's `output` and `config` its config. Elsewhere in the
+/// split directory (the merged `world`) is allowed. Symbolic links are
+/// resolved before comparing.
+pub(crate) fn check_outside_tiles(out: &Path, config: Option<&Path>) -> Result<()> {
+    use crate::report::commit::absolute;
+    let o = absolute(out);
+    for root in o.ancestors().skip(1) {
+        let index_path = root.join("split.json");
+        let Ok(bytes) = crate::input::read(&index_path, "split.json", 1 << 30) else {
+            continue;
+        };
+        let Ok(index) = serde_json::from_slice::<SplitIndex>(&bytes) else {
+            continue;
+        };
+        let Some(first) = o
+            .strip_prefix(root)
+            .ok()
+            .and_then(|r| r.components().next())
+        else {
+            continue;
+        };
+        let Some(tile) = index
+            .tile
+            .iter()
+            .find(|t| first.as_os_str() == t.name.as_str())
+        else {
+            continue;
+        };
+        let own = o == absolute(&root.join(&tile.output))
+            && config.is_some_and(|c| absolute(c) == absolute(&root.join(&tile.config)));
+        if !own {
+            return Err(Error::user_file(
+                out,
+                format!(
+                    "lies inside {} of the split in {}, which only that tile's own run writes and `merge` reads; choose an --out outside the tiles",
+                    tile.name,
+                    root.display()
+                ),
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// What an earlier split wrote into its directory, from its `split.json`

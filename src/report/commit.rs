@@ -10,37 +10,61 @@
 //! staging name, is removed. Whatever fails before the swap (a full disk, a
 //! name that cannot be written) removes the staging directory and leaves
 //! the previous output whole; a kill at any point leaves the old set or the
-//! new one, never a mix, and the next run into the same parent removes the
+//! new one, never a mix, and the next run into the same output directory
+//! (not one into another directory beside it) removes the
 //! staging directories of dead processes. Two runs into one directory swap
 //! in turn: the later one wins whole. Files an earlier run of another job
 //! left there are gone after the swap.
 //!
 //! Files a run reuses from an earlier one (`--from DIR`) are *carried*:
 //! hard-linked (or copied) into the staging directory, so they too belong
-//! to the new set.
+//! to the new set. A carried file is linked by its resolved path, never as
+//! a symbolic link (one pointing into the output directory would point at
+//! itself after the swap).
+//!
+//! Every set gets a [`manifest`] (`manifest.json`, written last among the
+//! files): each file's size and SHA-256, and the run's provenance, which
+//! its PNG and EXR files carry in their own metadata too (text chunks and
+//! header attributes).
 
+use super::manifest::{self, Manifest};
 use crate::error::{Error, Result};
+use crate::provenance::Stamp;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-/// The files of one run, by name, not yet on disk.
+/// The files of one run, by name, not yet on disk (`default()`: a set
+/// without provenance).
 #[derive(Debug, Default)]
 pub struct OutputSet {
     files: Vec<(String, Vec<u8>)>,
     carried: Vec<(String, PathBuf)>,
+    stamp: Option<Stamp>,
 }
 
 impl OutputSet {
-    /// An empty set.
-    pub fn new() -> OutputSet {
-        OutputSet::default()
+    /// An empty set of a run of `provenance`: its manifest records it, and
+    /// its PNG and EXR files carry it ([`OutputSet::add`]).
+    pub fn of(provenance: &crate::provenance::Provenance) -> OutputSet {
+        OutputSet {
+            stamp: Some(Stamp::of(provenance)),
+            ..OutputSet::default()
+        }
     }
 
     /// Adds a file with its contents; a later file of the same name
-    /// replaces it.
+    /// replaces it. A `.png` or `.exr` of a set with provenance gets it in
+    /// its metadata.
     pub fn add(&mut self, name: impl Into<String>, bytes: Vec<u8>) {
         let name = name.into();
         self.remove(&name);
+        let bytes = match &self.stamp {
+            Some(stamp) if name.ends_with(".png") => super::png_with_text(bytes, &stamp.pairs()),
+            Some(stamp) if name.ends_with(".exr") => {
+                super::exr::with_attributes(bytes, &stamp.pairs())
+            }
+            _ => bytes,
+        };
         self.files.push((name, bytes));
     }
 
@@ -113,6 +137,52 @@ pub fn check_destination(dir: &Path, inputs: &[PathBuf]) -> Result<()> {
                 "is not empty and holds no probeplace output (report.json or compare.json); the run would replace its files, so choose an empty or new --out",
             ));
         }
+        // A file put beside a run's outputs (one its manifest does not
+        // list) would go with them.
+        if let Ok(listing) = manifest::read(dir, "") {
+            if let Some(stray) = manifest::unlisted(dir, &listing).first() {
+                return Err(Error::user_file(
+                    stray,
+                    format!(
+                        "is not a file of the run in {} ({} does not list it), and the run replaces that directory: move it out, or choose another --out",
+                        dir.display(),
+                        manifest::NAME
+                    ),
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Refuses an earlier run's directory `from` (`--from`, named `label` in
+/// messages) and an output directory `out` nested one in the other: the
+/// commit replaces `out` whole, so a `from` inside it would be deleted
+/// with it, and an `out` inside `from` would be deleted by the next run
+/// into `from`. Both are compared with symbolic links resolved; the same
+/// directory (a run updated in place) is allowed.
+pub fn check_apart(from: &Path, out: &Path, label: &str) -> Result<()> {
+    let (f, o) = (absolute(from), absolute(out));
+    if f == o {
+        return Ok(());
+    }
+    if f.starts_with(&o) {
+        return Err(Error::user_file(
+            from,
+            format!(
+                "{label}: lies inside the output directory {}, which the run replaces; choose another --out",
+                out.display()
+            ),
+        ));
+    }
+    if o.starts_with(&f) {
+        return Err(Error::user_file(
+            out,
+            format!(
+                "lies inside {}, the directory of the earlier run, which a run into it would replace with this one; choose an --out outside it",
+                from.display()
+            ),
+        ));
     }
     Ok(())
 }
@@ -204,7 +274,7 @@ fn is_probeplace_json(path: &Path) -> bool {
 
 /// `path` made absolute and normalized, without touching the file system
 /// beyond the current directory (so missing paths compare too).
-fn absolute(path: &Path) -> PathBuf {
+pub(crate) fn absolute(path: &Path) -> PathBuf {
     let p = std::path::absolute(path).unwrap_or_else(|_| path.to_path_buf());
     std::fs::canonicalize(&p).unwrap_or_else(|_| crate::config::normalize(&p))
 }
@@ -242,29 +312,46 @@ pub fn commit(dir: &Path, set: &OutputSet, inputs: &[PathBuf]) -> Result<()> {
 /// Writes and syncs every file of `set` into `staging`, then the directory.
 fn write_all(staging: &Path, set: &OutputSet) -> Result<()> {
     let mut step = 0;
+    let mut listing = Manifest::new(set.stamp.clone());
     for (name, bytes) in &set.files {
-        let path = staging.join(name);
-        fault::before_write(&path);
-        let mut f = std::fs::File::create(&path).map_err(|e| Error::io(&path, e))?;
-        f.write_all(bytes)
-            .and_then(|()| f.sync_all())
-            .map_err(|e| Error::io(&path, e))?;
-        step += 1;
-        fault::kill_at(step);
+        write_synced(staging, name, bytes, &mut step)?;
+        listing
+            .files
+            .insert(name.clone(), manifest::entry_of(bytes));
     }
     for (name, from) in &set.carried {
         let path = staging.join(name);
         fault::before_write(&path);
-        if std::fs::hard_link(from, &path).is_err() {
-            std::fs::copy(from, &path).map_err(|e| Error::io(&path, e))?;
+        // By the resolved path: a link to a symbolic link would resolve
+        // into the directory this commit replaces.
+        let from = std::fs::canonicalize(from).map_err(|e| Error::io(from, e))?;
+        if std::fs::hard_link(&from, &path).is_err() {
+            std::fs::copy(&from, &path).map_err(|e| Error::io(&path, e))?;
             let f = std::fs::File::open(&path).map_err(|e| Error::io(&path, e))?;
             f.sync_all().map_err(|e| Error::io(&path, e))?;
         }
+        listing
+            .files
+            .insert(name.clone(), manifest::entry_of_file(&path)?);
         step += 1;
         fault::kill_at(step);
     }
+    write_synced(staging, manifest::NAME, &listing.to_bytes()?, &mut step)?;
     sync_dir(staging)?;
     fault::kill_at(step + 1);
+    Ok(())
+}
+
+/// Writes and syncs `name` in `staging`, commit step `step + 1`.
+fn write_synced(staging: &Path, name: &str, bytes: &[u8], step: &mut usize) -> Result<()> {
+    let path = staging.join(name);
+    fault::before_write(&path);
+    let mut f = std::fs::File::create(&path).map_err(|e| Error::io(&path, e))?;
+    f.write_all(bytes)
+        .and_then(|()| f.sync_all())
+        .map_err(|e| Error::io(&path, e))?;
+    *step += 1;
+    fault::kill_at(*step);
     Ok(())
 }
 
@@ -402,7 +489,7 @@ mod tests {
     }
 
     fn set(files: &[(&str, &str)]) -> OutputSet {
-        let mut s = OutputSet::new();
+        let mut s = OutputSet::default();
         for (n, b) in files {
             s.add(*n, b.as_bytes().to_vec());
         }
@@ -424,8 +511,62 @@ mod tests {
         commit(&out, &ours("lightfield.bin", "old"), &[]).unwrap();
         commit(&out, &ours("svo.bin", "new"), &[]).unwrap();
         let names: Vec<String> = listing(&out).into_iter().map(|(n, _)| n).collect();
-        assert_eq!(names, ["report.json", "svo.bin"]);
+        assert_eq!(names, ["manifest.json", "report.json", "svo.bin"]);
         assert_eq!(std::fs::read_dir(root.path()).unwrap().count(), 1);
+    }
+
+    #[test]
+    fn a_set_with_provenance_lists_every_file_and_stamps_its_images() {
+        let p = crate::provenance::Provenance {
+            tool: "probeplace test".into(),
+            config_hash: "00000000000000aa".into(),
+            seed: 9,
+            scene_hash: "00000000000000bb".into(),
+            config_given: "c.ron".into(),
+            cwd: "/".into(),
+            config_text: String::new(),
+            overrides: Default::default(),
+        };
+        let mut s = OutputSet::of(&p);
+        s.add(
+            "report.json",
+            b"{\"format\":\"probeplace.report\"}".to_vec(),
+        );
+        let image = crate::raster::RgbImage::from_pixel(3, 2, [10, 20, 30]);
+        s.add("a.png", super::super::encode_png(&image, "a.png").unwrap());
+        s.add(
+            "a.exr",
+            super::super::exr::encode_rgb(1, 1, &[[0.5, 1.0, 2.0]]),
+        );
+        let root = tempfile::tempdir().unwrap();
+        let out = root.path().join("out");
+        commit(&out, &s, &[]).unwrap();
+        let listing = manifest::verify(&out, "").unwrap();
+        assert_eq!(listing.provenance, Some(Stamp::of(&p)));
+        let names: Vec<&String> = listing.files.keys().collect();
+        assert_eq!(names, ["a.exr", "a.png", "report.json"]);
+        // The PNG decodes, with the four facts as text chunks.
+        let png = std::fs::read(out.join("a.png")).unwrap();
+        let mut reader = png::Decoder::new(std::io::Cursor::new(png))
+            .read_info()
+            .unwrap();
+        let text: Vec<(String, String)> = reader
+            .info()
+            .uncompressed_latin1_text
+            .iter()
+            .map(|t| (t.keyword.clone(), t.text.clone()))
+            .collect();
+        assert_eq!(Stamp::of(&p).mismatch(&text), None, "{text:?}");
+        let mut buf = vec![0; reader.output_buffer_size().unwrap()];
+        reader.next_frame(&mut buf).unwrap();
+        assert_eq!(&buf[..3], [10, 20, 30]);
+        let exr = std::fs::read(out.join("a.exr")).unwrap();
+        let attrs = super::super::exr::string_attributes(&exr);
+        assert_eq!(Stamp::of(&p).mismatch(&attrs), None, "{attrs:?}");
+        assert_eq!(
+            super::super::exr::decode_rgb(&exr).unwrap().2,
+            [[0.5, 1.0, 2.0]]
+        );
     }
 
     #[test]

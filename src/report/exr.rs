@@ -92,46 +92,22 @@ pub fn encode_rgb(width: u32, height: u32, pixels: &[[f32; 3]]) -> Vec<u8> {
 /// compression, channels or layout, a truncated or edited file) is an
 /// `Err` with a one-line reason.
 pub fn decode_rgb(bytes: &[u8]) -> Result<(u32, u32, Vec<[f32; 3]>), String> {
-    let word = |at: usize| -> Option<u32> {
-        Some(u32::from_le_bytes(bytes.get(at..at + 4)?.try_into().ok()?))
-    };
-    if word(0) != Some(MAGIC) || word(4) != Some(VERSION) {
+    if !bytes.starts_with(&[MAGIC.to_le_bytes(), VERSION.to_le_bytes()].concat()) {
         return Err("not a scan-line OpenEXR file of probeplace".into());
     }
-    let mut at = 8;
     let mut window = None;
-    loop {
-        let name_end = bytes
-            .get(at..)
-            .ok_or("truncated header")?
-            .iter()
-            .position(|&b| b == 0)
-            .ok_or("truncated header")?;
-        if name_end == 0 {
-            break;
-        }
-        let name = &bytes[at..at + name_end];
-        let kind_end = bytes
-            .get(at + name_end + 1..)
-            .ok_or("truncated header")?
-            .iter()
-            .position(|&b| b == 0)
-            .ok_or("truncated header")?;
-        let size_at = at + name_end + 1 + kind_end + 1;
-        let size = word(size_at).ok_or("truncated header")? as usize;
-        let value = bytes
-            .get(size_at + 4..size_at + 4 + size)
-            .ok_or("truncated header")?;
-        if name == b"dataWindow" && size == 16 {
+    let at = walk_header(bytes, |name, _, value| {
+        if name == b"dataWindow" && value.len() == 16 {
             let v = |i: usize| i32::from_le_bytes(value[i..i + 4].try_into().expect("4 bytes"));
             window = Some((
                 v(8) as i64 - v(0) as i64 + 1,
                 v(12) as i64 - v(4) as i64 + 1,
             ));
         }
-        at = size_at + 4 + size;
-    }
+    })
+    .ok_or("truncated header")?;
     let (w, h) = window.ok_or("no dataWindow")?;
+    let strings = string_attributes(bytes);
     if !(1..=1 << 16).contains(&w) || !(1..=1 << 16).contains(&h) {
         return Err(format!("image size {w}×{h} out of range"));
     }
@@ -151,10 +127,99 @@ pub fn decode_rgb(bytes: &[u8]) -> Result<(u32, u32, Vec<[f32; 3]>), String> {
             }
         }
     }
-    if encode_rgb(w as u32, h as u32, &pixels) != bytes {
+    if with_attributes(encode_rgb(w as u32, h as u32, &pixels), &strings) != bytes {
         return Err("not laid out as probeplace writes it".into());
     }
     Ok((w as u32, h as u32, pixels))
+}
+
+/// `bytes` (a file [`encode_rgb`] wrote) with `pairs` added to its header
+/// as `string` attributes, before the header's end: where OpenEXR keeps a
+/// file's metadata, so any EXR tool shows them (the run's provenance,
+/// [`super::manifest::Stamp::pairs`]). The header grows, so every entry of
+/// the block-offset table moves by as much.
+///
+/// Contract: `bytes` is [`encode_rgb`]'s output (with or without earlier
+/// attributes); anything else is returned unchanged.
+pub fn with_attributes<K: AsRef<str>, V: AsRef<str>>(bytes: Vec<u8>, pairs: &[(K, V)]) -> Vec<u8> {
+    let Some((header_end, h)) = header_end(&bytes) else {
+        return bytes;
+    };
+    let mut extra = Vec::new();
+    for (k, v) in pairs {
+        attribute(&mut extra, k.as_ref(), "string", v.as_ref().as_bytes());
+    }
+    let shift = extra.len() as u64;
+    let mut out = Vec::with_capacity(bytes.len() + extra.len());
+    out.extend_from_slice(&bytes[..header_end]);
+    out.extend_from_slice(&extra);
+    out.push(0);
+    let table = header_end + 1;
+    for y in 0..h {
+        let at = table + 8 * y;
+        let offset = u64::from_le_bytes(bytes[at..at + 8].try_into().expect("8 bytes"));
+        out.extend_from_slice(&(offset + shift).to_le_bytes());
+    }
+    out.extend_from_slice(&bytes[table + 8 * h..]);
+    out
+}
+
+/// The `string` attributes of an EXR header, as (name, value).
+pub fn string_attributes(bytes: &[u8]) -> Vec<(String, String)> {
+    let mut found = Vec::new();
+    walk_header(bytes, |name, kind, value| {
+        if kind == b"string" {
+            found.push((
+                String::from_utf8_lossy(name).into_owned(),
+                String::from_utf8_lossy(value).into_owned(),
+            ));
+        }
+    });
+    found
+}
+
+/// The position of the null byte that ends the header, and the image's
+/// height (the block-offset table's length), of a file of this writer.
+fn header_end(bytes: &[u8]) -> Option<(usize, usize)> {
+    let mut height = None;
+    let end = walk_header(bytes, |name, _, value| {
+        if name == b"dataWindow" && value.len() == 16 {
+            let v = |i: usize| i32::from_le_bytes(value[i..i + 4].try_into().expect("4 bytes"));
+            height = usize::try_from(v(12) as i64 - v(4) as i64 + 1).ok();
+        }
+    })?;
+    let h = height?;
+    (bytes.len() >= end + 1 + 8 * h).then_some((end, h))
+}
+
+/// Calls `each(name, type, value)` for every header attribute; the
+/// position of the header's closing null byte, `None` for a truncated or
+/// foreign header.
+fn walk_header(bytes: &[u8], mut each: impl FnMut(&[u8], &[u8], &[u8])) -> Option<usize> {
+    let word = |at: usize| -> Option<u32> {
+        Some(u32::from_le_bytes(bytes.get(at..at + 4)?.try_into().ok()?))
+    };
+    if word(0) != Some(MAGIC) || word(4) != Some(VERSION) {
+        return None;
+    }
+    let mut at = 8;
+    loop {
+        let name_end = bytes.get(at..)?.iter().position(|&b| b == 0)?;
+        if name_end == 0 {
+            return Some(at);
+        }
+        let kind_start = at + name_end + 1;
+        let kind_end = bytes.get(kind_start..)?.iter().position(|&b| b == 0)?;
+        let size_at = kind_start + kind_end + 1;
+        let size = word(size_at)? as usize;
+        let value = bytes.get(size_at + 4..size_at.checked_add(4 + size)?)?;
+        each(
+            &bytes[at..at + name_end],
+            &bytes[kind_start..kind_start + kind_end],
+            value,
+        );
+        at = size_at + 4 + size;
+    }
 }
 
 /// Appends one header attribute: name, type name, size, value.
@@ -267,6 +332,38 @@ mod tests {
             let want: Vec<f32> = pixels.iter().map(|p| p[c]).collect();
             assert_eq!(values, &want, "channel {}", ch.name);
         }
+    }
+
+    #[test]
+    fn string_attributes_are_read_by_the_exr_crate_and_by_decode() {
+        let (w, h) = (4u32, 3u32);
+        let pixels = test_image(w, h);
+        let pairs = [
+            ("probeplace.seed", "7"),
+            ("probeplace.tool", "probeplace 0.1.0"),
+        ];
+        let bytes = with_attributes(encode_rgb(w, h, &pixels), &pairs);
+        let img = read_back(&bytes);
+        let other: Vec<(String, String)> = img
+            .attributes
+            .other
+            .iter()
+            .chain(img.layer_data.attributes.other.iter())
+            .filter_map(|(k, v)| match v {
+                AttributeValue::Text(t) => Some((k.to_string(), t.to_string())),
+                _ => None,
+            })
+            .collect();
+        for (k, v) in pairs {
+            assert!(other.contains(&(k.to_string(), v.to_string())), "{other:?}");
+        }
+        let FlatSamples::F32(r) = &img.layer_data.channel_data.list[2].sample_data else {
+            panic!("R is not f32");
+        };
+        assert_eq!(r[5], pixels[5][0], "the offsets moved with the header");
+        assert_eq!(decode_rgb(&bytes).unwrap().2, pixels);
+        assert_eq!(string_attributes(&bytes).len(), 2);
+        assert!(decode_rgb(&bytes[..bytes.len() - 2]).is_err());
     }
 
     #[test]

@@ -73,18 +73,23 @@ pub(crate) fn light_factor(config: &Config) -> f64 {
 /// paths of `1 + bounces` vertices, and the irradiance and moment
 /// convolutions, `probes × m² × n²` terms.
 pub fn check(config: &Config, probes: usize) -> Result<()> {
+    check_with(config, probes, Work::WithSh)
+}
+
+/// What a bake computes: `bake`'s maps and SH ([`probe_light`]), or the
+/// maps alone (`compare`, whose diffuse evaluation projects its own SH).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Work {
+    /// The maps and the SH.
+    WithSh,
+    /// The maps alone.
+    Maps,
+}
+
+/// [`check`] of a bake computing `work`.
+pub fn check_with(config: &Config, probes: usize, work: Work) -> Result<()> {
+    check_memory(config, probes)?;
     let b = &config.bake;
-    let (n, m) = (b.resolution.0 as f64, b.irradiance_resolution.0 as f64);
-    let p = probes as f64;
-    let maps = p * (34.7 * n * n + 20.0 * m * m);
-    let file =
-        crate::lightfield::format::file_bytes(probes, b.resolution.0, b.irradiance_resolution.0)
-            as f64;
-    limits::check_memory(
-        "bake.resolution",
-        &format!("the bake of {probes} probes at {}² maps", b.resolution.0),
-        1.5 * maps + file,
-    )?;
     limits::check_work(
         "bake.samples",
         &format!(
@@ -94,19 +99,38 @@ pub fn check(config: &Config, probes: usize) -> Result<()> {
             b.bounces.0,
             config.lights.len()
         ),
-        core_seconds(config, probes),
+        core_seconds(config, probes, work),
         1.0,
+    )
+}
+
+/// [`check`]'s memory half, which `bake.samples` does not change.
+pub fn check_memory(config: &Config, probes: usize) -> Result<()> {
+    let b = &config.bake;
+    let (n, m) = (b.resolution.0 as f64, b.irradiance_resolution.0 as f64);
+    let maps = probes as f64 * (34.7 * n * n + 20.0 * m * m);
+    let file =
+        crate::lightfield::format::file_bytes(probes, b.resolution.0, b.irradiance_resolution.0)
+            as f64;
+    limits::check_memory(
+        "bake.resolution",
+        &format!("the bake of {probes} probes at {}² maps", b.resolution.0),
+        1.5 * maps + file,
     )
 }
 
 /// The estimated core-seconds of a bake of `probes` probes with
 /// `config.bake` ([`check`]'s work model), for sums over several bakes.
-pub fn core_seconds(config: &Config, probes: usize) -> f64 {
+pub fn core_seconds(config: &Config, probes: usize, work: Work) -> f64 {
     let b = &config.bake;
     let (n, m) = (b.resolution.0 as f64, b.irradiance_resolution.0 as f64);
     let p = probes as f64;
     // The maps' paths, then the SH's directions and the six axes' paths.
-    let paths = p * (n * n * b.samples.0 as f64 + 7.0 * b.sh_rays.0 as f64);
+    let sh = match work {
+        Work::WithSh => 7.0 * b.sh_rays.0 as f64,
+        Work::Maps => 0.0,
+    };
+    let paths = p * (n * n * b.samples.0 as f64 + sh);
     let vertices = paths * (1.0 + b.bounces.0 as f64) * light_factor(config);
     let convolution = p * m * m * n * n;
     vertices / limits::rate::PATH_VERTICES + convolution / limits::rate::CONVOLUTION_TERMS

@@ -227,7 +227,7 @@ pub fn place(
 /// Refuses a probe set of more than [`limits::MAX_PROBES`] probes, or one
 /// whose scoring would take longer than the work limit, before the stages
 /// that grow with it run (refinement and the SVO check their own work).
-fn check_probes(config: &Config, prepared: &Prepared, n: usize) -> Result<()> {
+pub(crate) fn check_probes(config: &Config, prepared: &Prepared, n: usize) -> Result<()> {
     if n > limits::MAX_PROBES {
         return Err(Error::User(format!(
             "placement: {n} probes, over the limit of {} that the later stages finish in minutes; use a coarser placement",

@@ -616,3 +616,232 @@ fn a_compare_over_too_many_grids_is_refused_before_the_first() {
     let e = refused(&s, &["compare", "cmp.ron", "--cpu", "--grids", &grids]);
     assert!(e.contains("compare.grids: baking the 100 grids"), "{e}");
 }
+
+/// The scratch room with a camera (so a bake has a reference), baked
+/// quickly into `dir` with `extra` arguments.
+fn baked(s: &Scratch, dir: &str, extra: &[&str]) {
+    if !s.path("cam.ron").exists() {
+        s.config(
+            "cam.ron",
+            "reference: (camera: (position: (1, 1, 0.3), look_at: (1, 1, 1.5)), width: 16, height: 12, samples_per_pixel: 4),\nbake: (resolution: 16, samples: 2),\n",
+        );
+    }
+    let mut args = vec!["bake", "cam.ron", "--quiet", "--out", dir];
+    args.extend(extra);
+    let (code, stderr) = stderr_of(s, &args);
+    assert_eq!(code, Some(0), "{stderr}");
+}
+
+/// Every file of `dir`, by name, with its bytes (and links as links).
+fn snapshot(dir: &Path) -> Vec<(String, bool, Vec<u8>)> {
+    let mut v: Vec<_> = std::fs::read_dir(dir)
+        .unwrap()
+        .flatten()
+        .map(|e| {
+            let link = e.file_type().unwrap().is_symlink();
+            (
+                e.file_name().to_string_lossy().into_owned(),
+                link,
+                std::fs::read(e.path()).unwrap_or_default(),
+            )
+        })
+        .collect();
+    v.sort();
+    v
+}
+
+#[test]
+fn reuse_through_symbolic_links_is_refused_and_destroys_nothing() {
+    let s = Scratch::new();
+    let (code, stderr) = stderr_of(&s, &["place", "run.ron", "--quiet", "--out", "run"]);
+    assert_eq!(code, Some(0), "{stderr}");
+    let before = snapshot(&s.path("run"));
+    // D: the report and manifest copied, every other file a link into run/.
+    std::fs::create_dir(s.path("d")).unwrap();
+    for (name, _, _) in &before {
+        let (from, to) = (s.path("run").join(name), s.path("d").join(name));
+        if name == "report.json" || name == "manifest.json" {
+            std::fs::copy(&from, &to).unwrap();
+        } else {
+            std::os::unix::fs::symlink(&from, &to).unwrap();
+        }
+    }
+    let e = refused(&s, &["bake", "--from", "d", "--out", "run"]);
+    assert!(e.contains("is a symbolic link"), "{e}");
+    // Without the manifest, D is not a whole output set.
+    std::fs::remove_file(s.path("d/manifest.json")).unwrap();
+    let e = refused(&s, &["bake", "--from", "d", "--out", "run"]);
+    assert!(e.starts_with("error: d/manifest.json: missing"), "{e}");
+    assert_eq!(snapshot(&s.path("run")), before, "run/ changed");
+    let (code, stderr) = stderr_of(&s, &["inspect", "run", "--quiet"]);
+    assert_eq!(code, Some(0), "{stderr}");
+    // An --out inside --from, or a --from inside --out, is refused first.
+    let e = refused(&s, &["bake", "--from", "run", "--out", "run/deeper"]);
+    assert!(e.contains("lies inside run"), "{e}");
+    std::fs::create_dir(s.path("outer")).unwrap();
+    std::fs::rename(s.path("run"), s.path("outer/run")).unwrap();
+    let e = refused(&s, &["bake", "--from", "outer/run", "--out", "outer"]);
+    assert!(e.starts_with("error: outer"), "{e}");
+}
+
+#[test]
+fn files_changed_copied_in_or_gone_from_a_run_are_refused_by_name() {
+    let s = Scratch::new();
+    baked(&s, "a", &[]);
+    baked(&s, "b", &["--seed", "2"]);
+    let (code, stderr) = stderr_of(&s, &["inspect", "a", "--quiet"]);
+    assert_eq!(code, Some(0), "{stderr}");
+    let whole = snapshot(&s.path("a"));
+    let put_back = || {
+        std::fs::remove_dir_all(s.path("a")).unwrap();
+        std::fs::create_dir(s.path("a")).unwrap();
+        for (name, _, bytes) in &whole {
+            std::fs::write(s.path("a").join(name), bytes).unwrap();
+        }
+    };
+    // References of another seed copied in: the manifest refuses them.
+    for name in ["reference.exr", "reference-glossy.exr"] {
+        std::fs::copy(s.path("b").join(name), s.path("a").join(name)).unwrap();
+    }
+    for args in [
+        &["render", "--from", "a"][..],
+        &["inspect", "a"],
+        &["export", "a", "--format", "glb"],
+    ] {
+        let e = refused(&s, args);
+        assert!(
+            e.contains("a/reference") && e.contains("SHA-256 differs"),
+            "{args:?}: {e}"
+        );
+    }
+    // With the manifest edited to match, the EXR's own metadata refuses it.
+    let mut manifest: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(s.path("a/manifest.json")).unwrap()).unwrap();
+    let theirs: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(s.path("b/manifest.json")).unwrap()).unwrap();
+    for name in ["reference.exr", "reference-glossy.exr"] {
+        manifest["files"][name] = theirs["files"][name].clone();
+    }
+    std::fs::write(s.path("a/manifest.json"), manifest.to_string()).unwrap();
+    let e = refused(&s, &["render", "--from", "a"]);
+    assert!(
+        e.contains("probeplace.seed is 2 where this run has 0"),
+        "{e}"
+    );
+    put_back();
+    // A partial set: export, render and inspect refuse it, naming the file.
+    std::fs::remove_file(s.path("a/lightfield.bin")).unwrap();
+    for args in [
+        &["export", "a", "--format", "glb"][..],
+        &["render", "--from", "a"],
+        &["inspect", "a"],
+    ] {
+        let e = refused(&s, args);
+        assert!(e.contains("a/lightfield.bin: missing"), "{args:?}: {e}");
+    }
+    put_back();
+    // probes.json gone, or a FIFO in its place: refused, not recomputed
+    // (and the FIFO is never opened, so nothing blocks).
+    std::fs::remove_file(s.path("a/probes.json")).unwrap();
+    let e = refused(&s, &["bake", "--from", "a"]);
+    assert!(e.starts_with("error: a/probes.json: missing"), "{e}");
+    mkfifo(&s.path("a/probes.json"));
+    let e = refused(&s, &["bake", "--from", "a"]);
+    assert!(
+        e.starts_with("error: a/probes.json: is not a regular file"),
+        "{e}"
+    );
+    std::fs::remove_file(s.path("a/probes.json")).unwrap();
+    put_back();
+    // A file of the user's beside the run is named, not swept away.
+    std::fs::write(s.path("a/notes.txt"), "mine").unwrap();
+    let e = refused(&s, &["bake", "--from", "a"]);
+    assert!(
+        e.starts_with("error: a/notes.txt: is not a file of the run"),
+        "{e}"
+    );
+    let e = refused(&s, &["inspect", "a"]);
+    assert!(
+        e.starts_with("error: a/notes.txt: is not a file of the run"),
+        "{e}"
+    );
+    assert_eq!(std::fs::read(s.path("a/notes.txt")).unwrap(), b"mine");
+    std::fs::remove_file(s.path("a/notes.txt")).unwrap();
+    let (code, stderr) = stderr_of(&s, &["render", "--from", "a", "--quiet"]);
+    assert_eq!(code, Some(0), "the whole set is reused: {stderr}");
+}
+
+#[test]
+fn a_compare_whose_bakes_run_past_the_limit_lowers_their_samples_alike_and_finishes() {
+    let s = Scratch::new();
+    s.config(
+        "cmp.ron",
+        "reference: (camera: (position: (1, 1, 0.3), look_at: (1, 1, 1.5)), width: 16, height: 12, samples_per_pixel: 4),\nbake: (resolution: 16, samples: 65536),\nlights: [Point(position: (1, 1.5, 1), intensity: (1, 1, 1))],\n",
+    );
+    // Each bake of 65 536 paths a texel would run past a 20 s limit; the
+    // old compare refused at the first bake, after placing.
+    let o = Command::new(env!("CARGO_BIN_EXE_probeplace"))
+        .args(["compare", "cmp.ron", "--cpu", "--quiet", "--out", "c"])
+        .env("PROBEPLACE_WORK_LIMIT", "20")
+        .current_dir(s.dir.path())
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(0), "{stderr}");
+    let r: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(s.path("c/compare.json")).unwrap()).unwrap();
+    let warnings = r["warnings"].to_string();
+    assert!(
+        warnings.contains("bake.samples from 65536 to ")
+            && warnings.contains("for every placement alike"),
+        "{warnings}"
+    );
+    // Every family is still measured.
+    let families: std::collections::BTreeSet<&str> = r["placements"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|p| p["family"].as_str().unwrap())
+        .collect();
+    for f in ["ours", "grid", "relocated", "greedy"] {
+        assert!(families.contains(f), "{f}: {families:?}");
+    }
+}
+
+#[test]
+fn a_killed_runs_staging_is_swept_by_the_next_run_into_its_directory_only() {
+    let s = Scratch::new();
+    let staging = || -> Vec<String> {
+        let mut v: Vec<String> = std::fs::read_dir(s.dir.path())
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .filter(|n| n.contains(".probeplace-"))
+            .collect();
+        v.sort();
+        v
+    };
+    // Killed after its first file: the staging directory of `a` is left.
+    let o = Command::new(env!("CARGO_BIN_EXE_probeplace"))
+        .args(["place", "run.ron", "--quiet", "--out", "a"])
+        .env("PROBEPLACE_TEST_KILL_AT", "1")
+        .current_dir(s.dir.path())
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    let left = staging();
+    assert_eq!(left.len(), 1, "{left:?}");
+    assert!(left[0].starts_with(".a.probeplace-"), "{left:?}");
+    // A run into another directory beside it leaves it (docs/formats.md).
+    let (code, stderr) = stderr_of(&s, &["place", "run.ron", "--quiet", "--out", "b"]);
+    assert_eq!(code, Some(0), "{stderr}");
+    assert_eq!(staging(), left);
+    // The next run into `a` sweeps it.
+    let (code, stderr) = stderr_of(&s, &["place", "run.ron", "--quiet", "--out", "a"]);
+    assert_eq!(code, Some(0), "{stderr}");
+    assert!(staging().is_empty(), "{:?}", staging());
+    let docs = std::fs::read_to_string(crate::common::root().join("docs/formats.md")).unwrap();
+    assert!(
+        docs.contains("is removed by the next run into the same output directory; runs into other\ndirectories, even beside it, leave it alone"),
+        "docs/formats.md no longer says which runs sweep a killed run's staging directory"
+    );
+}

@@ -92,6 +92,7 @@ fn cornell_default_run_meets_the_acceptance_bar() {
         names,
         [
             "atlas.png",
+            "manifest.json",
             "placement.png",
             "probes.json",
             "report.html",

@@ -218,8 +218,67 @@ fn a_failed_or_foreign_tile_stops_the_merge_and_a_rerun_mends_it() {
         err.contains("tile-001: its run used another config"),
         "{err}"
     );
-    // Rerun as split wrote it, the merge goes through.
+    // Rerun as split wrote it; a file of its output changed since is
+    // refused by the tile's manifest, naming the tile and the file.
     run_tile(&dir, 1, &[]);
+    let probes_path = dir.join("tile-001/out/probes.json");
+    let whole = std::fs::read(&probes_path).unwrap();
+    let edited = String::from_utf8(whole.clone()).unwrap().replacen(
+        "\"position\": [",
+        "\"position\": [ ",
+        1,
+    );
+    std::fs::write(&probes_path, edited).unwrap();
+    let (code, err) = merge(&dir);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(
+        err.starts_with("error: tile-001: ") && err.contains("tile-001/out/probes.json: holds"),
+        "{err}"
+    );
+    std::fs::write(&probes_path, &whole).unwrap();
+    // An output inside a tile, or the split itself, is refused before the
+    // tiles are read, and the tile keeps its placement.
+    let tile_report = std::fs::read(dir.join("tile-000/out/report.json")).unwrap();
+    let started = std::time::Instant::now();
+    for out in [
+        dir.join("tile-000/out"),
+        dir.join("tile-000/world"),
+        dir.clone(),
+    ] {
+        let o = probeplace(&[
+            "merge",
+            dir.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{err}");
+        assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+        assert!(
+            err.contains("tile-000") || err.contains("split.json"),
+            "{err}"
+        );
+    }
+    assert!(started.elapsed().as_secs() < 10, "refused only after work");
+    assert_eq!(
+        std::fs::read(dir.join("tile-000/out/report.json")).unwrap(),
+        tile_report
+    );
+    // Nor may another run write into a tile: only the tile's own config.
+    let o = probeplace(&[
+        "place",
+        tile_config.to_str().unwrap(),
+        "--out",
+        dir.join("tile-000/out").to_str().unwrap(),
+        "--quiet",
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("lies inside tile-000 of the split"), "{err}");
+    assert_eq!(
+        std::fs::read(dir.join("tile-000/out/report.json")).unwrap(),
+        tile_report
+    );
     let (code, err) = merge(&dir);
     assert_eq!(code, Some(0), "{err}");
     let world = read_json(&dir.join("world/report.json"));
@@ -344,10 +403,44 @@ fn split_refuses_what_it_cannot_split() {
         );
         assert!(!out.exists());
     }
+    // A field split cannot honour is named with its line and column.
+    let fixed = test_quality(
+        "configs/cornell.ron",
+        &[("fixed_probes", "[(0.2, 0.3, 0.2)]")],
+    );
+    let err = split_refusal(&fixed, &[], &tmp.path().join("f"));
+    let line = std::fs::read_to_string(fixed.path())
+        .unwrap()
+        .lines()
+        .position(|l| l.contains("fixed_probes"))
+        .unwrap()
+        + 1;
+    assert!(
+        err.contains(&format!(":{line}:")) && err.contains(": fixed_probes: split cannot share"),
+        "{err}"
+    );
     // A path that is not a directory is refused, naming it, and kept.
     let file = tmp.path().join("a-file");
     std::fs::write(&file, "x").unwrap();
     let err = split_refusal(&plain, &[], &file);
     assert!(err.contains("a-file: --out: is not a directory"), "{err}");
     assert_eq!(std::fs::read(&file).unwrap(), b"x");
+}
+
+#[test]
+fn the_default_margin_is_half_the_longest_tile_edge_as_documented() {
+    let (_config, _tmp, dir) = split_cornell(&[], "2x1x1");
+    let index = read_json(&dir.join("split.json"));
+    let f = |v: &Value| v.as_f64().unwrap();
+    let (min, max) = (&index["domain"]["min"], &index["domain"]["max"]);
+    let edge = (0..3)
+        .map(|a| (f(&max[a]) - f(&min[a])) / f(&index["tiles"][a]))
+        .fold(0.0, f64::max);
+    let want = (0.5 * edge).max(8.0 * f(&index["voxel_size"]));
+    assert!((f(&index["margin"]) - want).abs() < 1e-9 * want, "{index}");
+    let docs = std::fs::read_to_string(crate::common::root().join("docs/tiles.md")).unwrap();
+    assert!(
+        docs.contains("default half of the longest tile edge and at least\n  8 voxels"),
+        "docs/tiles.md no longer states the default margin"
+    );
 }
