@@ -13,8 +13,9 @@
 //! `bake`, `render` and `compare` take `--from DIR`: what an earlier run
 //! wrote there (probes, SVO, light field, reference) is loaded instead of
 //! recomputed, and carried into the new output set unchanged, when its
-//! provenance ([`crate::provenance`]) is the run's; otherwise the run is
-//! refused with one line naming the difference. A job's outputs are
+//! provenance ([`crate::provenance`]) is the run's and its `manifest.json`
+//! ([`crate::report::manifest`]) vouches for every file; otherwise the run
+//! is refused with one line naming the difference or the file. A job's outputs are
 //! committed as one set ([`crate::report::commit`]): the output directory
 //! holds one run, whole, or the previous one.
 

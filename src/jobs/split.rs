@@ -165,11 +165,44 @@ pub fn split(options: &SplitOptions) -> Result<Outcome> {
         margin,
     };
     let dir = &options.out;
-    prepare_dir(dir)?;
     let width = (grid.len() - 1).to_string().len().max(3);
     let names: Vec<String> = (0..grid.len())
         .map(|i| format!("tile-{i:0width$}"))
         .collect();
+    // Every tile's config, written and parsed before the scene is split:
+    // a config the tiles cannot take is refused before that work.
+    let mut tile_texts = Vec::new();
+    for (tile, name) in grid.tiles().into_iter().zip(&names) {
+        let tile_text = set_fields(
+            &text,
+            &[
+                ("scene", "\"scene.obj\"".to_string()),
+                ("scale", "1.0".to_string()),
+                ("up", "Y".to_string()),
+                (
+                    "domain",
+                    format!(
+                        "Box((min: {}, max: {}))",
+                        point(tile.outer.min),
+                        point(tile.outer.max)
+                    ),
+                ),
+                ("voxel_size", format!("{voxel_size:?}")),
+                // A tile's box cuts the world's free space into pieces that
+                // its cameras do not reach: every tile keeps all its free
+                // space (the reach of the world is not yet carried).
+                ("reachable", "Everywhere".to_string()),
+                ("output", "\"out\"".to_string()),
+                ("seed", config.seed.to_string()),
+                ("export", "[]".to_string()),
+                ("probe_density", margin_density(&text, &tile, grid.counts)?),
+            ],
+        )
+        .map_err(|m| Error::user_file(path, m))?;
+        Config::parse(&tile_text, &dir.join(name).join("config.ron"))?;
+        tile_texts.push(tile_text);
+    }
+    prepare_dir(dir)?;
     for name in &names {
         let d = dir.join(name);
         std::fs::create_dir_all(&d).map_err(|e| Error::io(&d, e))?;
@@ -197,37 +230,16 @@ pub fn split(options: &SplitOptions) -> Result<Outcome> {
         }
     }
     let mut entries = Vec::new();
-    for (tile, (name, g)) in grid.tiles().into_iter().zip(names.iter().zip(&geometry)) {
-        let tile_text = set_fields(
-            &text,
-            &[
-                ("scene", "\"scene.obj\"".to_string()),
-                ("scale", "1.0".to_string()),
-                ("up", "Y".to_string()),
-                (
-                    "domain",
-                    format!(
-                        "Box((min: {}, max: {}))",
-                        point(tile.outer.min),
-                        point(tile.outer.max)
-                    ),
-                ),
-                ("voxel_size", format!("{voxel_size:?}")),
-                // A tile's box cuts the world's free space into pieces that
-                // its cameras do not reach: every tile keeps all its free
-                // space (the reach of the world is not yet carried).
-                ("reachable", "Everywhere".to_string()),
-                ("output", "\"out\"".to_string()),
-                ("seed", config.seed.to_string()),
-                ("export", "[]".to_string()),
-                ("probe_density", margin_density(&text, &tile, grid.counts)?),
-            ],
-        )
-        .map_err(|m| Error::user_file(path, m))?;
+    for ((tile, tile_text), (name, g)) in grid
+        .tiles()
+        .into_iter()
+        .zip(&tile_texts)
+        .zip(names.iter().zip(&geometry))
+    {
         let tile_config = dir.join(name).join("config.ron");
-        std::fs::write(&tile_config, &tile_text).map_err(|e| Error::io(&tile_config, e))?;
-        let parsed = Config::from_text(&tile_text, &tile_config)?;
-        let p = Provenance::of(&parsed, &tile_config, &tile_text, &Overrides::default())?;
+        std::fs::write(&tile_config, tile_text).map_err(|e| Error::io(&tile_config, e))?;
+        let parsed = Config::from_text(tile_text, &tile_config)?;
+        let p = Provenance::of(&parsed, &tile_config, tile_text, &Overrides::default())?;
         let size = tile.outer.size();
         let voxels = (size / voxel_size).ceil().max(glam::DVec3::ONE);
         let bytes = crate::scene::obj::BYTES_PER_TRIANGLE * g.triangles as f64

@@ -929,7 +929,6 @@ pub fn refused_in(dir: &Path, args: &[&str], env: &[(&str, &str)]) -> Refusal {
 /// to reach the checks behind the manifest (a file of another run, a
 /// damaged header) on their own.
 pub fn reseal(dir: &Path) {
-    use sha2::Digest;
     let path = dir.join("manifest.json");
     let mut manifest: serde_json::Value =
         serde_json::from_slice(&std::fs::read(&path).unwrap()).unwrap();
@@ -942,15 +941,44 @@ pub fn reseal(dir: &Path) {
     names.sort();
     for name in names {
         let bytes = std::fs::read(dir.join(&name)).unwrap();
-        let hash: String = sha2::Sha256::digest(&bytes)
-            .iter()
-            .map(|b| format!("{b:02x}"))
-            .collect();
         files.insert(
             name,
-            serde_json::json!({ "bytes": bytes.len(), "sha256": hash }),
+            serde_json::json!({ "bytes": bytes.len(), "sha256": sha256_hex(&bytes) }),
         );
     }
     manifest["files"] = serde_json::Value::Object(files);
     std::fs::write(&path, serde_json::to_vec_pretty(&manifest).unwrap()).unwrap();
+}
+
+/// SHA-256 of `bytes`, 64 hex digits, as `sha256sum` prints it.
+pub fn sha256_hex(bytes: &[u8]) -> String {
+    use sha2::Digest;
+    sha2::Sha256::digest(bytes)
+        .iter()
+        .map(|b| format!("{b:02x}"))
+        .collect()
+}
+
+/// Asserts that `files` (an output directory's, by name) hold a
+/// `manifest.json` that lists exactly the other files, each with its size
+/// and SHA-256: the set is whole and of one commit.
+pub fn assert_manifest_holds(files: &BTreeMap<String, Vec<u8>>) {
+    let manifest: serde_json::Value = serde_json::from_slice(
+        files
+            .get("manifest.json")
+            .expect("the set has a manifest.json"),
+    )
+    .unwrap();
+    let listed = manifest["files"].as_object().unwrap();
+    let names: Vec<&String> = files.keys().filter(|n| *n != "manifest.json").collect();
+    assert_eq!(
+        listed.keys().collect::<Vec<_>>(),
+        names,
+        "manifest.json lists other files"
+    );
+    for (name, entry) in listed {
+        let bytes = &files[name];
+        assert_eq!(entry["bytes"], bytes.len(), "{name}");
+        assert_eq!(entry["sha256"], sha256_hex(bytes), "{name}");
+    }
 }

@@ -845,3 +845,59 @@ fn a_killed_runs_staging_is_swept_by_the_next_run_into_its_directory_only() {
         "docs/formats.md no longer says which runs sweep a killed run's staging directory"
     );
 }
+
+#[test]
+fn runs_into_one_directory_at_once_leave_one_whole_set() {
+    let s = Scratch::new();
+    for round in 0..3 {
+        let children: Vec<_> = ["1", "2", "3"]
+            .iter()
+            .map(|seed| {
+                Command::new(env!("CARGO_BIN_EXE_probeplace"))
+                    .args([
+                        "place", "run.ron", "--quiet", "--out", "out", "--seed", seed,
+                    ])
+                    .current_dir(s.dir.path())
+                    .spawn()
+                    .unwrap()
+            })
+            .collect();
+        for mut c in children {
+            assert!(c.wait().unwrap().success(), "round {round}");
+        }
+        // One run's set, whole: its manifest holds, every file is of its
+        // seed, and inspect passes it.
+        let files: std::collections::BTreeMap<String, Vec<u8>> = std::fs::read_dir(s.path("out"))
+            .unwrap()
+            .map(|e| {
+                let e = e.unwrap();
+                (
+                    e.file_name().to_string_lossy().into_owned(),
+                    std::fs::read(e.path()).unwrap(),
+                )
+            })
+            .collect();
+        crate::common::assert_manifest_holds(&files);
+        let json =
+            |name: &str| -> serde_json::Value { serde_json::from_slice(&files[name]).unwrap() };
+        let seed = json("report.json")["provenance"]["seed"].clone();
+        assert_eq!(
+            json("probes.json")["provenance"]["seed"],
+            seed,
+            "round {round}"
+        );
+        assert_eq!(
+            json("manifest.json")["provenance"]["seed"],
+            seed,
+            "round {round}"
+        );
+        let (code, stderr) = stderr_of(&s, &["inspect", "out", "--quiet"]);
+        assert_eq!(code, Some(0), "round {round}: {stderr}");
+    }
+    let left: Vec<String> = std::fs::read_dir(s.dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.contains(".probeplace-"))
+        .collect();
+    assert!(left.is_empty(), "staging left: {left:?}");
+}

@@ -8,7 +8,16 @@ use std::path::Path;
 use std::process::Command;
 
 /// Every file of `dir` by name, with its bytes.
+/// Every file of the output directory `dir`, by name, after checking them
+/// against its manifest (every commit writes one).
 fn files(dir: &Path) -> BTreeMap<String, Vec<u8>> {
+    let files = all_files(dir);
+    crate::common::assert_manifest_holds(&files);
+    files
+}
+
+/// Every file of `dir`, by name.
+fn all_files(dir: &Path) -> BTreeMap<String, Vec<u8>> {
     std::fs::read_dir(dir)
         .unwrap()
         .map(|e| {

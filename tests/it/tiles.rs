@@ -191,7 +191,7 @@ fn a_generated_building_split_and_merged_stays_near_one_machine() {
 fn a_failed_or_foreign_tile_stops_the_merge_and_a_rerun_mends_it() {
     // The faults do not depend on the scene: the smallest one keeps the
     // four placements and two merges quick.
-    let (_config, _tmp, dir) = split_cornell(&[], "2x1x1");
+    let (config, _tmp, dir) = split_cornell(&[], "2x1x1");
     run_tile(&dir, 0, &[]);
     // Tile 1 never ran: the merge names it and writes nothing.
     let (code, err) = merge(&dir);
@@ -264,6 +264,20 @@ fn a_failed_or_foreign_tile_stops_the_merge_and_a_rerun_mends_it() {
         std::fs::read(dir.join("tile-000/out/report.json")).unwrap(),
         tile_report
     );
+    // Nor may a split be written into one.
+    let inner = dir.join("tile-000/again");
+    let o = probeplace(&[
+        "split",
+        config.arg(),
+        "--tiles",
+        "2x1x1",
+        "--out",
+        inner.to_str().unwrap(),
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("lies inside tile-000 of the split"), "{err}");
+    assert!(!inner.exists());
     // Nor may another run write into a tile: only the tile's own config.
     let o = probeplace(&[
         "place",
