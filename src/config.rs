@@ -512,6 +512,12 @@ impl TryFrom<RawGrid> for GridParams {
 }
 
 impl GridParams {
+    /// The probes of the grid: one per cell (McGuire et al. 2017 place a
+    /// probe at each cell's centre).
+    pub fn probes(&self) -> usize {
+        self.cells.0 .0 as usize * self.cells.1 .0 as usize * self.cells.2 .0 as usize
+    }
+
     /// The cell counts as written on the command line, e.g. `4x4x4`.
     pub fn dims_text(&self) -> String {
         format!(

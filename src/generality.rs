@@ -168,10 +168,7 @@ pub fn run(
         grid_probe_limit,
         &progress,
     )
-    .map(|(g, c)| {
-        let n = (g.cells.0 .0 * g.cells.1 .0 * g.cells.2 .0) as usize;
-        (g.dims_text(), n, c)
-    });
+    .map(|(g, c)| (g.dims_text(), g.probes(), c));
     let probes_json = out.join("probes.json");
     let config = run.config().clone();
     let mut row = GeneralityRow {

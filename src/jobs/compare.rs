@@ -315,10 +315,7 @@ fn write(
 fn check_grids(config: &Config, grids: &[GridParams]) -> Result<()> {
     let total: f64 = grids
         .iter()
-        .map(|g| {
-            let (x, y, z) = g.cells;
-            stages::bake::core_seconds(config, (x.0 * y.0 * z.0) as usize, Work::Maps)
-        })
+        .map(|g| stages::bake::core_seconds(config, g.probes(), Work::Maps))
         .sum();
     crate::limits::check_work(
         "compare.grids",
@@ -344,9 +341,7 @@ pub fn smallest_grid_reaching(
 ) -> Option<(GridParams, f64)> {
     placement::cubic_grid_sweep(prepared.domain.size(), max_cells)
         .into_iter()
-        .take_while(|g| {
-            max_probes.is_none_or(|n| (g.cells.0 .0 * g.cells.1 .0 * g.cells.2 .0) as usize <= n)
-        })
+        .take_while(|g| max_probes.is_none_or(|n| g.probes() <= n))
         .find_map(|g| {
             let positions: Vec<glam::Vec3> = placement::grid(&g, &prepared.domain)
                 .iter()
@@ -456,7 +451,7 @@ pub fn grid_sweep(domain: &crate::scene::Bounds, count: usize) -> Vec<GridParams
         let Some(g) = near.or(rounded.ok()) else {
             continue;
         };
-        let probes = g.cells.0 .0 as u64 * g.cells.1 .0 as u64 * g.cells.2 .0 as u64;
+        let probes = g.probes() as u64;
         if !out.iter().any(|(_, o)| *o == g) {
             out.push((probes, g));
         }
@@ -549,21 +544,16 @@ impl Planned<'_> {
     /// greedy and adaptive aim at ours and land near it).
     fn counts(&self, grids: &[GridParams]) -> Vec<usize> {
         let nearest =
-            nearest_by_cells(&self.grids, self.ours_count).map_or(self.ours_count, |g| cells(&g));
+            nearest_by_cells(&self.grids, self.ours_count).map_or(self.ours_count, |g| g.probes());
         let mut counts = self.ours.to_vec();
         counts.extend(self.given);
-        counts.extend(grids.iter().map(cells));
+        counts.extend(grids.iter().map(GridParams::probes));
         if nearest != self.ours_count {
             counts.push(nearest);
         }
         counts.extend([nearest.max(self.ours_count); 3]);
         counts
     }
-}
-
-/// The probes of grid `g`.
-fn cells(g: &GridParams) -> usize {
-    (g.cells.0 .0 * g.cells.1 .0 * g.cells.2 .0) as usize
 }
 
 /// Every bake of a comparison, fitted to the work limit before the first.
@@ -589,7 +579,7 @@ impl Plan {
                 format!(
                     "compare: grid:{} ({} probes) left out of the sweep: its octree or bake would run past the work limit (name it with --grids and set PROBEPLACE_WORK_LIMIT to measure it)",
                     Placement::Grid(*g).name().trim_start_matches("grid:"),
-                    cells(g)
+                    g.probes()
                 )
             })
             .collect();
@@ -616,12 +606,12 @@ fn plan(
     placeable: impl Fn(usize) -> Result<()>,
 ) -> Result<Plan> {
     let rival = nearest_by_cells(&planned.grids, planned.ours_count)
-        .map_or(planned.ours_count, |g| cells(&g))
+        .map_or(planned.ours_count, |g| g.probes())
         .max(planned.ours_count);
     let (mut grids, optional): (Vec<GridParams>, Vec<GridParams>) = planned
         .grids
         .iter()
-        .partition(|g| !planned.sweep || cells(g) <= rival);
+        .partition(|g| !planned.sweep || g.probes() <= rival);
     // The stages before the bake (coverage, the octree) of every bake
     // needed, then the bakes.
     let needed = planned.counts(&grids);
@@ -637,7 +627,7 @@ fn plan(
     for g in optional {
         let mut with = grids.clone();
         with.push(g);
-        let fits = placeable(cells(&g)).is_ok()
+        let fits = placeable(g.probes()).is_ok()
             && matches!(
                 fit_bake(&at, &planned.counts(&with), threads, limit),
                 Ok(None)
@@ -1203,10 +1193,7 @@ fn nearest_grid(grids: &[(usize, GridParams)], count: usize) -> Option<&(usize, 
 /// [`nearest_grid`] among `grids` by their cell counts, before any is
 /// placed.
 fn nearest_by_cells(grids: &[GridParams], count: usize) -> Option<GridParams> {
-    let counted: Vec<(usize, GridParams)> = grids
-        .iter()
-        .map(|g| ((g.cells.0 .0 * g.cells.1 .0 * g.cells.2 .0) as usize, *g))
-        .collect();
+    let counted: Vec<(usize, GridParams)> = grids.iter().map(|g| (g.probes(), *g)).collect();
     nearest_grid(&counted, count).map(|&(_, g)| g)
 }
 
@@ -1289,7 +1276,7 @@ mod tests {
     use crate::scene::Bounds;
 
     fn count(g: &GridParams) -> u32 {
-        g.cells.0 .0 * g.cells.1 .0 * g.cells.2 .0
+        g.probes() as u32
     }
 
     #[test]

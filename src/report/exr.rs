@@ -95,17 +95,7 @@ pub fn decode_rgb(bytes: &[u8]) -> Result<(u32, u32, Vec<[f32; 3]>), String> {
     if !bytes.starts_with(&[MAGIC.to_le_bytes(), VERSION.to_le_bytes()].concat()) {
         return Err("not a scan-line OpenEXR file of probeplace".into());
     }
-    let mut window = None;
-    let at = walk_header(bytes, |name, _, value| {
-        if name == b"dataWindow" && value.len() == 16 {
-            let v = |i: usize| i32::from_le_bytes(value[i..i + 4].try_into().expect("4 bytes"));
-            window = Some((
-                v(8) as i64 - v(0) as i64 + 1,
-                v(12) as i64 - v(4) as i64 + 1,
-            ));
-        }
-    })
-    .ok_or("truncated header")?;
+    let (at, window) = header(bytes).ok_or("truncated header")?;
     let (w, h) = window.ok_or("no dataWindow")?;
     let strings = string_attributes(bytes);
     if !(1..=1 << 16).contains(&w) || !(1..=1 << 16).contains(&h) {
@@ -179,16 +169,30 @@ pub fn string_attributes(bytes: &[u8]) -> Vec<(String, String)> {
 }
 
 /// The position of the null byte that ends the header, and the image's
-/// height (the block-offset table's length), of a file of this writer.
-fn header_end(bytes: &[u8]) -> Option<(usize, usize)> {
-    let mut height = None;
+/// width and height from its `dataWindow` (`None` without one); `None`
+/// for a truncated or foreign header.
+fn header(bytes: &[u8]) -> Option<(usize, Option<(i64, i64)>)> {
+    let mut window = None;
     let end = walk_header(bytes, |name, _, value| {
         if name == b"dataWindow" && value.len() == 16 {
             let v = |i: usize| i32::from_le_bytes(value[i..i + 4].try_into().expect("4 bytes"));
-            height = usize::try_from(v(12) as i64 - v(4) as i64 + 1).ok();
+            window = Some((
+                v(8) as i64 - v(0) as i64 + 1,
+                v(12) as i64 - v(4) as i64 + 1,
+            ));
         }
     })?;
-    let h = height?;
+    Some((end, window))
+}
+
+/// The position of the null byte that ends the header, and the image's
+/// height (the block-offset table's length), of a file of this writer.
+fn header_end(bytes: &[u8]) -> Option<(usize, usize)> {
+    let (end, (_, h)) = match header(bytes)? {
+        (end, Some(window)) => (end, window),
+        _ => return None,
+    };
+    let h = usize::try_from(h).ok()?;
     (bytes.len() >= end + 1 + 8 * h).then_some((end, h))
 }
 
