@@ -982,3 +982,23 @@ pub fn assert_manifest_holds(files: &BTreeMap<String, Vec<u8>>) {
         assert_eq!(entry["sha256"], sha256_hex(bytes), "{name}");
     }
 }
+
+/// Every file of `dir`, by name, with its bytes (each must be a regular
+/// file).
+pub fn dir_files(dir: &Path) -> BTreeMap<String, Vec<u8>> {
+    std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| {
+            let e = e.unwrap();
+            assert!(
+                e.file_type().unwrap().is_file(),
+                "{:?} is not a file",
+                e.path()
+            );
+            (
+                e.file_name().to_string_lossy().into_owned(),
+                std::fs::read(e.path()).unwrap(),
+            )
+        })
+        .collect()
+}

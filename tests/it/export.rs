@@ -508,20 +508,7 @@ fn a_relocated_grid_exports_its_ddgi_volume() {
         again.to_str().unwrap(),
     ]);
     // Into the directory itself: the other files stay as they were.
-    let listing = |d: &Path| -> Vec<(String, Vec<u8>)> {
-        let mut v: Vec<_> = std::fs::read_dir(d)
-            .unwrap()
-            .map(|e| {
-                let e = e.unwrap();
-                (
-                    e.file_name().to_string_lossy().into_owned(),
-                    std::fs::read(e.path()).unwrap(),
-                )
-            })
-            .collect();
-        v.sort();
-        v
-    };
+    let listing = crate::common::dir_files;
     let before = listing(&again);
     export(&[again.to_str().unwrap(), "--format", "tscn"]);
     assert_eq!(listing(&again), before);

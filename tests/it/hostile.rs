@@ -867,16 +867,7 @@ fn runs_into_one_directory_at_once_leave_one_whole_set() {
         }
         // One run's set, whole: its manifest holds, every file is of its
         // seed, and inspect passes it.
-        let files: std::collections::BTreeMap<String, Vec<u8>> = std::fs::read_dir(s.path("out"))
-            .unwrap()
-            .map(|e| {
-                let e = e.unwrap();
-                (
-                    e.file_name().to_string_lossy().into_owned(),
-                    std::fs::read(e.path()).unwrap(),
-                )
-            })
-            .collect();
+        let files = crate::common::dir_files(&s.path("out"));
         crate::common::assert_manifest_holds(&files);
         let json =
             |name: &str| -> serde_json::Value { serde_json::from_slice(&files[name]).unwrap() };

@@ -11,28 +11,9 @@ use std::process::Command;
 /// Every file of the output directory `dir`, by name, after checking them
 /// against its manifest (every commit writes one).
 fn files(dir: &Path) -> BTreeMap<String, Vec<u8>> {
-    let files = all_files(dir);
+    let files = crate::common::dir_files(dir);
     crate::common::assert_manifest_holds(&files);
     files
-}
-
-/// Every file of `dir`, by name.
-fn all_files(dir: &Path) -> BTreeMap<String, Vec<u8>> {
-    std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| {
-            let e = e.unwrap();
-            assert!(
-                e.file_type().unwrap().is_file(),
-                "{:?} is not a file",
-                e.path()
-            );
-            (
-                e.file_name().to_string_lossy().into_owned(),
-                std::fs::read(e.path()).unwrap(),
-            )
-        })
-        .collect()
 }
 
 /// A report without what legitimately differs between runs of the same
