@@ -80,6 +80,7 @@ pub mod input;
 pub mod jobs;
 pub mod lightfield;
 pub mod limits;
+pub(crate) mod output;
 pub mod placement;
 pub mod probes;
 pub mod progress;

@@ -5,7 +5,7 @@
 //! that it does not), and summarizes them.
 
 use crate::error::{Error, Result};
-use crate::report::manifest;
+use crate::output::manifest;
 use crate::svo::Svo;
 use serde_json::Value;
 use std::path::{Path, PathBuf};

@@ -43,12 +43,12 @@ use super::Outcome;
 use crate::config::Config;
 use crate::coverage::{CoverageReference, Stream};
 use crate::error::{Error, Result};
+use crate::output::commit::{self, OutputSet};
 use crate::placement::controls::Controls;
 use crate::probes::{Probe, ProbeSet};
 use crate::progress::Progress;
 use crate::provenance::{Overrides, Provenance};
 use crate::refine::holdout::CheckRound;
-use crate::report::commit::{self, OutputSet};
 use crate::scene::raycast::Blocker;
 use crate::sdf::VoxelClass;
 use crate::stages::{self, Prepared};
@@ -572,7 +572,7 @@ fn tile_probes(
     };
     let report = read("report.json")?;
     let probes = read("probes.json")?;
-    crate::report::manifest::verify(&out, &format!("the tile's output is not whole; {rerun}"))
+    crate::output::manifest::verify(&out, &format!("the tile's output is not whole; {rerun}"))
         .map_err(|e| Error::User(format!("{}: {e}", entry.name)))?;
     let p = &report["provenance"];
     let field = |v: &Value, k: &str| v[k].as_str().unwrap_or("").to_string();

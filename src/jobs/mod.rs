@@ -14,9 +14,9 @@
 //! wrote there (probes, SVO, light field, reference) is loaded instead of
 //! recomputed, and carried into the new output set unchanged, when its
 //! provenance ([`crate::provenance`]) is the run's and its `manifest.json`
-//! ([`crate::report::manifest`]) vouches for every file; otherwise the run
+//! ([`crate::output::manifest`]) vouches for every file; otherwise the run
 //! is refused with one line naming the difference or the file. A job's outputs are
-//! committed as one set ([`crate::report::commit`]): the output directory
+//! committed as one set ([`crate::output::commit`]): the output directory
 //! holds one run, whole, or the previous one.
 
 pub mod bake;
@@ -39,10 +39,10 @@ pub use split::{split, SplitOptions};
 
 use crate::config::{Config, GridParams, Placement};
 use crate::error::{Error, Result};
+use crate::output::commit::{self, OutputSet};
+use crate::output::manifest;
 use crate::progress::{Progress, Stopwatch};
 use crate::provenance::{self, Overrides, Provenance};
-use crate::report::commit::{self, OutputSet};
-use crate::report::manifest;
 use crate::report::view3d::View;
 use crate::stages::{self, Prepared};
 use serde_json::Value;

@@ -455,7 +455,7 @@ fn check_dir(dir: &Path) -> Result<()> {
 /// split directory (the merged `world`) is allowed. Symbolic links are
 /// resolved before comparing.
 pub(crate) fn check_outside_tiles(out: &Path, config: Option<&Path>) -> Result<()> {
-    use crate::report::commit::absolute;
+    use crate::output::commit::absolute;
     let o = absolute(out);
     for root in o.ancestors().skip(1) {
         let index_path = root.join("split.json");

@@ -126,7 +126,7 @@ pub fn decode_rgb(bytes: &[u8]) -> Result<(u32, u32, Vec<[f32; 3]>), String> {
 /// `bytes` (a file [`encode_rgb`] wrote) with `pairs` added to its header
 /// as `string` attributes, before the header's end: where OpenEXR keeps a
 /// file's metadata, so any EXR tool shows them (the run's provenance,
-/// [`super::manifest::Stamp::pairs`]). The header grows, so every entry of
+/// [`crate::provenance::Stamp::pairs`]). The header grows, so every entry of
 /// the block-offset table moves by as much.
 ///
 /// Contract: `bytes` is [`encode_rgb`]'s output (with or without earlier

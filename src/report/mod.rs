@@ -6,17 +6,15 @@
 //! Every coordinate written is a world coordinate in f64, converted from the
 //! stages' scene-local f32 ones by [`Scene::to_world`] here, at the boundary.
 //!
-//! Jobs gather every file of a run in an [`commit::OutputSet`] and commit
+//! Jobs gather every file of a run in an [`crate::output::commit::OutputSet`] and commit
 //! it as one unit after every stage has succeeded, so a failed run never
 //! leaves a half-written, stale or mixed output behind.
 
 pub mod bake;
-pub mod commit;
 pub mod compare;
 pub mod export;
 pub mod exr;
 pub mod html;
-pub mod manifest;
 pub mod preview;
 pub mod render;
 pub mod run_html;
@@ -474,7 +472,7 @@ pub fn encode_png(image: &RgbImage, name: &str) -> Result<Vec<u8>> {
 
 /// `bytes` (a PNG) with a `tEXt` chunk per pair of `pairs` after its
 /// header chunk, where PNG keeps a file's metadata (PNG spec §11.3.4.3):
-/// the run's provenance ([`manifest::Stamp::pairs`]), which image viewers
+/// the run's provenance ([`crate::provenance::Stamp::pairs`]), which image viewers
 /// show. Keywords are 1–79 Latin-1 characters; ours are ASCII.
 ///
 /// Contract: `bytes` starts with the signature and an `IHDR` chunk, as
@@ -503,7 +501,7 @@ pub fn png_with_text<K: AsRef<str>, V: AsRef<str>>(bytes: Vec<u8>, pairs: &[(K, 
 /// Adds `<stem>.exr` (linear) and `<stem>.png` (at `exposure`) of the
 /// `width`×`height` image `pixels` to `set`.
 pub fn add_image(
-    set: &mut commit::OutputSet,
+    set: &mut crate::output::commit::OutputSet,
     stem: &str,
     (width, height): (u32, u32),
     pixels: &[[f32; 3]],

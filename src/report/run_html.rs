@@ -10,10 +10,10 @@
 //! `timings_ms` (every one of them), GPU times and the list of reused
 //! files.
 
-use super::commit::OutputSet;
 use super::html::{self, bytes, escape, sci};
 use super::view3d::{self, View};
 use crate::error::Result;
+use crate::output::commit::OutputSet;
 use crate::scene::{Bounds, Scene};
 use crate::sdf::Sdf;
 use crate::svo::Svo;

@@ -59,9 +59,11 @@ impl OutputSet {
         let name = name.into();
         self.remove(&name);
         let bytes = match &self.stamp {
-            Some(stamp) if name.ends_with(".png") => super::png_with_text(bytes, &stamp.pairs()),
+            Some(stamp) if name.ends_with(".png") => {
+                crate::report::png_with_text(bytes, &stamp.pairs())
+            }
             Some(stamp) if name.ends_with(".exr") => {
-                super::exr::with_attributes(bytes, &stamp.pairs())
+                crate::report::exr::with_attributes(bytes, &stamp.pairs())
             }
             _ => bytes,
         };
@@ -533,10 +535,10 @@ mod tests {
             b"{\"format\":\"probeplace.report\"}".to_vec(),
         );
         let image = crate::raster::RgbImage::from_pixel(3, 2, [10, 20, 30]);
-        s.add("a.png", super::super::encode_png(&image, "a.png").unwrap());
+        s.add("a.png", crate::report::encode_png(&image, "a.png").unwrap());
         s.add(
             "a.exr",
-            super::super::exr::encode_rgb(1, 1, &[[0.5, 1.0, 2.0]]),
+            crate::report::exr::encode_rgb(1, 1, &[[0.5, 1.0, 2.0]]),
         );
         let root = tempfile::tempdir().unwrap();
         let out = root.path().join("out");
@@ -561,10 +563,10 @@ mod tests {
         reader.next_frame(&mut buf).unwrap();
         assert_eq!(&buf[..3], [10, 20, 30]);
         let exr = std::fs::read(out.join("a.exr")).unwrap();
-        let attrs = super::super::exr::string_attributes(&exr);
+        let attrs = crate::report::exr::string_attributes(&exr);
         assert_eq!(Stamp::of(&p).mismatch(&attrs), None, "{attrs:?}");
         assert_eq!(
-            super::super::exr::decode_rgb(&exr).unwrap().2,
+            crate::report::exr::decode_rgb(&exr).unwrap().2,
             [[0.5, 1.0, 2.0]]
         );
     }
