@@ -73,9 +73,11 @@ fn run(name: &str, config: Config, path: &Path) -> GeneralityRow {
     generality::run(name, config, path, out.path(), false).unwrap()
 }
 
-/// The generated scenes CI places: the first seed of every kind, and of
-/// the units kind the two seeds that between them cover both units and both
-/// up axes (millimetres Z-up, centimetres Y-up; `suite`'s comment).
+/// The generated scenes of the CI tier: the families a new user's scene
+/// most often trips on, and cheap to place (about 2 s each): both unit
+/// plans' seeds (millimetres Z-up, centimetres Y-up; `suite`'s comment),
+/// furniture, slats and thin walls. The full tier (`full_tier_suite`)
+/// places the first seed of every other family.
 /// `cargo run --release --example generality` runs the whole suite, every
 /// seed of every kind, for docs/results.md.
 fn ci_suite() -> Vec<(Kind, u64)> {
@@ -87,16 +89,27 @@ fn ci_suite() -> Vec<(Kind, u64)> {
         .copied()
         .filter(|&(kind, seed)| match kind {
             Kind::Units => [5, 10].contains(&seed),
-            _ => first(kind) == Some(seed),
+            Kind::Furniture | Kind::Slats | Kind::ThinWalls => first(kind) == Some(seed),
+            _ => false,
         })
         .collect()
 }
 
-#[test]
-fn generated_scenes_are_covered_by_the_stock_config() {
+/// The generated scenes of the full tier: the first seed of every family
+/// the CI tier leaves out.
+fn full_tier_suite() -> Vec<(Kind, u64)> {
+    let suite = suite();
+    let ci = ci_suite();
+    let first = |kind: Kind| suite.iter().find(|(k, _)| *k == kind).map(|&(_, s)| s);
+    suite
+        .iter()
+        .copied()
+        .filter(|&(kind, seed)| !ci.iter().any(|&(k, _)| k == kind) && first(kind) == Some(seed))
+        .collect()
+}
+
+fn place_generated(suite: &[(Kind, u64)]) {
     let dir = tempfile::tempdir().unwrap();
-    let suite = ci_suite();
-    assert!(suite.len() >= 9, "{suite:?}");
     let rows: Vec<GeneralityRow> = suite
         .iter()
         .map(|&(kind, seed)| {
@@ -111,7 +124,36 @@ fn generated_scenes_are_covered_by_the_stock_config() {
     check(&rows);
 }
 
+/// The two tiers together place every family of the suite, each family in
+/// one tier only: a family added to the generator lands in the full tier.
 #[test]
+fn the_tiers_place_every_generated_family_once() {
+    let (ci, full) = (ci_suite(), full_tier_suite());
+    assert_eq!(ci.len(), 5, "{ci:?}");
+    let mut kinds: Vec<Kind> = suite().iter().map(|&(k, _)| k).collect();
+    kinds.dedup();
+    for kind in kinds {
+        let (a, b) = (
+            ci.iter().any(|&(k, _)| k == kind),
+            full.iter().any(|&(k, _)| k == kind),
+        );
+        assert!(a != b, "{kind:?}: CI tier {a}, full tier {b}");
+    }
+}
+
+#[test]
+fn generated_scenes_are_covered_by_the_stock_config() {
+    place_generated(&ci_suite());
+}
+
+#[test]
+#[ignore = "full tier (about 4 min): cargo test --release -- --include-ignored"]
+fn every_other_generated_family_is_covered_by_the_stock_config() {
+    place_generated(&full_tier_suite());
+}
+
+#[test]
+#[ignore = "full tier (about 3 min): cargo test --release -- --include-ignored"]
 fn every_shipped_config_holds_without_its_voxel_size() {
     let configs = shipped_configs();
     let rows: Vec<GeneralityRow> = configs
