@@ -257,8 +257,13 @@ const TESTED_SHARE: f64 = 0.25;
 
 /// Sample sets one `place` run measures coverability of, at most: the
 /// validation stream, the training stream and every check round
-/// ([`crate::refine::holdout::MAX_CHECK_ROUNDS`]).
-const SAMPLE_SETS_PER_RUN: u32 = 2 + crate::refine::holdout::MAX_CHECK_ROUNDS;
+/// ([`MAX_CHECK_ROUNDS`]).
+const SAMPLE_SETS_PER_RUN: u32 = 2 + MAX_CHECK_ROUNDS;
+
+/// Most fresh rounds of samples the placer checks its probes on
+/// ([`crate::refine::holdout`]): the streams it draws them from are
+/// coverage's.
+pub const MAX_CHECK_ROUNDS: u32 = 6;
 
 /// Refuses coverage parameters whose references would take longer than
 /// [`crate::limits::work_limit_seconds`] over a domain of `voxels` SDF
@@ -650,7 +655,7 @@ impl CoverageReference {
     /// `stream` of `input.seed`, as many as `params` asks.
     pub(crate) fn resampled(
         &self,
-        input: &crate::placement::PlacementInput,
+        input: &crate::probes::PlacementInput,
         params: &CoverageParams,
         stream: Stream,
     ) -> CoverageReference {

@@ -72,8 +72,14 @@
 pub mod config;
 pub mod coverage;
 pub mod diffuse;
+pub(crate) mod encode;
 pub mod error;
+/// The test scenes we generate in code and the generality check: for the
+/// tests, examples and benchmarks (`features = ["testkit"]`), not in the
+/// default library.
+#[cfg(any(test, feature = "testkit"))]
 pub mod fixtures;
+#[cfg(any(test, feature = "testkit"))]
 pub mod generality;
 pub mod gpu;
 pub mod input;

@@ -1,7 +1,8 @@
 //! Uploads a light field and its selection structures, and runs the
 //! kernels over batches of queries.
 
-use super::{Context, Query, Record, SelectionKind, BATCH};
+use super::context::Context;
+use super::interface::{Query, Record, SelectionKind, BATCH};
 use crate::lightfield::LightField;
 use crate::svo::Svo;
 use crate::trace::single::March;

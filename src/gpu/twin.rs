@@ -2,7 +2,7 @@
 //! kernels mirror, in the kernels' record format, so that tests compare
 //! the two record by record and `render` can run without a GPU.
 
-use super::{kind, Query, Record};
+use super::interface::{kind, Query, Record};
 use crate::lightfield::LightField;
 use crate::trace::gather;
 use crate::trace::single::{March, Steps};

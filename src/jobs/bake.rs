@@ -2,12 +2,17 @@
 //! bake (McGuire et al. 2017 §3, §5.2), the check of the tracer against ray
 //! casts, and the path-traced reference when the config has a camera.
 
-use super::{place, push_warnings, Job, Outcome, RunOptions};
+use super::outcome::Outcome;
+use super::place;
+use super::run::{push_warnings, Job, RunOptions};
+use crate::encode::exr;
+use crate::encode::png::encode_png;
 use crate::error::{Error, Result};
 use crate::lightfield::LightField;
 use crate::render::Reference;
+use crate::report;
 use crate::report::bake::{atlas, distance_preview, normal_preview, BakeReport, ReferenceReport};
-use crate::report::{self, exr};
+use crate::report::sh::SH_FILE;
 use crate::stages::{self, validate, Prepared};
 use serde_json::Value;
 
@@ -23,9 +28,6 @@ pub(crate) const FILES: [&str; 7] = [
 ];
 
 /// The reference's files.
-/// Each probe's SH L2 and reference irradiance ([`crate::report::sh`]).
-pub(crate) const SH_FILE: &str = "sh.json";
-
 pub(crate) const REFERENCE_FILES: [&str; 4] = [
     "reference.exr",
     "reference.png",
@@ -174,11 +176,11 @@ fn add_files(job: &mut Job, field: &LightField, reference: Option<&Reference>) -
     )?;
     set.add(
         "distance.png",
-        report::encode_png(&distance_preview(field), "distance.png")?,
+        encode_png(&distance_preview(field), "distance.png")?,
     );
     set.add(
         "normal.png",
-        report::encode_png(&normal_preview(field), "normal.png")?,
+        encode_png(&normal_preview(field), "normal.png")?,
     );
     if let Some(image) = reference {
         let exposure = validate::auto_exposure(&image.full);
@@ -244,7 +246,7 @@ pub(crate) fn load(
 }
 
 /// The reference images of an earlier run.
-pub(crate) fn read_reference(e: &super::Earlier) -> Result<Reference> {
+pub(crate) fn read_reference(e: &super::run::Earlier) -> Result<Reference> {
     // The manifest vouches for the bytes; the file's own header for the
     // run, so an image copied in with its manifest entry is still refused.
     let read = |name: &str| {

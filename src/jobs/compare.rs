@@ -37,11 +37,14 @@
 //! blocks ([`crate::stats::paired_ratio_over_views`]), and is a win only
 //! when the interval excludes 1.
 
-use super::{bake, Job, Outcome, RunOptions};
+use super::bake;
+use super::outcome::Outcome;
+use super::run::{Job, RunOptions};
 use crate::config::{
     CameraParams, Config, GreedyParams, GridParams, Materials, Placement, Positive,
 };
 use crate::coverage::CoverageReference;
+use crate::encode::png::encode_png;
 use crate::error::{Error, Result};
 use crate::gpu::{Context, SelectionKind};
 use crate::lightfield::LightField;
@@ -52,7 +55,7 @@ use crate::report::compare::{
     PlacementRow, TRACER_BILEVEL, TRACER_HIZ,
 };
 use crate::report::html::{self, Figures, PlacementFigures};
-use crate::report::{self, exr, view3d};
+use crate::report::{self, view3d};
 use crate::stages::bake::Work;
 use crate::stages::validate::{self, Blocks, Tracer, View};
 use crate::stages::{self, Placed, Prepared};
@@ -1020,7 +1023,7 @@ impl Bench<'_> {
             .evaluate_with_holes(bvh, &positions, &self.progress);
         let free = crate::coverage::probes_free(bvh, sdf.voxel_size, &positions);
         let health = crate::coverage::probe_health_of(&free, sdf, domain, &positions);
-        let views_png = report::encode_png(
+        let views_png = encode_png(
             &report::placement_views(scene, domain, &positions, &holes, VIEW_SIZE),
             "placement views",
         )?;
@@ -1155,8 +1158,8 @@ impl Bench<'_> {
                 let (w, h) = (view.reference.width, view.reference.height);
                 Some([
                     png(&v.image.full, view, "render")?,
-                    report::encode_png(&view.heat_map(&v.image.glossy_indirect), "error map")?,
-                    report::encode_png(
+                    encode_png(&view.heat_map(&v.image.glossy_indirect), "error map")?,
+                    encode_png(
                         &crate::render::flip::error_map(&v.flip_map, w, h),
                         "FLIP map",
                     )?,
@@ -1267,7 +1270,7 @@ fn stats_of(probes: &ProbeSet) -> BTreeMap<String, f64> {
 /// `pixels` tone mapped at the view's exposure, as PNG.
 fn png(pixels: &[[f32; 3]], view: &View, what: &str) -> Result<Vec<u8>> {
     let (w, h) = (view.reference.width, view.reference.height);
-    report::encode_png(&exr::tonemap(pixels, w, h, view.exposure), what)
+    encode_png(&crate::raster::tonemap(pixels, w, h, view.exposure), what)
 }
 
 #[cfg(test)]

@@ -10,7 +10,8 @@
 //! output set, committed whole into DIR (or `--out`), so the directory
 //! still holds one run, now with its exports.
 
-use super::{Job, Outcome, RunOptions};
+use super::outcome::Outcome;
+use super::run::{Job, RunOptions};
 use crate::config::{Export, Placement};
 use crate::error::{Error, Result};
 use crate::progress::Progress;
@@ -114,8 +115,8 @@ pub fn export(options: &ExportOptions) -> Result<Outcome> {
         crate::input::read(&path, name, crate::limits::memory_budget())
     };
     let (probes, svo) = (read("probes.json")?, read("svo.bin")?);
-    let sh = match dir.join(super::bake::SH_FILE).is_file() {
-        true => Some(read(super::bake::SH_FILE)?),
+    let sh = match dir.join(crate::report::sh::SH_FILE).is_file() {
+        true => Some(read(crate::report::sh::SH_FILE)?),
         false => None,
     };
     let source = Source::read(&probes, &report, &svo)
@@ -258,7 +259,7 @@ pub(crate) fn add_configured(job: &mut Job, report: &Value, scene: &Scene) -> Re
         .set
         .contents("svo.bin")?
         .ok_or_else(|| missing("svo.bin"))?;
-    let sh = job.set.contents(super::bake::SH_FILE)?;
+    let sh = job.set.contents(crate::report::sh::SH_FILE)?;
     let source = Source::read(&probes, report, &svo)
         .and_then(|s| s.with_light(sh.as_deref()))
         .map_err(Error::Internal)?;

@@ -38,8 +38,8 @@
 //!    The same pass measures the report's `coverage` on each core's
 //!    validation stream, which no step saw, and each probe by its own rays.
 
+use super::outcome::Outcome;
 use super::split::{SplitIndex, TileEntry};
-use super::Outcome;
 use crate::config::Config;
 use crate::coverage::{CoverageReference, Stream};
 use crate::error::{Error, Result};

@@ -2,13 +2,16 @@
 //! refinement, coverage, SVO) → outputs; and the placement part of every
 //! later job, computed or loaded from `--from DIR`.
 
-use super::{Job, Outcome, RunOptions};
+use super::outcome::Outcome;
+use super::run::{Job, RunOptions};
 use crate::coverage::CoverageReference;
 use crate::error::{Error, Result};
 use crate::placement::{self, ProbeSet};
-use crate::report::{self, ProbesFile, Report};
+use crate::report::{
+    self, hole_sample, BoundsRecord, ProbesFile, ReachRecord, Report, SceneRecord, FORMAT_VERSION,
+};
 use crate::stages::{self, Placed, Prepared};
-use crate::svo::{self, Svo};
+use crate::svo::{self, Svo, SvoReport};
 use serde_json::Value;
 
 /// The files of a placement, carried together when reused.
@@ -154,7 +157,7 @@ fn encode(job: &mut Job, prepared: &Prepared, placed: Placed) -> Result<(ProbeSe
             &placed.holes,
             report::PREVIEW_VIEW_SIZE,
         );
-        report::encode_png(&image, "placement.png")
+        crate::encode::png::encode_png(&image, "placement.png")
     })?;
     let probes_file = ProbesFile::new(
         &placed.probes,
@@ -164,15 +167,18 @@ fn encode(job: &mut Job, prepared: &Prepared, placed: Placed) -> Result<(ProbeSe
         &job.config,
         &job.provenance,
     );
-    let report = Report::new(job, prepared, &placed, placed.svo.1.clone());
+    let report = assemble_report(job, prepared, &placed, placed.svo.1.clone());
     let (mut svo, _) = placed.svo;
     svo.provenance = job.provenance.to_bytes();
-    job.set.add("probes.json", report::to_json(&probes_file)?);
+    job.set
+        .add("probes.json", crate::encode::json::to_json(&probes_file)?);
     job.set.add("svo.bin", svo.to_bytes());
     job.set.add("placement.png", png);
     if let Some((_, atlas)) = &placed.refined {
-        job.set
-            .add("atlas.png", report::encode_png(atlas, "atlas.png")?);
+        job.set.add(
+            "atlas.png",
+            crate::encode::png::encode_png(atlas, "atlas.png")?,
+        );
     }
     Ok((placed.probes, svo, report))
 }
@@ -228,4 +234,93 @@ pub(crate) fn mixed(path: &std::path::Path) -> Error {
 /// A report as the JSON value later jobs extend.
 fn to_value(report: &Report) -> Result<Value> {
     serde_json::to_value(report).map_err(|e| Error::Internal(format!("serializing JSON: {e}")))
+}
+
+/// The place job's report (`report.json`), assembled from the stages'
+/// products, with the warnings their figures call for.
+fn assemble_report(job: &Job, prepared: &Prepared, placed: &Placed, svo: SvoReport) -> Report {
+    let (config, scene, sdf) = (&job.config, &prepared.scene, &prepared.sdf);
+    let (coverage, health, probes) = (&placed.coverage, &placed.health, &placed.probes);
+    let mut warnings = scene.warnings.clone();
+    warnings.extend(placed.warnings.iter().cloned());
+    if health.probes_in_solid > 0 {
+        warnings.push(format!(
+            "{} probe(s) stand in solid space",
+            health.probes_in_solid
+        ));
+    }
+    let refine = placed.refined.as_ref().map(|(r, _)| r.clone());
+    if let Some(r) = &refine {
+        let target = config.refine.coverage_target.0 as f64;
+        if let (Some(before), Some(budget)) = (r.probes_before_budget, config.max_probes) {
+            warnings.push(format!(
+                "max_probes: {}: {} probes, of the {before} the coverage target needs, reach {:.2}% coverage (target {:.2}%)",
+                budget.0,
+                r.probes_final,
+                100.0 * r.coverage_final,
+                100.0 * target
+            ));
+        } else if config.refine.fill && r.coverage_final < target {
+            warnings.push(format!(
+                "refine: coverage {:.2}% is short of the target {:.2}%: no position at least {:.3} from every surface sees the rest; lower refine.min_clearance (or remove it) to reach it",
+                100.0 * r.coverage_final,
+                100.0 * target,
+                r.params["min_fill_clearance"]
+            ));
+        }
+        if let Some(min) = config.min_probes.filter(|m| r.probes_final < m.0 as usize) {
+            warnings.push(format!(
+                "min_probes: {}: {} probes: no further fill position sharpens any view (the coverage target needs {})",
+                min.0,
+                r.probes_final,
+                r.probes_before_minimum.unwrap_or(r.probes_final)
+            ));
+        }
+    }
+    Report {
+        format: "probeplace.report",
+        version: FORMAT_VERSION,
+        provenance: job.provenance.clone(),
+        method: probes.method.clone(),
+        seed: config.seed,
+        config: job.config_path.display().to_string(),
+        probe_count: probes.probes.len(),
+        coverage: coverage.coverage,
+        coverage_ci95: coverage.ci95,
+        coverage_train: placed.coverage_train,
+        probes_in_solid: health.probes_in_solid,
+        probes_in_solid_sdf: health.probes_in_solid_sdf,
+        probes_outside_scene: health.probes_outside_scene,
+        probes_outside_domain: health.probes_outside_domain,
+        probes_below_clearance: refine.as_ref().map_or(0, |r| r.probes_below_clearance),
+        best_view_incidence_deg: refine
+            .as_ref()
+            .and_then(|r| r.best_view_incidence_deg_final),
+        scene: SceneRecord {
+            path: config.scene.display().to_string(),
+            triangles: scene.triangles.len(),
+            dropped_triangles: scene.dropped_triangles,
+            bounds: BoundsRecord::world(&scene.bounds, scene),
+            area: scene.area(),
+        },
+        domain: BoundsRecord::world(&prepared.domain, scene),
+        sdf: sdf.into(),
+        resolution: Some(prepared.resolution),
+        reachable: prepared.reachable.as_ref().map(ReachRecord::from),
+        coverage_detail: *coverage,
+        coverage_holes: hole_sample(&placed.holes)
+            .iter()
+            .map(|h| scene.to_world(*h).to_array())
+            .collect(),
+        placement_stats: probes.stats.clone(),
+        placement_params: probes.params.clone(),
+        refine,
+        diffuse: placed.diffuse.clone(),
+        controls: placed.controls.clone(),
+        svo: Some(svo),
+        bake: None,
+        render: None,
+        timings_ms: job.watch.to_map(),
+        warnings,
+    }
 }

@@ -2,7 +2,10 @@
 //! reference's view rendered through the probes with each variant and
 //! measured against the reference (Wang et al. 2019 §5.1).
 
-use super::{bake, place, push_warnings, Job, Outcome, RunOptions};
+use super::outcome::Outcome;
+pub use super::run::Variant;
+use super::run::{push_warnings, Job, RunOptions};
+use super::{bake, place};
 use crate::error::{Error, Result};
 use crate::gpu::{Context, SelectionKind};
 use crate::report;
@@ -10,26 +13,6 @@ use crate::report::render::{RenderReport, VariantReport};
 use crate::stages::validate::{self, Tracer, View};
 use crate::trace::{single::March, Lattice};
 use std::collections::BTreeMap;
-
-/// The marches `render` can run (`--variant`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Variant {
-    /// McGuire et al. 2017 §4.1: bi-level march, grid selection where the
-    /// probes form a grid (else the SVO's).
-    BiLevel,
-    /// Wang et al. 2019 §4.2: Hi-Z march, SVO selection.
-    HiZ,
-}
-
-impl Variant {
-    /// The name in file names and the report.
-    pub fn name(self) -> &'static str {
-        match self {
-            Variant::BiLevel => "bilevel",
-            Variant::HiZ => "hiz",
-        }
-    }
-}
 
 /// Glossy rays per pixel of `render`'s image: one, as a renderer traces.
 const GLOSSY_RAYS: u32 = 1;
@@ -159,7 +142,7 @@ fn render_variants(
         let heat = format!("error_{name}.png");
         set.add(
             heat.clone(),
-            report::encode_png(&view.heat_map(&v.image.glossy_indirect), &heat)?,
+            crate::encode::png::encode_png(&view.heat_map(&v.image.glossy_indirect), &heat)?,
         );
         let selection = if kind == SelectionKind::Grid {
             "grid"

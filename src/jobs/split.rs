@@ -13,7 +13,7 @@
 //! | `tile.sh` | runs tile `$1` (an array index) or the merge |
 //! | `submit.sh` | `sbatch --array` over the tiles, then the merge `afterok` (docs/tiles.md) |
 
-use super::Outcome;
+use super::outcome::Outcome;
 use crate::config::{Config, Domain, VoxelSize};
 use crate::error::{Error, Result};
 use crate::provenance::{Overrides, Provenance};

@@ -60,10 +60,10 @@ impl OutputSet {
         self.remove(&name);
         let bytes = match &self.stamp {
             Some(stamp) if name.ends_with(".png") => {
-                crate::report::png_with_text(bytes, &stamp.pairs())
+                crate::encode::png::png_with_text(bytes, &stamp.pairs())
             }
             Some(stamp) if name.ends_with(".exr") => {
-                crate::report::exr::with_attributes(bytes, &stamp.pairs())
+                crate::encode::exr::with_attributes(bytes, &stamp.pairs())
             }
             _ => bytes,
         };
@@ -535,10 +535,13 @@ mod tests {
             b"{\"format\":\"probeplace.report\"}".to_vec(),
         );
         let image = crate::raster::RgbImage::from_pixel(3, 2, [10, 20, 30]);
-        s.add("a.png", crate::report::encode_png(&image, "a.png").unwrap());
+        s.add(
+            "a.png",
+            crate::encode::png::encode_png(&image, "a.png").unwrap(),
+        );
         s.add(
             "a.exr",
-            crate::report::exr::encode_rgb(1, 1, &[[0.5, 1.0, 2.0]]),
+            crate::encode::exr::encode_rgb(1, 1, &[[0.5, 1.0, 2.0]]),
         );
         let root = tempfile::tempdir().unwrap();
         let out = root.path().join("out");
@@ -563,10 +566,10 @@ mod tests {
         reader.next_frame(&mut buf).unwrap();
         assert_eq!(&buf[..3], [10, 20, 30]);
         let exr = std::fs::read(out.join("a.exr")).unwrap();
-        let attrs = crate::report::exr::string_attributes(&exr);
+        let attrs = crate::encode::exr::string_attributes(&exr);
         assert_eq!(Stamp::of(&p).mismatch(&attrs), None, "{attrs:?}");
         assert_eq!(
-            crate::report::exr::decode_rgb(&exr).unwrap().2,
+            crate::encode::exr::decode_rgb(&exr).unwrap().2,
             [[0.5, 1.0, 2.0]]
         );
     }

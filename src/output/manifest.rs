@@ -68,7 +68,7 @@ impl Manifest {
 
     /// The manifest as written: pretty JSON and a newline.
     pub fn to_bytes(&self) -> Result<Vec<u8>> {
-        crate::report::to_json(self)
+        crate::encode::json::to_json(self)
     }
 }
 

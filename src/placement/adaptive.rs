@@ -42,7 +42,7 @@ use std::collections::BTreeMap;
 pub const MAX_POINTS: usize = 4 * crate::limits::MAX_PROBES;
 
 /// Levels `compare` gives the baseline (the config's default too).
-pub const DEFAULT_LEVELS: u32 = 3;
+pub const DEFAULT_LEVELS: u32 = crate::config::DEFAULT_ADAPTIVE_LEVELS;
 
 /// Bisection steps [`spacing_for_count`] takes on the log of the spacing.
 pub const SPACING_STEPS: u32 = 40;

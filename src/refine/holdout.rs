@@ -49,8 +49,7 @@ use glam::Vec3;
 use rayon::prelude::*;
 use serde::Serialize;
 
-/// Most fresh rounds of samples the placer checks its probes on.
-pub const MAX_CHECK_ROUNDS: u32 = 6;
+pub use crate::coverage::MAX_CHECK_ROUNDS;
 
 /// A round's holes are filled until at most this share of what the target
 /// allows stays unseen (target 99.9%: filled to 99.95%): a round that only

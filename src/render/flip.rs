@@ -27,7 +27,7 @@ pub const PIXELS_PER_DEGREE: f32 = DEFAULT_PIXELS_PER_DEGREE;
 ///
 /// Contract: `pixels.len() == width · height`.
 pub fn display(pixels: &[[f32; 3]], width: u32, height: u32, exposure: f32) -> Vec<u8> {
-    crate::report::exr::tonemap(pixels, width, height, exposure).into_raw()
+    crate::raster::tonemap(pixels, width, height, exposure).into_raw()
 }
 
 /// The ꟻLIP error of each pixel of `test` against `reference` (both from

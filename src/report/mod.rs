@@ -13,8 +13,8 @@
 pub mod bake;
 pub mod compare;
 pub mod export;
-pub mod exr;
 pub mod html;
+pub(crate) mod markup;
 pub mod preview;
 pub mod render;
 pub mod run_html;
@@ -23,7 +23,7 @@ pub mod view3d;
 
 use crate::config::UpAxis;
 use crate::coverage::Coverage;
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::placement::ProbeSet;
 use crate::provenance::Provenance;
 use crate::raster::RgbImage;
@@ -312,101 +312,6 @@ pub struct Report {
     pub warnings: Vec<String>,
 }
 
-impl Report {
-    /// Assembles the place job's report from the stages' products.
-    pub(crate) fn new(
-        job: &crate::jobs::Job,
-        prepared: &crate::stages::Prepared,
-        placed: &crate::stages::Placed,
-        svo: SvoReport,
-    ) -> Report {
-        let (config, scene, sdf) = (&job.config, &prepared.scene, &prepared.sdf);
-        let (coverage, health, probes) = (&placed.coverage, &placed.health, &placed.probes);
-        let mut warnings = scene.warnings.clone();
-        warnings.extend(placed.warnings.iter().cloned());
-        if health.probes_in_solid > 0 {
-            warnings.push(format!(
-                "{} probe(s) stand in solid space",
-                health.probes_in_solid
-            ));
-        }
-        let refine = placed.refined.as_ref().map(|(r, _)| r.clone());
-        if let Some(r) = &refine {
-            let target = config.refine.coverage_target.0 as f64;
-            if let (Some(before), Some(budget)) = (r.probes_before_budget, config.max_probes) {
-                warnings.push(format!(
-                    "max_probes: {}: {} probes, of the {before} the coverage target needs, reach {:.2}% coverage (target {:.2}%)",
-                    budget.0,
-                    r.probes_final,
-                    100.0 * r.coverage_final,
-                    100.0 * target
-                ));
-            } else if config.refine.fill && r.coverage_final < target {
-                warnings.push(format!(
-                    "refine: coverage {:.2}% is short of the target {:.2}%: no position at least {:.3} from every surface sees the rest; lower refine.min_clearance (or remove it) to reach it",
-                    100.0 * r.coverage_final,
-                    100.0 * target,
-                    r.params["min_fill_clearance"]
-                ));
-            }
-            if let Some(min) = config.min_probes.filter(|m| r.probes_final < m.0 as usize) {
-                warnings.push(format!(
-                    "min_probes: {}: {} probes: no further fill position sharpens any view (the coverage target needs {})",
-                    min.0,
-                    r.probes_final,
-                    r.probes_before_minimum.unwrap_or(r.probes_final)
-                ));
-            }
-        }
-        Report {
-            format: "probeplace.report",
-            version: FORMAT_VERSION,
-            provenance: job.provenance.clone(),
-            method: probes.method.clone(),
-            seed: config.seed,
-            config: job.config_path.display().to_string(),
-            probe_count: probes.probes.len(),
-            coverage: coverage.coverage,
-            coverage_ci95: coverage.ci95,
-            coverage_train: placed.coverage_train,
-            probes_in_solid: health.probes_in_solid,
-            probes_in_solid_sdf: health.probes_in_solid_sdf,
-            probes_outside_scene: health.probes_outside_scene,
-            probes_outside_domain: health.probes_outside_domain,
-            probes_below_clearance: refine.as_ref().map_or(0, |r| r.probes_below_clearance),
-            best_view_incidence_deg: refine
-                .as_ref()
-                .and_then(|r| r.best_view_incidence_deg_final),
-            scene: SceneRecord {
-                path: config.scene.display().to_string(),
-                triangles: scene.triangles.len(),
-                dropped_triangles: scene.dropped_triangles,
-                bounds: BoundsRecord::world(&scene.bounds, scene),
-                area: scene.area(),
-            },
-            domain: BoundsRecord::world(&prepared.domain, scene),
-            sdf: sdf.into(),
-            resolution: Some(prepared.resolution),
-            reachable: prepared.reachable.as_ref().map(ReachRecord::from),
-            coverage_detail: *coverage,
-            coverage_holes: hole_sample(&placed.holes)
-                .iter()
-                .map(|h| scene.to_world(*h).to_array())
-                .collect(),
-            placement_stats: probes.stats.clone(),
-            placement_params: probes.params.clone(),
-            refine,
-            diffuse: placed.diffuse.clone(),
-            controls: placed.controls.clone(),
-            svo: Some(svo),
-            bake: None,
-            render: None,
-            timings_ms: job.watch.to_map(),
-            warnings,
-        }
-    }
-}
-
 /// Most coverage holes `report.json` and `report.html` keep.
 pub const HOLE_SAMPLE: usize = 512;
 
@@ -450,54 +355,6 @@ pub fn placement_views(
     )
 }
 
-/// PNG bytes of `image`, which will be written as `name`.
-///
-/// An 8-bit RGB PNG, encoded by the `png` crate with fast compression and
-/// adaptive filtering: the settings of the `image` crate's PNG encoder,
-/// which wrote these files before, so the bytes are the same.
-pub fn encode_png(image: &RgbImage, name: &str) -> Result<Vec<u8>> {
-    let fail = |e: png::EncodingError| Error::Internal(format!("encoding {name}: {e}"));
-    let mut bytes = Vec::new();
-    let mut encoder = png::Encoder::new(&mut bytes, image.width(), image.height());
-    encoder.set_color(png::ColorType::Rgb);
-    encoder.set_depth(png::BitDepth::Eight);
-    // In this order: `set_compression` also sets a filter.
-    encoder.set_compression(png::Compression::Fast);
-    encoder.set_filter(png::Filter::Adaptive);
-    let mut writer = encoder.write_header().map_err(fail)?;
-    writer.write_image_data(image.as_raw()).map_err(fail)?;
-    writer.finish().map_err(fail)?;
-    Ok(bytes)
-}
-
-/// `bytes` (a PNG) with a `tEXt` chunk per pair of `pairs` after its
-/// header chunk, where PNG keeps a file's metadata (PNG spec §11.3.4.3):
-/// the run's provenance ([`crate::provenance::Stamp::pairs`]), which image viewers
-/// show. Keywords are 1–79 Latin-1 characters; ours are ASCII.
-///
-/// Contract: `bytes` starts with the signature and an `IHDR` chunk, as
-/// [`encode_png`]'s output does; anything else is returned unchanged.
-pub fn png_with_text<K: AsRef<str>, V: AsRef<str>>(bytes: Vec<u8>, pairs: &[(K, V)]) -> Vec<u8> {
-    // Signature (8 bytes), then IHDR: length, type, 13 bytes, CRC.
-    const AFTER_IHDR: usize = 8 + 4 + 4 + 13 + 4;
-    if bytes.len() < AFTER_IHDR || &bytes[12..16] != b"IHDR" {
-        return bytes;
-    }
-    let mut out = Vec::with_capacity(bytes.len() + 64 * pairs.len());
-    out.extend_from_slice(&bytes[..AFTER_IHDR]);
-    for (k, v) in pairs {
-        let mut body = b"tEXt".to_vec();
-        body.extend_from_slice(k.as_ref().as_bytes());
-        body.push(0);
-        body.extend_from_slice(v.as_ref().as_bytes());
-        out.extend_from_slice(&((body.len() - 4) as u32).to_be_bytes());
-        out.extend_from_slice(&body);
-        out.extend_from_slice(&crc32fast::hash(&body).to_be_bytes());
-    }
-    out.extend_from_slice(&bytes[AFTER_IHDR..]);
-    out
-}
-
 /// Adds `<stem>.exr` (linear) and `<stem>.png` (at `exposure`) of the
 /// `width`×`height` image `pixels` to `set`.
 pub fn add_image(
@@ -508,19 +365,11 @@ pub fn add_image(
     exposure: f32,
 ) -> Result<()> {
     let png = format!("{stem}.png");
-    let image = exr::tonemap(pixels, width, height, exposure);
+    let image = crate::raster::tonemap(pixels, width, height, exposure);
     set.add(
         format!("{stem}.exr"),
-        exr::encode_rgb(width, height, pixels),
+        crate::encode::exr::encode_rgb(width, height, pixels),
     );
-    set.add(png.clone(), encode_png(&image, &png)?);
+    set.add(png.clone(), crate::encode::png::encode_png(&image, &png)?);
     Ok(())
-}
-
-/// Serializes `value` as pretty JSON with a trailing newline.
-pub fn to_json<T: Serialize>(value: &T) -> Result<Vec<u8>> {
-    let mut bytes = serde_json::to_vec_pretty(value)
-        .map_err(|e| Error::Internal(format!("serializing JSON: {e}")))?;
-    bytes.push(b'\n');
-    Ok(bytes)
 }

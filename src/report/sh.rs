@@ -17,6 +17,9 @@ use glam::Vec3;
 use serde::Deserialize;
 use serde_json::json;
 
+/// The file's name in an output set.
+pub(crate) const SH_FILE: &str = "sh.json";
+
 /// The `format` of `sh.json`.
 pub const FORMAT: &str = "probeplace.sh";
 
@@ -34,7 +37,7 @@ pub fn encode(provenance: &Provenance, rays: u32, light: &[ProbeLight]) -> Vec<u
             })
         })
         .collect();
-    super::export::json_rows(
+    crate::encode::json::json_rows(
         &json!({
             "format": FORMAT,
             "version": 1,

@@ -25,7 +25,7 @@
 //! in f32 as the stages compute them. The page is deterministic: the same
 //! inputs give the same bytes.
 
-use super::html::escape;
+use super::markup::{base64, escape};
 use crate::scene::{Bounds, Scene};
 use crate::sdf::Sdf;
 use crate::svo::Svo;
@@ -196,9 +196,9 @@ impl Mesh {
             vertices: vertices.len(),
             min: min.to_array(),
             size: size.to_array(),
-            positions: super::html::base64(&position_data),
+            positions: base64(&position_data),
             index_bytes,
-            indices: super::html::base64(&index_data),
+            indices: base64(&index_data),
             groups,
         }
     }
@@ -311,7 +311,7 @@ impl ProbeSet {
 /// Base64 of `v` as little-endian f32.
 fn floats_base64(v: &[f32]) -> String {
     let bytes: Vec<u8> = v.iter().flat_map(|f| f.to_le_bytes()).collect();
-    super::html::base64(&bytes)
+    base64(&bytes)
 }
 
 /// The whole view: one mesh, one or more probe sets.

@@ -3,7 +3,7 @@
 //! radiance path traced from the config's lights; and the check of the CPU
 //! tracer against exact ray casts that every bake reports.
 
-use super::Prepared;
+use super::prepare::Prepared;
 use crate::config::Config;
 use crate::error::Result;
 use crate::lightfield::LightField;

@@ -2,7 +2,7 @@
 //! once per comparison, then each placement's lookups measured at them
 //! ([`crate::diffuse`] has the method and why).
 
-use super::Prepared;
+use super::prepare::Prepared;
 use crate::config::{CameraParams, Config};
 use crate::diffuse::{self, Errors, Irradiance, Receivers, ShLookup};
 use crate::lightfield::LightField;

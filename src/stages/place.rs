@@ -2,7 +2,7 @@
 //! baseline), refinement where the config asks for it (§3.3), the coverage
 //! of the result (§2, §3.2) and the SVO of probe indices (§4.1).
 
-use super::Prepared;
+use super::prepare::Prepared;
 use crate::config::{short, Config, Objective};
 use crate::coverage::{self, Coverage, CoverageReference, ProbeHealth, Stream};
 use crate::error::{Error, Result};

@@ -4,7 +4,7 @@
 //! per view, one tracer chosen once (the GPU's, or its CPU twin), one
 //! composition and one set of [`Metrics`].
 
-use super::Prepared;
+use super::prepare::Prepared;
 use crate::config::{CameraParams, Config};
 use crate::error::{Error, Result};
 use crate::gpu::{kind, twin, Context, ProbeTracer, Record, SelectionKind};
@@ -339,7 +339,11 @@ pub const SHADING_POINTS: usize = 4096;
 /// by the parallax between the two, which grows with their distance. It is
 /// the figure that explains why one placement's glossy error differs from
 /// another's at equal count (docs/method.md, "Comparing placements").
-pub fn shading_probe_distance(view: &View, bvh: &super::SceneBvh, probes: &[Vec3]) -> Option<f64> {
+pub fn shading_probe_distance(
+    view: &View,
+    bvh: &crate::scene::raycast::SceneBvh,
+    probes: &[Vec3],
+) -> Option<f64> {
     use rayon::prelude::*;
     let queries = &view.gbuffer.irradiance;
     let stride = queries.len().div_ceil(SHADING_POINTS).max(1);

@@ -16,6 +16,7 @@ mod generality;
 mod gpu;
 mod hostile;
 mod jobs;
+mod layout;
 mod lightfield;
 mod medial_axis;
 mod place;

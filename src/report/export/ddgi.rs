@@ -155,7 +155,7 @@ pub fn encode(source: &Source) -> Result<Vec<u8>, String> {
     }
     let center: [f64; 3] =
         std::array::from_fn(|a| origin[a] + spacing[a] * f64::from(n[a] - 1) * 0.5);
-    Ok(super::json_rows(
+    Ok(crate::encode::json::json_rows(
         &json!({
             "format": "probeplace.ddgi",
             "version": 1,

@@ -34,7 +34,7 @@ pub fn encode(source: &Source) -> Vec<u8> {
         .flatten()
         .flat_map(|l| l.sh.total.unity_coefficients().into_iter().flatten())
         .collect();
-    super::json_tables(
+    crate::encode::json::json_tables(
         &json!({
             "format": FORMAT,
             "version": 1,

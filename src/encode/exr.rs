@@ -11,8 +11,6 @@
 //! attributes ended by a null byte, the table of block offsets, the blocks.
 //! Write the bytes with [`super::write_atomic`].
 
-use crate::raster::RgbImage;
-
 /// The OpenEXR magic number, 20000630.
 const MAGIC: u32 = 20_000_630;
 /// File format version 2, single-part scan-line file, short names (no flags).
@@ -236,36 +234,6 @@ fn attribute(out: &mut Vec<u8>, name: &str, kind: &str, value: &[u8]) {
     out.extend_from_slice(value);
 }
 
-/// An 8-bit sRGB preview of linear `pixels` (`width × height`, row-major):
-/// each channel multiplied by `exposure` (a linear factor, 1 = unchanged),
-/// encoded with the sRGB transfer function, clamped to [0, 1] and rounded.
-/// NaN becomes black.
-///
-/// Contract: `pixels.len() == width·height`, else it panics.
-pub fn tonemap(pixels: &[[f32; 3]], width: u32, height: u32, exposure: f32) -> RgbImage {
-    assert_eq!(
-        pixels.len() as u64,
-        width as u64 * height as u64,
-        "pixel count does not match {width}x{height}"
-    );
-    let mut img = RgbImage::new(width, height);
-    for (out, p) in img.pixels_mut().zip(pixels) {
-        *out = p.map(|c| srgb_byte(c * exposure));
-    }
-    img
-}
-
-/// The sRGB encoding of linear `c` as a byte.
-fn srgb_byte(c: f32) -> u8 {
-    let c = if c.is_nan() { 0.0 } else { c.clamp(0.0, 1.0) };
-    let v = if c <= 0.003_130_8 {
-        12.92 * c
-    } else {
-        1.055 * c.powf(1.0 / 2.4) - 0.055
-    };
-    (v * 255.0 + 0.5).clamp(0.0, 255.0) as u8
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -384,17 +352,5 @@ mod tests {
     #[should_panic(expected = "pixel count")]
     fn wrong_pixel_count_is_refused() {
         encode_rgb(2, 2, &[[0.0; 3]; 3]);
-    }
-
-    #[test]
-    fn tonemap_applies_exposure_and_srgb() {
-        let px = [[0.0, 0.5, 1.0], [0.22, 2.0, f32::NAN]];
-        let img = tonemap(&px, 2, 1, 1.0);
-        assert_eq!(img.get_pixel(0, 0), [0, 188, 255]);
-        // sRGB(0.22) ≈ 0.506; over-range clamps; NaN is black.
-        assert_eq!(img.get_pixel(1, 0), [129, 255, 0]);
-        let darker = tonemap(&px, 2, 1, 0.5);
-        assert_eq!(darker.get_pixel(0, 0)[2], 188);
-        assert_eq!(darker.get_pixel(1, 0)[1], 255);
     }
 }
