@@ -206,7 +206,7 @@ fn stages(c: &mut Criterion, name: &str, config: &str) {
                                 march,
                                 &mut steps
                             ),
-                            probeplace::trace::Outcome::Hit { .. }
+                            probeplace::trace::RayOutcome::Hit { .. }
                         )
                     })
                     .count()

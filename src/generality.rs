@@ -17,8 +17,8 @@
 
 use crate::config::Config;
 use crate::error::Result;
-use crate::jobs::compare::smallest_grid_reaching;
 use crate::jobs::{self, RunOptions};
+use crate::placement::grid::smallest_grid_reaching;
 use crate::progress::Progress;
 use serde::Serialize;
 use std::path::Path;
@@ -161,7 +161,8 @@ pub fn run(
     let progress = Progress::hidden();
     let grid_probe_limit = (!whole_sweep).then_some(r.probe_count);
     let smallest_grid = smallest_grid_reaching(
-        &run.prepared,
+        &run.prepared.domain,
+        &run.prepared.bvh,
         &run.reference,
         r.coverage,
         GRID_SWEEP_CELLS,

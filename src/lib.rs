@@ -9,9 +9,9 @@
 //! |---|---|---|
 //! | load the scene | [`scene`] | — |
 //! | ray casting, watertight ray/triangle test | [`scene::raycast`], [`scene::watertight`] | Woop, Benthin & Wald 2013 |
-//! | voxel size chosen from the scene | [`resolution`] | — |
+//! | voxel size chosen from the scene | `resolution` (internal) | — |
 //! | signed distance field | [`sdf`] | Wang §3.1 |
-//! | skeletons (SDF, medial axis) and clustering | [`skeleton`] | Wang §3.1, Figs. 2–3; Ma et al. 2012 |
+//! | skeletons (SDF, medial axis) and clustering | `skeleton` (internal; the methods through [`placement`]) | Wang §3.1, Figs. 2–3; Ma et al. 2012 |
 //! | uniform grid baseline | [`placement`] | McGuire §4 |
 //! | coverage | [`coverage`] | Wang §2, §3.2 |
 //! | refinement, filling, pruning | [`refine`] | Wang §3.2–3.3, eqs. 1–3, Figs. 4–6 |
@@ -24,8 +24,8 @@
 //! | validation renders against the reference | [`render::probes`] | Wang §5.1 |
 //! | competing placements: relocated grid, greedy voxels | [`placement`] | RTXGI; Silvennoinen & Lehtinen 2017 §4.1 |
 //! | comparisons against grids and competitors | [`jobs::compare`] | Wang §5, Figs. 8–12, Tables 1–2 |
-//! | stock-config runs on any scene against the grids | [`generality`] | Wang §5, Table 1 |
-//! | outputs, the HTML reports and their 3D view | [`report`] | — |
+//! | stock-config runs on any scene against the grids | `generality` (the `testkit` feature) | Wang §5, Table 1 |
+//! | outputs, the HTML reports and their 3D view | `report`, `encode` (internal; the files in docs/formats.md) | — |
 //!
 //! [`stages`] composes them into typed products; [`jobs`] composes the
 //! stages into what the command line runs; the `probeplace` binary is a
@@ -71,7 +71,7 @@
 
 pub mod config;
 pub mod coverage;
-pub mod diffuse;
+pub(crate) mod diffuse;
 pub(crate) mod encode;
 pub mod error;
 /// The test scenes we generate in code and the generality check: for the
@@ -82,17 +82,17 @@ pub mod fixtures;
 #[cfg(any(test, feature = "testkit"))]
 pub mod generality;
 pub mod gpu;
-pub mod input;
+pub(crate) mod input;
 pub mod jobs;
 pub mod lightfield;
-pub mod limits;
+pub(crate) mod limits;
 pub(crate) mod output;
 pub mod placement;
-pub mod probes;
+pub(crate) mod probes;
 pub mod progress;
 pub mod provenance;
 pub mod raster;
-pub mod reachable;
+pub(crate) mod reachable;
 pub mod refine;
 pub mod render;
 pub(crate) mod report;
@@ -102,7 +102,7 @@ pub mod scene;
 pub mod sdf;
 pub(crate) mod skeleton;
 pub mod stages;
-pub mod stats;
+pub(crate) mod stats;
 pub mod svo;
 pub mod tiles;
 pub mod trace;

@@ -38,7 +38,7 @@ pub(super) fn field_before(text: &str, line: usize, col: usize) -> Option<String
 
 /// The position (line, column, 1-based) of an identifier other than `Auto`
 /// given as `voxel_size`, which RON would pass on as a nameless unit (see
-/// [`VoxelSize`]'s `Deserialize`).
+/// [`super::VoxelSize`]'s `Deserialize`).
 pub(super) fn check_voxel_size_word(text: &str) -> Option<(usize, usize, String)> {
     for (n, line) in text.lines().enumerate() {
         let code = line.split("//").next().unwrap_or("");

@@ -211,3 +211,50 @@ impl<const MIN: u32, const MAX: u32> TryFrom<u64> for PowerOfTwo<MIN, MAX> {
         }
     }
 }
+
+impl TryFrom<[f64; 3]> for Point3 {
+    type Error = String;
+    fn try_from(v: [f64; 3]) -> Result<Self, String> {
+        if v.iter()
+            .all(|c| c.is_finite() && c.abs() <= f32::MAX as f64)
+        {
+            Ok(Point3(v))
+        } else {
+            Err(format!(
+                "must be three finite numbers (below 3e38 in size), got {}",
+                short_all(&v)
+            ))
+        }
+    }
+}
+
+impl TryFrom<[f64; 3]> for Direction {
+    type Error = String;
+    fn try_from(v: [f64; 3]) -> Result<Self, String> {
+        let len = v.iter().map(|c| c * c).sum::<f64>().sqrt();
+        if v.iter().all(|c| c.is_finite()) && len > 1e-12 && len.is_finite() {
+            Ok(Direction(v.map(|c| (c / len) as f32)))
+        } else {
+            Err(format!(
+                "must be three finite numbers, not all zero, got {}",
+                short_all(&v)
+            ))
+        }
+    }
+}
+
+impl TryFrom<[f64; 3]> for Rgb {
+    type Error = String;
+    fn try_from(v: [f64; 3]) -> Result<Self, String> {
+        if v.iter()
+            .all(|c| c.is_finite() && *c >= 0.0 && *c <= f32::MAX as f64)
+        {
+            Ok(Rgb(v.map(|c| c as f32)))
+        } else {
+            Err(format!(
+                "must be three finite numbers of at least 0 (and below 3e38), got {}",
+                short_all(&v)
+            ))
+        }
+    }
+}

@@ -43,7 +43,7 @@ pub struct Record {
     /// The probe whose maps answered (`u32::MAX` for [`kind::NO_PROBE`]).
     pub probe: u32,
     /// Texel `y·n + x` of that probe's maps the radiance was read from
-    /// ([`crate::trace::Outcome::lookup`]).
+    /// ([`crate::trace::RayOutcome::lookup`]).
     pub texel: u32,
     /// Where along the ray the trace ended.
     pub t: f32,

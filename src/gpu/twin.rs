@@ -6,7 +6,7 @@ use super::interface::{kind, Query, Record};
 use crate::lightfield::LightField;
 use crate::trace::gather;
 use crate::trace::single::{March, Steps};
-use crate::trace::{self, Outcome, Selection};
+use crate::trace::{self, RayOutcome, Selection};
 use bytemuck::Zeroable;
 use glam::Vec3;
 use rayon::prelude::*;
@@ -28,10 +28,10 @@ pub fn trace_rays(
             let mut steps = Steps::default();
             let outcome = trace::trace(field, selection, origin, dir, q.t_max, march, &mut steps);
             let (kind, t) = match outcome {
-                Outcome::Hit { t, .. } => (kind::HIT, t),
-                Outcome::Miss { .. } => (kind::MISS, q.t_max),
-                Outcome::Unknown { t, probe: Some(_) } => (kind::UNKNOWN, t),
-                Outcome::Unknown { t, probe: None } => (kind::NO_PROBE, t),
+                RayOutcome::Hit { t, .. } => (kind::HIT, t),
+                RayOutcome::Miss { .. } => (kind::MISS, q.t_max),
+                RayOutcome::Unknown { t, probe: Some(_) } => (kind::UNKNOWN, t),
+                RayOutcome::Unknown { t, probe: None } => (kind::NO_PROBE, t),
             };
             let (probe, texel, radiance) = match outcome.lookup(field, origin, dir) {
                 Some((probe, texel)) => {

@@ -89,7 +89,7 @@ pub(crate) struct Bake {
 pub(crate) fn bake_stage(
     job: &mut Job,
     prepared: &Prepared,
-    placement: &mut place::Placement,
+    placement: &mut place::BasePlacement,
 ) -> Result<Bake> {
     if let Some(b) = load(job, prepared, placement)? {
         return Ok(b);
@@ -203,7 +203,7 @@ fn add_files(job: &mut Job, field: &LightField, reference: Option<&Reference>) -
 pub(crate) fn load(
     job: &mut Job,
     prepared: &Prepared,
-    placement: &place::Placement,
+    placement: &place::BasePlacement,
 ) -> Result<Option<Bake>> {
     let Some(e) = &job.earlier else {
         return Ok(None);

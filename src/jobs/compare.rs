@@ -29,7 +29,7 @@
 //! on the same tracer measures placement alone; one against the grid on
 //! McGuire's tracer measures what a user switching would get. Unresolved
 //! rays fall back alike in both (the last probe's radiance at the ray's
-//! end, [`crate::trace::Outcome::lookup`]), and their share is reported.
+//! end, [`crate::trace::RayOutcome::lookup`]), and their share is reported.
 //!
 //! **Intervals.** The glossy rays are the same for every placement (common
 //! random numbers), so errors are paired pixel for pixel; every ratio
@@ -57,11 +57,10 @@ use crate::report::compare::{
 use crate::report::html::{self, Figures, PlacementFigures};
 use crate::report::{self, view3d};
 use crate::stages::bake::Work;
-use crate::stages::validate::{self, Blocks, Tracer, View};
+use crate::stages::validate::{self, Blocks, Tracer, ValidationView};
 use crate::stages::{self, Placed, Prepared};
 use crate::svo::Svo;
 use crate::trace::{single::March, Lattice};
-use glam::Vec3;
 use std::collections::BTreeMap;
 
 /// Pixel size of each of the two placement views in the report.
@@ -228,7 +227,7 @@ pub fn compare(options: &RunOptions) -> Result<Outcome> {
 fn write(
     mut job: Job,
     bench: Bench,
-    views: &[View],
+    views: &[ValidationView],
     cameras: &[(CameraParams, bool)],
     context: Option<&Context>,
 ) -> Result<Outcome> {
@@ -302,7 +301,7 @@ fn write(
             .map(|v| png(&v.reference.full, v, "reference"))
             .collect::<Result<_>>()?,
         placements: bench.figures,
-        view: view3d::View::new(&bench.prepared.scene, &bench.prepared.domain, bench.sets),
+        view: view3d::View3d::new(&bench.prepared.scene, &bench.prepared.domain, bench.sets),
     };
     job.set.add("compare.csv", to_csv(&report).into_bytes());
     job.set
@@ -326,35 +325,6 @@ fn check_grids(config: &Config, grids: &[GridParams]) -> Result<()> {
         total,
         COMPARE_WORK_FACTOR,
     )
-}
-
-/// The first grid of [`placement::cubic_grid_sweep`] (up to `max_cells`
-/// cells along the domain's longest axis, by probe count, and at most
-/// `max_probes` probes when given) whose coverage, by `reference`, reaches
-/// `coverage`, with that coverage; `None` when no grid of the sweep does.
-/// The "smallest grid at the same coverage" that our placements must beat
-/// (Wang et al. 2019 §5, Table 1).
-pub fn smallest_grid_reaching(
-    prepared: &Prepared,
-    reference: &CoverageReference,
-    coverage: f64,
-    max_cells: u32,
-    max_probes: Option<usize>,
-    progress: &Progress,
-) -> Option<(GridParams, f64)> {
-    placement::cubic_grid_sweep(prepared.domain.size(), max_cells)
-        .into_iter()
-        .take_while(|g| max_probes.is_none_or(|n| g.probes() <= n))
-        .find_map(|g| {
-            let positions: Vec<glam::Vec3> = placement::grid(&g, &prepared.domain)
-                .iter()
-                .map(|p| p.position)
-                .collect();
-            let c = reference
-                .evaluate(&prepared.bvh, &positions, progress)
-                .coverage;
-            (c >= coverage).then_some((g, c))
-        })
 }
 
 /// Parses `--grids`: comma-separated `NxMxK`, e.g. `2x2x2,4x2x4`.
@@ -386,90 +356,13 @@ pub fn parse_grids(text: &str) -> Result<Vec<GridParams>> {
     Ok(grids)
 }
 
-/// Most a grid cell's longest edge may exceed its shortest for
-/// [`grid_near_count`]: engines' probe volumes are shaped by the artist, not
-/// forced to cubes, but a cell twice as long one way as another is as far
-/// as a sensible volume goes.
-pub const MAX_CELL_ASPECT: f32 = 2.0;
-
-/// The uniform grid whose probe count is nearest `count` among those whose
-/// cells' longest edge is at most [`MAX_CELL_ASPECT`] times their shortest;
-/// ties go to the most nearly cubic cells, then to the larger count. `None`
-/// when no such grid has between half and twice `count` probes (a domain
-/// far from cubic).
-///
-/// **Why.** Equal count is the comparison Wang et al. 2019 headline (§5.2,
-/// Table 1), and rounding the cube root of a volume per axis can land far
-/// from it: on the Holodeck (8.3 × 3 × 5) the near-cubic grid for 16 probes
-/// has 24, while 4 × 2 × 2 has cells of 2.1 × 1.5 × 2.5.
-pub fn grid_near_count(domain: &crate::scene::Bounds, count: usize) -> Option<GridParams> {
-    let size = domain.size().max(Vec3::splat(1e-6));
-    let count = count.max(1) as u64;
-    let (lo, hi) = (count.div_ceil(2), count * 2);
-    let aspect = |n: [u64; 3]| {
-        let cell = size / Vec3::new(n[0] as f32, n[1] as f32, n[2] as f32);
-        cell.max_element() / cell.min_element()
-    };
-    let [x, y, z] = (1..=hi)
-        .flat_map(|x| (1..=hi / x).flat_map(move |y| (1..=hi / (x * y)).map(move |z| [x, y, z])))
-        .map(|n| (n, n.iter().product::<u64>(), aspect(n)))
-        .filter(|&(_, n, a)| n >= lo && a <= MAX_CELL_ASPECT)
-        .min_by(|(_, n, a), (_, m, b)| {
-            n.abs_diff(count)
-                .cmp(&m.abs_diff(count))
-                .then(a.total_cmp(b))
-                .then(m.cmp(n))
-        })?
-        .0;
-    GridParams::new([x as u32, y as u32, z as u32]).ok()
-}
-
-/// Uniform grids from a quarter to four times `count` probes, in steps of
-/// 2× (√2 around `count`), each with cells as near cubic as the domain
-/// allows, and at `count` itself the grid of [`grid_near_count`]; distinct
-/// and by probe count. Eight times would bake twice the probes of all the
-/// others together (on Dabrovic Sponza a third of the comparison's time),
-/// so `--grids` asks for larger grids by name.
-///
-/// Contract: at least one grid; every grid within the config's limits.
-pub fn grid_sweep(domain: &crate::scene::Bounds, count: usize) -> Vec<GridParams> {
-    let size = domain.size().max(Vec3::splat(1e-6));
-    let volume = (size.x * size.y * size.z) as f64;
-    let factors = [
-        0.25,
-        0.5,
-        std::f64::consts::FRAC_1_SQRT_2,
-        1.0,
-        std::f64::consts::SQRT_2,
-        2.0,
-        4.0,
-    ];
-    let mut out: Vec<(u64, GridParams)> = Vec::new();
-    for f in factors {
-        let n = (count.max(1) as f64 * f).max(1.0);
-        let spacing = (volume / n).cbrt() as f32;
-        let cells = (size / spacing).round().max(Vec3::ONE);
-        let rounded = GridParams::new([cells.x as u32, cells.y as u32, cells.z as u32]);
-        let near = (f == 1.0).then(|| grid_near_count(domain, count)).flatten();
-        let Some(g) = near.or(rounded.ok()) else {
-            continue;
-        };
-        let probes = g.probes() as u64;
-        if !out.iter().any(|(_, o)| *o == g) {
-            out.push((probes, g));
-        }
-    }
-    out.sort_by_key(|(n, g)| (*n, g.cells.0 .0, g.cells.1 .0, g.cells.2 .0));
-    out.into_iter().map(|(_, g)| g).collect()
-}
-
 /// The view of every camera; camera 0's reference is the one `bake`
 /// renders (same seed), reused from `--from DIR` when it holds it.
 fn views(
     job: &mut Job,
     prepared: &Prepared,
     cameras: &[(CameraParams, bool)],
-) -> Result<Vec<View>> {
+) -> Result<Vec<ValidationView>> {
     // A reference of the scene's own materials does not serve all-glossy ones.
     let own_materials = job.config.compare.materials == Materials::Scene;
     let earlier_reference = match &job.earlier {
@@ -497,7 +390,7 @@ fn views(
                     Some(r) => r,
                     None => validate::reference(config, prepared, camera, i),
                 };
-                View::new(
+                ValidationView::new(
                     config,
                     prepared,
                     camera,
@@ -766,7 +659,7 @@ struct Bench<'a> {
     config_text: String,
     prepared: &'a Prepared,
     coverage: &'a CoverageReference,
-    views: &'a [View],
+    views: &'a [ValidationView],
     diffuse: Option<&'a stages::diffuse::Bench>,
     context: Option<&'a Context>,
     progress: Progress,
@@ -871,7 +764,7 @@ impl Bench<'_> {
     }
 
     /// The uniform grids to compare with: the given ones, the config's, or
-    /// a sweep around `ours_count` ([`grid_sweep`]); and whether they are
+    /// a sweep around `ours_count` ([`placement::grid::grid_sweep`]); and whether they are
     /// the sweep (whose largest grids [`plan`] may leave out; named grids
     /// are the user's, checked before any work).
     fn grid_choice(
@@ -882,7 +775,10 @@ impl Bench<'_> {
         match (given, self.config.compare.grids.is_empty()) {
             (Some(g), _) => (g.clone(), false),
             (None, false) => (self.config.compare.grids.clone(), false),
-            (None, true) => (grid_sweep(&self.prepared.domain, ours_count), true),
+            (None, true) => (
+                placement::grid::grid_sweep(&self.prepared.domain, ours_count),
+                true,
+            ),
         }
     }
 
@@ -1268,7 +1164,7 @@ fn stats_of(probes: &ProbeSet) -> BTreeMap<String, f64> {
 }
 
 /// `pixels` tone mapped at the view's exposure, as PNG.
-fn png(pixels: &[[f32; 3]], view: &View, what: &str) -> Result<Vec<u8>> {
+fn png(pixels: &[[f32; 3]], view: &ValidationView, what: &str) -> Result<Vec<u8>> {
     let (w, h) = (view.reference.width, view.reference.height);
     encode_png(&crate::raster::tonemap(pixels, w, h, view.exposure), what)
 }
@@ -1276,12 +1172,6 @@ fn png(pixels: &[[f32; 3]], view: &View, what: &str) -> Result<Vec<u8>> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::Bounds;
-
-    fn count(g: &GridParams) -> u32 {
-        g.probes() as u32
-    }
-
     #[test]
     fn bake_settings_are_lowered_alike_until_every_bake_fits_or_refused() {
         let mut config =
@@ -1391,73 +1281,5 @@ mod tests {
         assert_eq!(p.left_out, [grid(20), grid(40)]);
         let e = plan(&config, planned(false), 1.0, 1e9, small).unwrap_err();
         assert!(e.to_string().starts_with("svo: 20 probes"), "{e}");
-    }
-
-    #[test]
-    fn sweep_spans_a_quarter_to_four_times_the_count_in_order() {
-        let domain = Bounds {
-            min: Vec3::ZERO,
-            max: Vec3::new(24.0, 8.0, 14.0),
-        };
-        let sweep = grid_sweep(&domain, 20);
-        let counts: Vec<u32> = sweep.iter().map(count).collect();
-        assert!(counts.windows(2).all(|w| w[0] <= w[1]), "{counts:?}");
-        assert!(counts[0] <= 10, "{counts:?}");
-        assert!(*counts.last().unwrap() >= 50, "{counts:?}");
-        assert!(*counts.last().unwrap() <= 120, "{counts:?}");
-        // Rounding cells to whole numbers moves counts, but one grid stays
-        // within a factor of two of the target.
-        assert!(counts.iter().any(|&c| (10..=40).contains(&c)), "{counts:?}");
-        // Cells stay near cubic: the long axis gets the most cells.
-        let last = sweep.last().unwrap();
-        assert!(last.cells.0 .0 > last.cells.1 .0);
-    }
-
-    #[test]
-    fn the_equal_count_grid_has_the_count_where_a_sensible_shape_has_it() {
-        let holodeck = Bounds {
-            min: Vec3::ZERO,
-            max: Vec3::new(8.3, 3.0, 5.0),
-        };
-        let g = grid_near_count(&holodeck, 16).unwrap();
-        assert_eq!(count(&g), 16, "{g:?}");
-        assert!(grid_sweep(&holodeck, 16).contains(&g));
-        // Cells stay within the aspect bound, whatever the count.
-        for n in 1..80 {
-            let g = grid_near_count(&holodeck, n).unwrap();
-            let c = [g.cells.0 .0, g.cells.1 .0, g.cells.2 .0];
-            let cell = holodeck.size() / Vec3::new(c[0] as f32, c[1] as f32, c[2] as f32);
-            assert!(
-                cell.max_element() <= MAX_CELL_ASPECT * cell.min_element(),
-                "{n}: {c:?}"
-            );
-            assert!(
-                count(&g).abs_diff(n as u32) <= (n as u32).div_ceil(4),
-                "{n}: {c:?}"
-            );
-        }
-        // A prime count in a cube: the nearest sensible grid, not 1 × 1 × 7.
-        let cube = Bounds {
-            min: Vec3::ZERO,
-            max: Vec3::ONE,
-        };
-        assert_eq!(count(&grid_near_count(&cube, 7).unwrap()), 8);
-        // A sliver no grid of sensible cells fits near one probe.
-        let sliver = Bounds {
-            min: Vec3::ZERO,
-            max: Vec3::new(100.0, 1.0, 1.0),
-        };
-        assert!(grid_near_count(&sliver, 1).is_none());
-    }
-
-    #[test]
-    fn sweep_of_a_tiny_count_starts_at_one_probe() {
-        let domain = Bounds {
-            min: Vec3::ZERO,
-            max: Vec3::ONE,
-        };
-        let sweep = grid_sweep(&domain, 1);
-        assert_eq!(count(&sweep[0]), 1);
-        assert!(sweep.iter().all(|g| count(g) >= 1));
     }
 }

@@ -82,7 +82,7 @@ pub(crate) fn view(
     report: &Value,
     probes: &ProbeSet,
     svo: &Svo,
-) -> crate::report::view3d::View {
+) -> crate::report::view3d::View3d {
     report::run_html::view(
         &prepared.scene,
         &prepared.domain,
@@ -94,7 +94,7 @@ pub(crate) fn view(
 }
 
 /// The placement a later job builds on.
-pub(crate) struct Placement {
+pub(crate) struct BasePlacement {
     /// The probes.
     pub probes: ProbeSet,
     /// Their SVO, in the scene's frame.
@@ -103,7 +103,7 @@ pub(crate) struct Placement {
     pub report: Value,
 }
 
-impl Placement {
+impl BasePlacement {
     /// Finishes the run of a job built on this placement (`bake`,
     /// `render`): its `report.json`, and `report.html` with the 3D view.
     pub fn finish(self, job: Job, prepared: &Prepared) -> Result<Outcome> {
@@ -114,13 +114,13 @@ impl Placement {
 
 /// The placement of `job`: loaded from `--from DIR` when that holds one,
 /// else computed; its files join the job's output set either way.
-pub(crate) fn placement(job: &mut Job, prepared: &Prepared) -> Result<Placement> {
+pub(crate) fn placement(job: &mut Job, prepared: &Prepared) -> Result<BasePlacement> {
     if let Some(loaded) = load(job, prepared)? {
         return Ok(loaded);
     }
     let (_, placed) = compute_placed(job, prepared)?;
     let (probes, svo, report) = encode(job, prepared, placed)?;
-    Ok(Placement {
+    Ok(BasePlacement {
         probes,
         svo,
         report: to_value(&report)?,
@@ -185,7 +185,7 @@ fn encode(job: &mut Job, prepared: &Prepared, placed: Placed) -> Result<(ProbeSe
 
 /// The placement `--from DIR` holds, checked and moved into the scene's
 /// frame; `None` without `--from` or when the directory holds none.
-pub(crate) fn load(job: &mut Job, prepared: &Prepared) -> Result<Option<Placement>> {
+pub(crate) fn load(job: &mut Job, prepared: &Prepared) -> Result<Option<BasePlacement>> {
     let Some(e) = &job.earlier else {
         return Ok(None);
     };
@@ -216,7 +216,7 @@ pub(crate) fn load(job: &mut Job, prepared: &Prepared) -> Result<Option<Placemen
     svo.frame = prepared.scene.origin;
     let report = report.clone();
     job.carry(&FILES);
-    Ok(Some(Placement {
+    Ok(Some(BasePlacement {
         probes,
         svo,
         report,

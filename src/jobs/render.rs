@@ -10,7 +10,7 @@ use crate::error::{Error, Result};
 use crate::gpu::{Context, SelectionKind};
 use crate::report;
 use crate::report::render::{RenderReport, VariantReport};
-use crate::stages::validate::{self, Tracer, View};
+use crate::stages::validate::{self, Tracer, ValidationView};
 use crate::trace::{single::March, Lattice};
 use std::collections::BTreeMap;
 
@@ -46,7 +46,7 @@ pub fn render(options: &RunOptions) -> Result<Outcome> {
         .ok_or_else(|| Error::Internal("render without a reference".into()))?;
     let mut watch = job.progress.stopwatch();
     let view = watch.time("gbuffer", || {
-        View::new(&job.config, &prepared, &camera, 0, reference, GLOSSY_RAYS)
+        ValidationView::new(&job.config, &prepared, &camera, 0, reference, GLOSSY_RAYS)
     });
     let mut warnings = Vec::new();
     let report = render_variants(
@@ -70,7 +70,7 @@ pub fn render(options: &RunOptions) -> Result<Outcome> {
 #[allow(clippy::too_many_arguments)]
 fn render_variants(
     job: &mut Job,
-    view: &View,
+    view: &ValidationView,
     field: &crate::lightfield::LightField,
     svo: &crate::svo::Svo,
     variants: &[Variant],

@@ -10,7 +10,7 @@ use crate::output::commit::{self, OutputSet};
 use crate::output::manifest;
 use crate::progress::{Progress, Stopwatch};
 use crate::provenance::{self, Overrides, Provenance};
-use crate::report::view3d::View;
+use crate::report::view3d::View3d;
 use crate::stages::{self, Prepared};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
@@ -312,7 +312,7 @@ impl Job {
     /// Finishes a run's `report` (`place`, `bake`, `render`) as
     /// `report.json`, writes `report.html` beside it (its figures, the
     /// images of the set, `view`), and commits the whole set.
-    pub fn finish_run(mut self, mut report: Value, view: &View) -> Result<Outcome> {
+    pub fn finish_run(mut self, mut report: Value, view: &View3d) -> Result<Outcome> {
         self.stamp(&mut report);
         let page = crate::report::run_html::page(&report, &self.set, view)?;
         self.set.add("report.html", page.into_bytes());

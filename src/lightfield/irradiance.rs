@@ -35,7 +35,7 @@ type ProbeMaps = (Vec<[f32; 3]>, Vec<[f32; 2]>);
 
 /// A probe's maps averaged down to side `side`: solid angle, direction of
 /// the footprint's centre, radiance, mean r and mean r².
-struct Source {
+struct Footprint {
     weight: Vec<f32>,
     dir: Vec<Vec3>,
     radiance: Vec<Vec3>,
@@ -50,10 +50,10 @@ fn downsample(
     radiance: &[[f32; 3]],
     distance: &[f32],
     cap: f32,
-) -> Source {
+) -> Footprint {
     let f = n / side;
     let len = (side * side) as usize;
-    let mut s = Source {
+    let mut s = Footprint {
         weight: vec![0.0; len],
         dir: octahedral::texel_directions(side),
         radiance: vec![Vec3::ZERO; len],

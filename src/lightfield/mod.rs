@@ -90,7 +90,7 @@ impl LightField {
 }
 
 /// The bake's product and what each step cost.
-pub struct Baked {
+pub struct BakedField {
     /// The maps.
     pub field: LightField,
     /// Wall time per step in milliseconds: `geometry`, `radiance`,
@@ -113,7 +113,7 @@ pub fn bake(
     seed: u64,
     radiance: &RadianceFn,
     progress: &Progress,
-) -> Baked {
+) -> BakedField {
     let n = params.resolution.0;
     let mut timings_ms = BTreeMap::new();
     let mut lap = Instant::now();
@@ -140,7 +140,7 @@ pub fn bake(
         max_distance,
     );
     mark("irradiance", &mut timings_ms);
-    Baked {
+    BakedField {
         field: LightField {
             resolution: n,
             irradiance_resolution: params.irradiance_resolution.0,

@@ -177,7 +177,7 @@ pub fn relocation_offset(s: &Survey, min_frontface_distance: f32) -> Vec3 {
 
 /// What became of one grid probe.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub enum Outcome {
+pub enum ProbeFate {
     /// Kept at `position`; `moved` when relocation moved it.
     On {
         /// Final position (within the cell).
@@ -198,7 +198,7 @@ pub enum Outcome {
 /// `On` only if the survey from its final position is not inside and has a
 /// front-face hit within `rules.max_surface_distance`; at most [`PASSES`]
 /// relocation passes; deterministic.
-pub fn relocate_probe(bvh: &SceneBvh, centre: Vec3, rules: &Rules, dirs: &[Vec3]) -> Outcome {
+pub fn relocate_probe(bvh: &SceneBvh, centre: Vec3, rules: &Rules, dirs: &[Vec3]) -> ProbeFate {
     let mut offset = Vec3::ZERO;
     let mut last = survey(bvh, centre, dirs);
     for _ in 0..PASSES {
@@ -211,14 +211,14 @@ pub fn relocate_probe(bvh: &SceneBvh, centre: Vec3, rules: &Rules, dirs: &[Vec3]
         last = survey(bvh, centre + offset, dirs);
     }
     if last.inside() {
-        Outcome::OffInside
+        ProbeFate::OffInside
     } else if last
         .closest_frontface
         .is_none_or(|(t, _)| t > rules.max_surface_distance)
     {
-        Outcome::OffNoSurface
+        ProbeFate::OffNoSurface
     } else {
-        Outcome::On {
+        ProbeFate::On {
             position: centre + offset,
             moved: offset != Vec3::ZERO,
         }
@@ -247,7 +247,7 @@ pub fn relocated_grid(params: &GridParams, input: &PlacementInput) -> Result<Pro
     let bar = input
         .progress
         .bar("relocating grid probes", cells.len() as u64);
-    let outcomes: Vec<Outcome> = cells
+    let outcomes: Vec<ProbeFate> = cells
         .par_iter()
         .progress_with(bar)
         .map(|p| relocate_probe(input.bvh, p.position, &rules, &dirs))
@@ -256,15 +256,15 @@ pub fn relocated_grid(params: &GridParams, input: &PlacementInput) -> Result<Pro
     let (mut relocated, mut inside, mut no_surface) = (0u64, 0u64, 0u64);
     for o in &outcomes {
         match *o {
-            Outcome::On { position, moved } => {
+            ProbeFate::On { position, moved } => {
                 relocated += moved as u64;
                 probes.push(Probe {
                     position,
                     cluster_size: 0,
                 });
             }
-            Outcome::OffInside => inside += 1,
-            Outcome::OffNoSurface => no_surface += 1,
+            ProbeFate::OffInside => inside += 1,
+            ProbeFate::OffNoSurface => no_surface += 1,
         }
     }
     let name = format!("relocated:{}", params.dims_text());
@@ -343,7 +343,7 @@ mod tests {
         let dirs = directions();
         assert!(survey(&bvh, centre, &dirs).inside());
         let rules = Rules::new(Vec3::ONE, sdf.voxel_size);
-        let Outcome::On { position, moved } = relocate_probe(&bvh, centre, &rules, &dirs) else {
+        let ProbeFate::On { position, moved } = relocate_probe(&bvh, centre, &rules, &dirs) else {
             panic!("the probe should be relocated and kept");
         };
         assert!(moved);

@@ -404,7 +404,7 @@ pub fn refine(
     let final_positions: Vec<Vec3> = final_probes.iter().map(|p| p.position).collect();
     let final_state = AtlasState::new(params.fitness, &atlas, views_of(&final_positions));
 
-    let outcome = Outcome {
+    let outcome = RefineSteps {
         stats,
         summary_initial,
         r_initial,
@@ -561,7 +561,7 @@ fn final_min_clearance(r: &Resolved, fp: &FillPrune) -> f32 {
 }
 
 /// What the steps of [`refine`] produced, for its report.
-struct Outcome<'a> {
+struct RefineSteps<'a> {
     /// What the sweeps did.
     stats: SweepStats,
     /// The input probes' [`CoverMatrix::summary`].
@@ -593,7 +593,7 @@ fn refine_report(
     params: &RefineParams,
     r: &Resolved,
     matrix: &CoverMatrix,
-    outcome: &Outcome,
+    outcome: &RefineSteps,
 ) -> RefineReport {
     let (stats, fp, initial) = (outcome.stats, outcome.fp, outcome.initial);
     let m = fp.coverable.max(1) as f64;

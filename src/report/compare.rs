@@ -185,7 +185,7 @@ impl PartialEq for DiffuseRow {
 impl DiffuseRow {
     /// The row of a placement measured as `m`, with the gather `gather`.
     pub fn new(
-        m: &crate::stages::diffuse::Placement,
+        m: &crate::stages::diffuse::DiffuseMeasure,
         gather: &crate::stages::diffuse::Measured,
     ) -> DiffuseRow {
         DiffuseRow {

@@ -36,7 +36,7 @@ pub struct Figures {
     /// Per placement, in the order of `CompareReport::placements`.
     pub placements: Vec<PlacementFigures>,
     /// The 3D view: the scene and every placement's probes.
-    pub view: super::view3d::View,
+    pub view: super::view3d::View3d,
 }
 
 /// The page for `report` with `figures`.
@@ -162,7 +162,7 @@ pub(crate) fn head(h: &mut String, title: &str) {
 /// Closes a page: the error log, the line saying how many of its
 /// `figures` images decoded, the 3D view's data and scripts (when it has
 /// one), `</body>`.
-pub(crate) fn tail(h: &mut String, figures: usize, view: Option<&super::view3d::View>) {
+pub(crate) fn tail(h: &mut String, figures: usize, view: Option<&super::view3d::View3d>) {
     let _ = writeln!(
         h,
         "<pre id=\"page-errors\" data-count=\"0\" hidden></pre>\n\

@@ -98,7 +98,7 @@ pub fn render_preview(input: &PreviewInput, view_size: u32) -> RgbImage {
     let size = view_size as usize;
     // The two views are drawn at once, each into its own buffer, then
     // placed side by side.
-    let draw = |view: View| -> Vec<u8> {
+    let draw = |view: Projection| -> Vec<u8> {
         let mut buf = vec![0u8; size * size * 3];
         let mut zbuf = vec![f32::NEG_INFINITY; size * size];
         let mut canvas = Canvas {
@@ -115,7 +115,7 @@ pub fn render_preview(input: &PreviewInput, view_size: u32) -> RgbImage {
         draw_probes(&mut canvas, input.probes, view, &frame);
         buf
     };
-    let (top, side) = rayon::join(|| draw(View::Top), || draw(side_view(input)));
+    let (top, side) = rayon::join(|| draw(Projection::Top), || draw(side_view(input)));
     let stride = width as usize * 3;
     let row = size * 3;
     let right = (size + gap as usize) * 3;
@@ -130,7 +130,7 @@ pub fn render_preview(input: &PreviewInput, view_size: u32) -> RgbImage {
 
 /// One of the two orthographic views.
 #[derive(Clone, Copy, Debug)]
-enum View {
+enum Projection {
     /// Looking down −Y: +X right, −Z up the image, depth grows with +Y.
     Top,
     /// Looking along −Z: +X right, +Y up the image, depth grows with +Z.
@@ -142,7 +142,7 @@ enum View {
 /// The side view that shows more: looking along −Z unless looking along +Z
 /// faces more front-facing area (a room open towards +Z, like the Cornell
 /// box with its open front at z = 0, shows its back wall only from there).
-fn side_view(input: &PreviewInput) -> View {
+fn side_view(input: &PreviewInput) -> Projection {
     let mut facing = 0.0f64;
     for tri in input.triangles {
         if tri.iter().all(|p| p.is_finite()) {
@@ -152,19 +152,19 @@ fn side_view(input: &PreviewInput) -> View {
     }
     // `facing` > 0: more area faces +Z, i.e. towards a viewer looking along −Z.
     if facing < 0.0 {
-        View::SideReverse
+        Projection::SideReverse
     } else {
-        View::Side
+        Projection::Side
     }
 }
 
-impl View {
+impl Projection {
     /// Maps a world vector to `[right, up, towards viewer]` view coordinates.
     fn axes(self, p: DVec3) -> [f64; 3] {
         match self {
-            View::Top => [p.x, -p.z, p.y],
-            View::Side => [p.x, p.y, p.z],
-            View::SideReverse => [-p.x, p.y, -p.z],
+            Projection::Top => [p.x, -p.z, p.y],
+            Projection::Side => [p.x, p.y, p.z],
+            Projection::SideReverse => [-p.x, p.y, -p.z],
         }
     }
 }
@@ -210,7 +210,7 @@ struct Frame {
 
 impl Frame {
     /// Fits the box `lo..hi` into a `size`×`size` view with a margin.
-    fn new(view: View, lo: DVec3, hi: DVec3, size: usize) -> Self {
+    fn new(view: Projection, lo: DVec3, hi: DVec3, size: usize) -> Self {
         let (a, b) = (view.axes(lo), view.axes(hi));
         let (u0, u1) = (a[0].min(b[0]), a[0].max(b[0]));
         let (v0, v1) = (a[1].min(b[1]), a[1].max(b[1]));
@@ -249,7 +249,7 @@ impl Frame {
 
     /// Projects a world point to `[pixel x, pixel y, depth]` (depth grows
     /// towards the viewer).
-    fn project(&self, view: View, p: DVec3) -> [f64; 3] {
+    fn project(&self, view: Projection, p: DVec3) -> [f64; 3] {
         let [u, v, d] = view.axes(p);
         [
             self.half + (u - self.center_u) * self.scale,
@@ -346,7 +346,7 @@ fn draw_triangles(
     canvas: &mut Canvas,
     zbuf: &mut [f32],
     input: &PreviewInput,
-    view: View,
+    view: Projection,
     frame: &Frame,
     cut: f32,
 ) {
@@ -376,7 +376,7 @@ fn draw_scene(
     canvas: &mut Canvas,
     zbuf: &mut [f32],
     input: &PreviewInput,
-    view: View,
+    view: Projection,
     frame: &Frame,
 ) -> f64 {
     draw_triangles(canvas, zbuf, input, view, frame, f32::INFINITY);
@@ -408,7 +408,7 @@ fn draw_holes(
     canvas: &mut Canvas,
     zbuf: &[f32],
     holes: &[Vec3],
-    view: View,
+    view: Projection,
     frame: &Frame,
     cut: f64,
 ) {
@@ -538,7 +538,7 @@ fn linear_to_srgb8(x: f64) -> u8 {
 }
 
 /// Outlines the framing box with one-pixel light-grey lines.
-fn draw_bounds(canvas: &mut Canvas, view: View, frame: &Frame, lo: DVec3, hi: DVec3) {
+fn draw_bounds(canvas: &mut Canvas, view: Projection, frame: &Frame, lo: DVec3, hi: DVec3) {
     let a = frame.project(view, lo);
     let b = frame.project(view, hi);
     let size = canvas.size as f64;
@@ -563,7 +563,7 @@ fn draw_bounds(canvas: &mut Canvas, view: View, frame: &Frame, lo: DVec3, hi: DV
 
 /// Draws every finite probe as a yellow disc with a one-pixel black outline,
 /// on top of the geometry and clipped to the view.
-fn draw_probes(canvas: &mut Canvas, probes: &[Vec3], view: View, frame: &Frame) {
+fn draw_probes(canvas: &mut Canvas, probes: &[Vec3], view: Projection, frame: &Frame) {
     let r = frame.probe_radius;
     let (outer, inner) = (r * r, (r - 1.0) * (r - 1.0));
     for probe in probes.iter().filter(|p| p.is_finite()) {
@@ -999,9 +999,9 @@ mod tests {
             .all(|t| (t[1] - t[0]).cross(t[2] - t[0]).y > 0.0));
         let colors = vec![[1.0, 1.0, 1.0]; tris.len()];
         let img = render(&tris, &colors, &[], 300);
-        let frame = Frame::new(View::Top, DVec3::splat(-1.0), DVec3::splat(1.0), 300);
-        let [x0, y0, _] = frame.project(View::Top, DVec3::new(-1.0, 0.0, -1.0));
-        let [x1, y1, _] = frame.project(View::Top, DVec3::new(1.0, 0.0, 1.0));
+        let frame = Frame::new(Projection::Top, DVec3::splat(-1.0), DVec3::splat(1.0), 300);
+        let [x0, y0, _] = frame.project(Projection::Top, DVec3::new(-1.0, 0.0, -1.0));
+        let [x1, y1, _] = frame.project(Projection::Top, DVec3::new(1.0, 0.0, 1.0));
         let (x0, y0) = (x0.ceil() as u32 + 1, y0.ceil() as u32 + 1);
         let (x1, y1) = (x1.floor() as u32 - 1, y1.floor() as u32 - 1);
         assert!(x1 > x0 + 200 && y1 > y0 + 200);

@@ -11,7 +11,7 @@
 //! files.
 
 use super::html::{self, bytes, escape, sci};
-use super::view3d::{self, View};
+use super::view3d::{self, View3d};
 use crate::error::Result;
 use crate::output::commit::OutputSet;
 use crate::scene::{Bounds, Scene};
@@ -27,7 +27,7 @@ use std::fmt::Write as _;
 /// Contract: deterministic outside `#timings`; every image is a `data:`
 /// URI; missing sections of the report (no refinement, no bake) leave
 /// their tables out.
-pub fn page(r: &Value, set: &OutputSet, view: &View) -> Result<String> {
+pub fn page(r: &Value, set: &OutputSet, view: &View3d) -> Result<String> {
     let mut h = String::with_capacity(4 << 20);
     let job = if r["render"].is_object() {
         "render"
@@ -79,7 +79,7 @@ pub fn view(
     report: &Value,
     positions: &[Vec3],
     svo: &Svo,
-) -> View {
+) -> View3d {
     let holes: Vec<Vec3> = report["coverage_holes"]
         .as_array()
         .map(|a| {
@@ -97,7 +97,7 @@ pub fn view(
         .unwrap_or(0)
         .saturating_sub(d["covered_samples"].as_u64().unwrap_or(0)) as usize;
     let set = view3d::ProbeSet::new(&text(&report["method"]), positions, sdf, svo, &holes, total);
-    View::new(scene, domain, vec![set])
+    View3d::new(scene, domain, vec![set])
 }
 
 /// A JSON string's text (`?` when absent).

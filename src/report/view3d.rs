@@ -315,7 +315,7 @@ fn floats_base64(v: &[f32]) -> String {
 }
 
 /// The whole view: one mesh, one or more probe sets.
-pub struct View {
+pub struct View3d {
     /// World position of the local coordinates' zero.
     pub origin: [f64; 3],
     /// The probe domain (local).
@@ -350,10 +350,10 @@ struct Colours {
     background: [u8; 3],
 }
 
-impl View {
+impl View3d {
     /// The view of `scene` over `domain` with `sets`.
-    pub fn new(scene: &Scene, domain: &Bounds, sets: Vec<ProbeSet>) -> View {
-        View {
+    pub fn new(scene: &Scene, domain: &Bounds, sets: Vec<ProbeSet>) -> View3d {
+        View3d {
             origin: scene.origin.to_array(),
             domain: *domain,
             mesh: Mesh::new(scene),
@@ -370,7 +370,7 @@ impl View {
     }
 
     /// The section of the page: controls, canvas, legend and notes. The
-    /// data and scripts go at the end of the body ([`View::scripts`]).
+    /// data and scripts go at the end of the body ([`View3d::scripts`]).
     pub fn section(&self, h: &mut String, intro: &str) {
         let _ = writeln!(
             h,

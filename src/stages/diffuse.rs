@@ -7,7 +7,7 @@ use crate::config::{CameraParams, Config};
 use crate::diffuse::{self, Errors, Irradiance, Receivers, ShLookup};
 use crate::lightfield::LightField;
 use crate::reachable::{self, Reachable};
-use crate::stages::validate::View;
+use crate::stages::validate::ValidationView;
 use crate::svo::Svo;
 use crate::trace::{gather, Lattice, Selection};
 use glam::{DVec3, Vec3};
@@ -51,7 +51,7 @@ pub fn check(config: &Config, probes: usize, limits: f64) -> crate::error::Resul
 pub fn bench(
     config: &Config,
     prepared: &Prepared,
-    views: &[View],
+    views: &[ValidationView],
     cameras: &[CameraParams],
 ) -> Option<Bench> {
     let d = &config.compare.diffuse;
@@ -110,7 +110,7 @@ pub struct Measured {
 
 /// A placement's diffuse measurements.
 #[derive(Debug, Clone)]
-pub struct Placement {
+pub struct DiffuseMeasure {
     /// SH L2 over Delaunay tetrahedra of the valid probes.
     pub sh: Measured,
     /// McGuire's irradiance gather by the SVO's probes, and for a grid
@@ -141,7 +141,7 @@ pub fn measure(
     field: &LightField,
     svo: &Svo,
     lattice: Option<&Lattice>,
-) -> Placement {
+) -> DiffuseMeasure {
     let d = &config.compare.diffuse;
     let renderer = prepared.renderer(config);
     let sh = diffuse::bake_sh(&renderer, positions, d.probe_rays.0, config.seed ^ 0x5A5A);
@@ -167,7 +167,7 @@ pub fn measure(
         .iter()
         .filter(|&&p| bench.reachable.excludes(&prepared.sdf, p))
         .count();
-    Placement {
+    DiffuseMeasure {
         sh: both(&|x| lookup.irradiance(x), true),
         gather_svo: gather_by(&Selection::Svo(svo)),
         gather_grid: lattice.map(|l| gather_by(&Selection::Grid(l))),

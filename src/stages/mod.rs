@@ -8,7 +8,7 @@
 //! | [`bake()`]: light-field maps, pyramid, irradiance | [`Baked`] | McGuire et al. 2017 §3; Wang §4.2 |
 //! | [`validate::reference`]: the path-traced reference | [`crate::render::Reference`] | Wang §5.1 |
 //! | [`validate::validate`]: a render through the probes, measured | [`validate::Validation`] | Wang §5.1 |
-//! | [`diffuse::bench`], [`diffuse::measure`]: irradiance at receivers as engines blend probes | [`diffuse::Placement`] | Ramamoorthi & Hanrahan 2001; McGuire §5.2 |
+//! | [`diffuse::bench`], [`diffuse::measure`]: irradiance at receivers as engines blend probes | [`diffuse::DiffuseMeasure`] | Ramamoorthi & Hanrahan 2001; McGuire §5.2 |
 //!
 //! Stages compute; they never encode a file. Each product carries the wall
 //! times of its steps in a [`Stopwatch`] the job folds into its own.

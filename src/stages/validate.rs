@@ -98,7 +98,7 @@ pub fn reference(
 }
 
 /// One camera's fixed inputs: its reference, G-buffer and display scales.
-pub struct View {
+pub struct ValidationView {
     /// The camera.
     pub camera: CameraParams,
     /// Its path-traced reference.
@@ -119,7 +119,7 @@ pub struct View {
     pub error_scale: f32,
 }
 
-impl View {
+impl ValidationView {
     /// The view of camera `index` with its `reference`, `glossy_rays` glossy
     /// rays per pixel (common random numbers: the same rays for every
     /// placement measured from this view).
@@ -130,7 +130,7 @@ impl View {
         index: usize,
         reference: Reference,
         glossy_rays: u32,
-    ) -> View {
+    ) -> ValidationView {
         let (scene, bvh) = (&prepared.scene, &prepared.bvh);
         let direct = Renderer::new(scene, bvh, &config.lights, 0);
         let gbuffer = gbuffer(
@@ -149,7 +149,7 @@ impl View {
             FILTER_RADIUS,
         );
         let glossy_exposure = auto_exposure(&filtered_glossy);
-        View {
+        ValidationView {
             camera: *camera,
             flip_reference: flip::display(
                 &filtered_glossy,
@@ -235,7 +235,7 @@ impl<'a> Tracer<'a> {
     }
 
     /// Irradiance at the view's surfaces, and the GPU time.
-    pub fn gather(&self, view: &View, kind: SelectionKind) -> Result<Answers> {
+    pub fn gather(&self, view: &ValidationView, kind: SelectionKind) -> Result<Answers> {
         let q = &view.gbuffer.irradiance;
         match &self.gpu {
             Some(t) => t.gather_irradiance(q, kind).map_err(Error::Internal),
@@ -247,7 +247,12 @@ impl<'a> Tracer<'a> {
     }
 
     /// The view's glossy rays through the probes, and the GPU time.
-    pub fn trace(&self, view: &View, march: March, kind: SelectionKind) -> Result<Answers> {
+    pub fn trace(
+        &self,
+        view: &ValidationView,
+        march: March,
+        kind: SelectionKind,
+    ) -> Result<Answers> {
         let q = &view.gbuffer.glossy;
         match &self.gpu {
             Some(t) => t.trace_rays(q, march, kind).map_err(Error::Internal),
@@ -340,7 +345,7 @@ pub const SHADING_POINTS: usize = 4096;
 /// the figure that explains why one placement's glossy error differs from
 /// another's at equal count (docs/method.md, "Comparing placements").
 pub fn shading_probe_distance(
-    view: &View,
+    view: &ValidationView,
     bvh: &crate::scene::raycast::SceneBvh,
     probes: &[Vec3],
 ) -> Option<f64> {
@@ -381,7 +386,7 @@ pub fn shading_probe_distance(
 /// Composes the view from `irradiance` (answers to its irradiance queries)
 /// and `glossy` (to its glossy rays) and measures it; `gpu_ms` is the sum
 /// of the two kernels' GPU times where both have one.
-pub fn validate(view: &View, irradiance: &Answers, glossy: &Answers) -> Validation {
+pub fn validate(view: &ValidationView, irradiance: &Answers, glossy: &Answers) -> Validation {
     let image = compose(&view.gbuffer, &irradiance.0, &glossy.0);
     let records = &glossy.0;
     let rays = records.len().max(1) as f64;

@@ -286,7 +286,7 @@ pub struct SvoReport {
 
 /// The baked octree and its report.
 #[derive(Debug, Clone)]
-pub struct Baked {
+pub struct BakedSvo {
     /// The octree.
     pub svo: Svo,
     /// Its figures.
@@ -321,7 +321,7 @@ pub(crate) fn check_work(params: &SvoParams, dims: glam::UVec3, probes: usize) -
 /// `leaves_without_visible_probe`); the result depends only on the inputs,
 /// never on thread scheduling. A leaf size giving too many leaves is a
 /// user error naming `svo.leaf_size`.
-pub fn bake(params: &SvoParams, probes: &ProbeSet, input: &PlacementInput) -> Result<Baked> {
+pub fn bake(params: &SvoParams, probes: &ProbeSet, input: &PlacementInput) -> Result<BakedSvo> {
     let sdf = input.sdf;
     let leaf_size = params.leaf_size.map_or(sdf.voxel_size, |s| s.0);
     let dims = sdf::grid_dims(input.domain, leaf_size).map_err(|_| {
@@ -380,7 +380,7 @@ pub fn bake(params: &SvoParams, probes: &ProbeSet, input: &PlacementInput) -> Re
         distinct_lists: svo.distinct_lists(),
         first_probe_visible,
     };
-    Ok(Baked { svo, report })
+    Ok(BakedSvo { svo, report })
 }
 
 /// Uniform random points of the domain in free space ([`rank::is_free`]): a
@@ -474,7 +474,7 @@ mod tests {
         crate::scene::testing::input_over(scene, bvh, sdf, 3, progress)
     }
 
-    fn bake_room(params: &SvoParams) -> (Baked, Scene, SceneBvh, Sdf, ProbeSet) {
+    fn bake_room(params: &SvoParams) -> (BakedSvo, Scene, SceneBvh, Sdf, ProbeSet) {
         let (scene, bvh, sdf, set) = room();
         let progress = Progress::hidden();
         let baked = bake(params, &set, &input(&scene, &bvh, &sdf, &progress)).unwrap();

@@ -12,7 +12,7 @@
 //! do not constrain the merge: queries there are never made by a renderer.
 //! Nor do leaves no probe sees: any list serves them equally badly.
 
-use super::rank::{LeafRanker, Ranked, Scratch, Source};
+use super::rank::{LeafRanker, ListOrigin, Ranked, Scratch};
 use crate::error::{Error, Result};
 use crate::sdf::VoxelClass;
 use glam::{UVec3, Vec3};
@@ -178,15 +178,15 @@ impl<'a> Builder<'a> {
         match self.ranker.rank(cell, candidates, scratch) {
             None => (Built::Empty, Tally::default()),
             Some((r, source)) => (
-                if source == Source::Blind {
+                if source == ListOrigin::Blind {
                     Built::Unseen(r.probes()[0])
                 } else {
                     Built::Leaf(r)
                 },
                 Tally {
                     free: 1,
-                    fallback: u64::from(source == Source::Fallback),
-                    blind: u64::from(source == Source::Blind),
+                    fallback: u64::from(source == ListOrigin::Fallback),
+                    blind: u64::from(source == ListOrigin::Blind),
                 },
             ),
         }

@@ -251,7 +251,7 @@ fn free_neighbours(sdf: &Sdf, v: glam::IVec3) -> FreeNeighbours {
 
 /// How a leaf got its list.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Source {
+pub enum ListOrigin {
     /// From the probes whose influence region holds it.
     Influence,
     /// No such probe sees it: the nearest probe that does.
@@ -373,14 +373,14 @@ impl LeafRanker<'_> {
     /// `None` when the leaf holds no free space.
     ///
     /// Contract: the list is non-empty, best first, at most [`KEEP`] long;
-    /// with [`Source::Influence`] every listed probe sees at least one
+    /// with [`ListOrigin::Influence`] every listed probe sees at least one
     /// sample point of the leaf and is a candidate whose influence overlaps it.
     pub fn rank(
         &self,
         cell: UVec3,
         candidates: &[u32],
         scratch: &mut Scratch,
-    ) -> Option<(Ranked, Source)> {
+    ) -> Option<(Ranked, ListOrigin)> {
         let Scratch {
             samples,
             candidates: bounded,
@@ -405,7 +405,7 @@ impl LeafRanker<'_> {
         );
         self.best_visible(samples, bounded, best, blockers);
         if !best.is_empty() {
-            return Some((ranked(best, None), Source::Influence));
+            return Some((ranked(best, None), ListOrigin::Influence));
         }
         // Fallback over all probes: the nearest that sees the leaf first,
         // then the others that see it, by score, so that the leaf still
@@ -428,7 +428,7 @@ impl LeafRanker<'_> {
                 self.visible_within(samples, probe, samples.len() - 1, &mut blockers[k as usize]);
             (seen > 0).then_some((i, seen))
         }) else {
-            return Some((Ranked::single(nearest), Source::Blind));
+            return Some((Ranked::single(nearest), ListOrigin::Blind));
         };
         let first = bounded[at].1;
         let first_score = self.bound(first, centre) * seen as f32 / n;
@@ -438,7 +438,10 @@ impl LeafRanker<'_> {
             bounded[i].0 = self.bound(bounded[i].1, centre);
         }
         self.best_visible(samples, &mut bounded[rest], best, blockers);
-        Some((ranked(best, Some((first_score, first))), Source::Fallback))
+        Some((
+            ranked(best, Some((first_score, first))),
+            ListOrigin::Fallback,
+        ))
     }
 
     /// Ω̄_k / d̄ for probe `k` and the leaf centred at `centre`: the score

@@ -2,7 +2,7 @@
 //! find the hit a BVH finds wherever some probe sees that hit (McGuire §4.1:
 //! any probe that observes a point places it at the same world position).
 
-use super::{single::March, single::Steps, trace, Outcome, Selection};
+use super::{single::March, single::Steps, trace, RayOutcome, Selection};
 use crate::lightfield::LightField;
 use crate::sampling::uniform_direction;
 use crate::scene::raycast::SceneBvh;
@@ -106,7 +106,7 @@ pub fn compare(
             match bvh.closest_hit(o, d, 0.0, t_max) {
                 None => {
                     a.escaping = 1;
-                    a.escaping_missed = matches!(out, Outcome::Miss { .. }) as u64;
+                    a.escaping_missed = matches!(out, RayOutcome::Miss { .. }) as u64;
                 }
                 Some(hit) => {
                     let x = o + d * hit.t;
@@ -116,12 +116,12 @@ pub fn compare(
                         a.seen = 1;
                         let cos = scene.normals[hit.triangle as usize].dot(d);
                         match out {
-                            Outcome::Hit { t, probe } => {
+                            RayOutcome::Hit { t, probe } => {
                                 let r = (field.positions[probe as usize] - x).length();
                                 a.agree = ((t - hit.t).abs() <= texel_tolerance(r, n, cos)) as u64;
                             }
-                            Outcome::Unknown { .. } => a.unknown = 1,
-                            Outcome::Miss { .. } => {}
+                            RayOutcome::Unknown { .. } => a.unknown = 1,
+                            RayOutcome::Miss { .. } => {}
                         }
                     }
                 }

@@ -25,7 +25,7 @@ use std::collections::HashMap;
 
 /// What the light field says about a ray.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub enum Outcome {
+pub enum RayOutcome {
     /// The ray hits a surface at `t`, as seen by probe `probe`.
     Hit {
         /// Distance along the ray.
@@ -48,7 +48,7 @@ pub enum Outcome {
     },
 }
 
-impl Outcome {
+impl RayOutcome {
     /// Where the ray's radiance is read (McGuire §4.1): the probe that
     /// resolved it and the texel (`y·n + x`) of its maps that looks at the
     /// ray's end. A hit reads the texel seeing the hit point; an unknown
@@ -60,13 +60,13 @@ impl Outcome {
     /// the same texel.
     pub fn lookup(&self, field: &LightField, origin: Vec3, dir: Vec3) -> Option<(u32, u32)> {
         let (probe, toward) = match *self {
-            Outcome::Hit { t, probe }
-            | Outcome::Unknown {
+            RayOutcome::Hit { t, probe }
+            | RayOutcome::Unknown {
                 t,
                 probe: Some(probe),
             } => (probe, origin + dir * t - field.positions[probe as usize]),
-            Outcome::Miss { probe } => (probe, dir),
-            Outcome::Unknown { probe: None, .. } => return None,
+            RayOutcome::Miss { probe } => (probe, dir),
+            RayOutcome::Unknown { probe: None, .. } => return None,
         };
         let n = field.resolution;
         let (x, y) = octahedral::texel_of(toward, n);
@@ -194,7 +194,7 @@ pub fn trace(
     t_max: f32,
     march: single::March,
     steps: &mut single::Steps,
-) -> Outcome {
+) -> RayOutcome {
     let mut t = 0.0f32;
     let mut tried: [u32; MAX_PROBES_PER_RAY] = [u32::MAX; MAX_PROBES_PER_RAY];
     let mut count = 0;
@@ -235,18 +235,18 @@ pub fn trace(
         };
         let Some(probe) = next else {
             let last = count.checked_sub(1).map(|i| tried[i]);
-            return Outcome::Unknown { t, probe: last };
+            return RayOutcome::Unknown { t, probe: last };
         };
         tried[count] = probe;
         count += 1;
         steps.probes += 1;
         match single::trace(field, probe as usize, origin, dir, t, t_max, march, steps) {
-            single::Probe::Hit(th) => return Outcome::Hit { t: th, probe },
-            single::Probe::Miss => return Outcome::Miss { probe },
+            single::Probe::Hit(th) => return RayOutcome::Hit { t: th, probe },
+            single::Probe::Miss => return RayOutcome::Miss { probe },
             single::Probe::Unknown(tu) => t = tu.max(t),
         }
     }
-    Outcome::Unknown {
+    RayOutcome::Unknown {
         t,
         probe: Some(tried[count - 1]),
     }

@@ -51,8 +51,9 @@ fn compare_with_grids(config: &str, target: f32) -> (u64, Option<([u32; 3], f64)
     // The grids, scored by the same coverage measure: the run's own
     // reference (same seed, same samples).
     let progress = Progress::hidden();
-    let smallest = probeplace::jobs::compare::smallest_grid_reaching(
-        &run.prepared,
+    let smallest = probeplace::placement::grid::smallest_grid_reaching(
+        &run.prepared.domain,
+        &run.prepared.bvh,
         &run.reference,
         target as f64,
         SWEEP_STEPS,

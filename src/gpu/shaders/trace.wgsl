@@ -436,7 +436,7 @@ fn trace_rays(@builtin(global_invocation_id) gid: vec3u) {
         }
         t = max(r.t, t);
     }
-    // trace::Outcome::lookup
+    // trace::RayOutcome::lookup
     var texel = NO_PROBE;
     var radiance = vec4f(0.0);
     if probe_out != NO_PROBE {
