@@ -42,7 +42,7 @@
 //! can see (back sides of walls, faces buried in other geometry) are left out
 //! of both, so a method is not blamed for what nobody could see.
 
-use crate::config::CoverageParams;
+use crate::config::params::CoverageParams;
 use crate::progress::Progress;
 use crate::sampling::{hash2, point_in_triangle, unit_f32};
 use crate::scene::raycast::{Blocker, SceneBvh};
@@ -120,7 +120,7 @@ pub fn judge_point(bvh: &SceneBvh, voxel_size: f32, p: Vec3) -> VoxelClass {
     RULE.with(|cell| {
         let mut cell = cell.borrow_mut();
         if cell.as_ref().is_none_or(|(v, _)| *v != voxel_size) {
-            let outside = crate::config::SdfParams::default()
+            let outside = crate::config::params::SdfParams::default()
                 .outside_escape_fraction
                 .0;
             *cell = Some((

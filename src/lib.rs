@@ -100,7 +100,6 @@ pub(crate) mod resolution;
 pub mod sampling;
 pub mod scene;
 pub mod sdf;
-pub(crate) mod skeleton;
 pub mod stages;
 pub(crate) mod stats;
 pub mod svo;

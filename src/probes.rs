@@ -1,6 +1,6 @@
 //! The probe set every placement method produces, and what every method
 //! reads: the types the placement methods ([`crate::placement`],
-//! [`crate::skeleton`]) share, kept apart so neither module depends on the
+//! `placement::skeleton`) share, kept apart so neither module depends on the
 //! other.
 
 use crate::progress::Progress;

@@ -58,7 +58,7 @@
 //! points (Rong & Tan 2006), which keeps them Euclidean to within a small
 //! fraction of a voxel. Solid voxels carry negative distances.
 
-use crate::config::SdfParams;
+use crate::config::params::SdfParams;
 use crate::error::{Error, Result};
 use crate::progress::Progress;
 use crate::sampling::{fibonacci_sphere, hash2, random_rotation};
@@ -204,7 +204,7 @@ pub fn grid_dims(domain: &Bounds, voxel_size: f32) -> Result<UVec3> {
     if !total.is_finite() || total > MAX_VOXELS as f64 {
         return Err(Error::User(format!(
             "voxel_size: {} gives {total:.3e} voxels over a domain of {:.3} x {:.3} x {:.3} (limit {MAX_VOXELS}); use a larger voxel_size",
-            crate::config::short(voxel_size),
+            crate::config::numbers::short(voxel_size),
             domain.size().x,
             domain.size().y,
             domain.size().z

@@ -8,14 +8,20 @@
 //! and column where the parser stood, in one line.
 
 mod locate;
-mod numbers;
-mod params;
+pub(crate) mod numbers;
+pub(crate) mod params;
 
 use crate::error::{Error, Result};
 use locate::{check_voxel_size_word, field_before};
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
 
+pub use crate::placement::adaptive::{AdaptiveConfig, DEFAULT_ADAPTIVE_LEVELS};
+pub use crate::placement::greedy::GreedyParams;
+pub use crate::placement::registry::Placement;
+pub use crate::placement::skeleton::medial_axis::MedialAxisParams;
+pub use crate::placement::skeleton::sdf_skeleton::SdfSkeletonParams;
+pub use crate::placement::skeleton::surface_points::MAX_SURFACE_POINTS;
 pub use locate::{locate, strip_bom};
 pub use numbers::{
     short, short_all, Count, Degrees, Direction, Fraction, NonNegative, Point3, Positive,

@@ -77,8 +77,14 @@ const FIGURE_VIEWS: usize = 1;
 /// each reference alone is bounded by one.
 const COMPARE_WORK_FACTOR: f64 = 4.0;
 
-/// Our methods, in report order.
-const OURS: [&str; 2] = ["sdf-skeleton", "medial-axis"];
+/// Our methods, in report order: those of the registry whose role is
+/// [`Role::Ours`](crate::placement::Role::Ours), in its order.
+fn ours() -> impl Iterator<Item = &'static str> {
+    placement::METHODS
+        .iter()
+        .filter(|m| m.role == placement::Role::Ours)
+        .map(|m| m.word)
+}
 
 /// Runs `probeplace compare`.
 ///
@@ -680,7 +686,7 @@ impl Bench<'_> {
     fn place_ours(&mut self, job: &mut Job) -> Result<(Vec<Unmeasured>, usize)> {
         let mut ours_count = 0;
         let mut out = Vec::new();
-        for method in OURS {
+        for method in ours() {
             let t = std::time::Instant::now();
             let candidate = match reuse(job, method, self.prepared)? {
                 Some(found) => found,
@@ -1099,9 +1105,10 @@ fn nearest_by_cells(grids: &[GridParams], count: usize) -> Option<GridParams> {
 /// The method of ours the comparison headlines: the config's, when it is
 /// one of ours, else the first.
 fn ours_default(config: &Placement) -> &'static str {
-    OURS.into_iter()
+    ours()
         .find(|m| *m == config.name())
-        .unwrap_or(OURS[0])
+        .or_else(|| ours().next())
+        .expect("the registry lists a method of ours")
 }
 
 /// A fresh placement as a candidate.

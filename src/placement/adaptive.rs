@@ -31,18 +31,82 @@
 //! `--method adaptive:MIN_SPACING` or `placement: Adaptive((min_spacing:
 //! s, levels: 3))`; not yet among `compare`'s competitors.
 
-use super::{grid_min_clearance, PlacementInput, Probe, ProbeSet};
+use super::grid::grid_min_clearance;
+use crate::config::numbers::{short, Count, Positive};
 use crate::error::{Error, Result};
+use crate::placement::method::{Method, Role};
+use crate::probes::{PlacementInput, Probe, ProbeSet};
 use crate::sdf::{Sdf, VoxelClass};
 use glam::{IVec3, Vec3};
+use serde::Deserialize;
 use std::collections::BTreeMap;
+
+/// Parameters of the adaptive (APV-style) baseline.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AdaptiveConfig {
+    /// The finest probe spacing (world units).
+    pub min_spacing: Positive,
+    /// Subdivision levels: the coarsest spacing is `min_spacing` × 3^(levels − 1).
+    #[serde(default = "default_adaptive_levels")]
+    pub levels: Count<4>,
+}
+
+/// The levels of an `Adaptive` placement when the config gives none, and
+/// those `compare` gives its adaptive baseline.
+pub const DEFAULT_ADAPTIVE_LEVELS: u32 = 3;
+
+fn default_adaptive_levels() -> Count<4> {
+    Count(DEFAULT_ADAPTIVE_LEVELS)
+}
+
+/// The `adaptive:MIN_SPACING` method, a competitor: [`adaptive`].
+pub struct Adaptive;
+
+impl Method for Adaptive {
+    type Params = AdaptiveConfig;
+    const WORD: &'static str = "adaptive";
+    const TAKES_ARGUMENT: bool = true;
+    const FORM: &'static str = "adaptive:MIN_SPACING";
+    const ABOUT: &'static str = "Unity's Adaptive Probe Volumes, as documented: bricks of 4×4×4 probes subdivided where geometry is near, probes in geometry pushed out or dropped";
+    const ROLE: Role = Role::Competitor;
+
+    fn name(params: &AdaptiveConfig) -> String {
+        format!("adaptive:{}", short(params.min_spacing.0))
+    }
+
+    fn parse_cli(
+        argument: Option<&str>,
+        base: Option<&AdaptiveConfig>,
+    ) -> std::result::Result<AdaptiveConfig, String> {
+        let v: f64 = argument.unwrap_or("").parse().map_err(|_| {
+            "the minimum spacing must be a number in world units, e.g. adaptive:0.5".to_string()
+        })?;
+        let min_spacing = Positive::try_from(v).map_err(|e| format!("spacing {e}"))?;
+        let levels = base.map_or_else(default_adaptive_levels, |a| a.levels);
+        Ok(AdaptiveConfig {
+            min_spacing,
+            levels,
+        })
+    }
+
+    fn place(params: &AdaptiveConfig, input: &PlacementInput) -> Result<ProbeSet> {
+        adaptive(
+            &AdaptiveParams {
+                min_spacing: params.min_spacing.0,
+                levels: params.levels.0,
+            },
+            input,
+        )
+    }
+}
 
 /// Most lattice points the bricks may give before validation: beyond it a
 /// `min_spacing` is too fine for the domain.
 pub const MAX_POINTS: usize = 4 * crate::limits::MAX_PROBES;
 
 /// Levels `compare` gives the baseline (the config's default too).
-pub const DEFAULT_LEVELS: u32 = crate::config::DEFAULT_ADAPTIVE_LEVELS;
+pub const DEFAULT_LEVELS: u32 = DEFAULT_ADAPTIVE_LEVELS;
 
 /// Bisection steps [`spacing_for_count`] takes on the log of the spacing.
 pub const SPACING_STEPS: u32 = 40;
@@ -149,7 +213,7 @@ pub fn adaptive(params: &AdaptiveParams, input: &PlacementInput) -> Result<Probe
         if points.len() > MAX_POINTS {
             return Err(Error::User(format!(
                 "adaptive: a minimum spacing of {} gives over {MAX_POINTS} probe positions in this domain; raise it",
-                crate::config::short(s0)
+                short(s0)
             )));
         }
     }
@@ -194,7 +258,7 @@ pub fn adaptive(params: &AdaptiveParams, input: &PlacementInput) -> Result<Probe
         stats.insert(NAMES[k], n);
     }
     Ok(ProbeSet {
-        method: format!("adaptive:{}", crate::config::short(s0)),
+        method: format!("adaptive:{}", short(s0)),
         probes,
         stats,
         params: BTreeMap::from([("min_spacing", s0 as f64), ("levels", params.levels as f64)]),

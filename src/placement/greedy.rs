@@ -42,17 +42,62 @@
 //! for its own interpolation (N_overlap = 10); our probes carry no radius,
 //! so that step has no counterpart here.
 
-use super::{grid_min_clearance, PlacementInput, Probe, ProbeSet};
-use crate::config::GreedyParams;
+use super::grid::grid_min_clearance;
+use crate::config::numbers::Positive;
 use crate::error::{Error, Result};
+use crate::placement::method::{Method, Role};
+use crate::probes::{PlacementInput, Probe, ProbeSet};
 use crate::sampling::hash2;
 use crate::scene::Bounds;
 use crate::sdf::{Sdf, VoxelClass};
 use glam::{IVec3, Vec3};
 use kiddo::{ImmutableKdTree, SquaredEuclidean};
 use rayon::prelude::*;
+use serde::Deserialize;
 use std::cmp::Ordering;
 use std::collections::{BTreeMap, BinaryHeap};
+
+/// Parameters of the greedy voxel placement (Silvennoinen & Lehtinen 2017,
+/// §4.1 "Probe Locations and Radii").
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GreedyParams {
+    /// The paper's ρ_probes (world units): the radius of the density
+    /// kernel, and the spacing of the regular grid over the domain whose
+    /// point count is the number of probes kept.
+    pub spacing: Positive,
+}
+
+/// The `greedy:SPACING` method, a competitor: [`greedy`].
+pub struct Greedy;
+
+impl Method for Greedy {
+    type Params = GreedyParams;
+    const WORD: &'static str = "greedy";
+    const TAKES_ARGUMENT: bool = true;
+    const FORM: &'static str = "greedy:SPACING";
+    const ABOUT: &'static str = "Silvennoinen & Lehtinen 2017 §4.1: candidate voxels near surfaces thinned greedily by kernel density";
+    const ROLE: Role = Role::Competitor;
+
+    fn name(params: &GreedyParams) -> String {
+        format!("greedy:{}", crate::config::numbers::short(params.spacing.0))
+    }
+
+    fn parse_cli(
+        argument: Option<&str>,
+        _: Option<&GreedyParams>,
+    ) -> std::result::Result<GreedyParams, String> {
+        let v: f64 = argument.unwrap_or("").parse().map_err(|_| {
+            "the spacing must be a number in world units, e.g. greedy:0.5".to_string()
+        })?;
+        let spacing = Positive::try_from(v).map_err(|e| format!("spacing {e}"))?;
+        Ok(GreedyParams { spacing })
+    }
+
+    fn place(params: &GreedyParams, input: &PlacementInput) -> Result<ProbeSet> {
+        greedy(params, input)
+    }
+}
 
 /// Most candidates the thinning works on; more are subsampled (seeded).
 pub const MAX_CANDIDATES: usize = 20_000;
@@ -294,7 +339,7 @@ pub fn greedy(params: &GreedyParams, input: &PlacementInput) -> Result<ProbeSet>
     if rho < sdf.voxel_size {
         return Err(Error::User(format!(
             "placement.spacing: greedy:{} is below the voxel size {}, where the kernel of eq. 10 reaches no neighbouring candidate and every candidate would be kept; use a spacing of at least {}",
-            crate::config::short(rho),
+            crate::config::numbers::short(rho),
             sdf.voxel_size,
             sdf.voxel_size
         )));

@@ -3,14 +3,53 @@
 //! coverage (Wang et al. 2019 §5, Table 1), and grids around a probe count
 //! (`compare`).
 
-use crate::config::GridParams;
+use crate::config::params::GridParams;
 use crate::coverage::CoverageReference;
+use crate::error::Result;
+use crate::placement::method::{Method, Role};
 use crate::probes::Probe;
+use crate::probes::{PlacementInput, ProbeSet};
 use crate::progress::Progress;
 use crate::scene::raycast::SceneBvh;
 use crate::scene::Bounds;
 use crate::sdf::Sdf;
 use glam::Vec3;
+use std::collections::BTreeMap;
+
+/// The `grid:NxMxK` method, the uniform grid engines use today: [`grid`].
+pub struct Grid;
+
+impl Method for Grid {
+    type Params = GridParams;
+    const WORD: &'static str = "grid";
+    const TAKES_ARGUMENT: bool = true;
+    const FORM: &'static str = "grid:NxMxK";
+    const ABOUT: &'static str =
+        "McGuire et al. 2017 §4: the domain cut into N×M×K cells, a probe at each cell's centre";
+    const ROLE: Role = Role::Grid;
+
+    fn name(params: &GridParams) -> String {
+        format!("grid:{}", params.dims_text())
+    }
+
+    fn parse_cli(
+        argument: Option<&str>,
+        _: Option<&GridParams>,
+    ) -> std::result::Result<GridParams, String> {
+        GridParams::parse_dims(argument.unwrap_or(""), "grid")
+    }
+
+    fn place(params: &GridParams, input: &PlacementInput) -> Result<ProbeSet> {
+        Ok(ProbeSet {
+            method: Self::name(params),
+            probes: grid(params, input.domain),
+            stats: BTreeMap::new(),
+            params: BTreeMap::new(),
+            min_clearance: grid_min_clearance(input.sdf),
+            fixed: 0,
+        })
+    }
+}
 
 /// McGuire et al. 2017's uniform grid: the domain divided into N×M×K cells,
 /// one probe at each cell centre, x fastest, then y, then z.

@@ -43,9 +43,11 @@
 //!    cell diagonal, i.e. it sees no surface its irradiance could usefully
 //!    light (RTXGI's "no geometry in the probe's voxel" test).
 
-use super::{grid, grid_min_clearance, PlacementInput, Probe, ProbeSet};
-use crate::config::GridParams;
+use super::grid::{grid, grid_min_clearance};
+use crate::config::params::GridParams;
 use crate::error::{Error, Result};
+use crate::placement::method::{Method, Role};
+use crate::probes::{PlacementInput, Probe, ProbeSet};
 use crate::sampling::fibonacci_sphere;
 use crate::scene::raycast::SceneBvh;
 use glam::Vec3;
@@ -222,6 +224,33 @@ pub fn relocate_probe(bvh: &SceneBvh, centre: Vec3, rules: &Rules, dirs: &[Vec3]
             position: centre + offset,
             moved: offset != Vec3::ZERO,
         }
+    }
+}
+
+/// The `relocated:NxMxK` method, a competitor: [`relocated_grid`].
+pub struct Relocated;
+
+impl Method for Relocated {
+    type Params = GridParams;
+    const WORD: &'static str = "relocated";
+    const TAKES_ARGUMENT: bool = true;
+    const FORM: &'static str = "relocated:NxMxK";
+    const ABOUT: &'static str = "RTXGI/DDGI (Majercik et al. 2019): the uniform grid with its probes moved out of geometry within their cells, and switched off where they stay inside or see no surface";
+    const ROLE: Role = Role::Competitor;
+
+    fn name(params: &GridParams) -> String {
+        format!("relocated:{}", params.dims_text())
+    }
+
+    fn parse_cli(
+        argument: Option<&str>,
+        _: Option<&GridParams>,
+    ) -> std::result::Result<GridParams, String> {
+        GridParams::parse_dims(argument.unwrap_or(""), "relocated")
+    }
+
+    fn place(params: &GridParams, input: &PlacementInput) -> Result<ProbeSet> {
+        relocated_grid(params, input)
     }
 }
 

@@ -21,7 +21,7 @@ pub mod raycast;
 pub mod watertight;
 mod wide_bvh;
 
-use crate::config::UpAxis;
+use crate::config::params::UpAxis;
 use crate::error::{Error, Result};
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;

@@ -361,3 +361,36 @@ fn config_md_names_every_config_field() {
     probeplace::config::Config::parse(&text, std::path::Path::new("config.md"))
         .unwrap_or_else(|e| panic!("config.md's every-field example: {e}"));
 }
+
+/// docs/config.md's table of placement methods is the registry's list
+/// (`probeplace::placement::METHODS`), row for row: a method added to the
+/// list without its row, or a row left for a removed one, fails here with
+/// the block to paste.
+#[test]
+fn the_methods_table_is_the_registrys_list() {
+    use probeplace::placement::{Role, METHODS};
+    let mut block =
+        String::from("| config | `--method` | what | in `compare` |\n|---|---|---|---|\n");
+    for m in METHODS {
+        let role = match m.role {
+            Role::Ours => "ours",
+            Role::Grid => "the grid sweep",
+            Role::Competitor => "at our probe count",
+            Role::None => "—",
+        };
+        block += &format!(
+            "| `{}((…))` | `{}` | {} | {} |\n",
+            m.variant, m.form, m.about, role
+        );
+    }
+    let text = doc("config.md");
+    let (begin, end) = ("<!-- methods begin", "<!-- methods end -->");
+    let start = text.find(begin).expect("the methods block");
+    let start = start + text[start..].find("-->\n").unwrap() + 4;
+    let stop = text.find(end).expect("the methods block's end");
+    assert_eq!(
+        &text[start..stop],
+        block,
+        "docs/config.md's methods table is not the registry's; the block:\n{block}"
+    );
+}

@@ -42,13 +42,96 @@
 use super::ball_shrinking::{shrink_ball, NoBall, ShrinkParams, SurfaceIndex};
 use super::cluster::cluster_by_visibility;
 use super::surface_points::{precluster, sample_surface_points};
-use crate::config::MedialAxisParams;
+use crate::config::numbers::{Count, Degrees, Positive};
 use crate::error::{Error, Result};
+use crate::placement::method::{Method, Role};
 use crate::probes::{PlacementInput, Probe, ProbeSet};
 use crate::sdf::{Sdf, VoxelClass};
 use indicatif::ParallelProgressIterator;
 use rayon::prelude::*;
+use serde::Deserialize;
 use std::collections::BTreeMap;
+
+/// Parameters of the ball-shrinking medial axis placement (Wang et al. 2019,
+/// §3.1 "Ball Shrinking Skeletonization", Fig. 3; Ma, Bae, Choi 2012). Lengths
+/// left out scale with `voxel_size`, so one set of defaults suits every scene.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct MedialAxisParams {
+    /// Mean spacing of the oriented surface points (world units): one point
+    /// per `point_spacing`² of surface. `None`: 1 voxel.
+    pub point_spacing: Option<Positive>,
+    /// Pre-clustering radius (world units): surface points within it of a
+    /// cluster's seed, with normals within `precluster_angle_deg`, shrink one
+    /// ball together, and medial balls within it of a larger visible ball
+    /// merge into that ball's probe. The density control (Wang Fig. 3):
+    /// larger means fewer probes. `None`: 1.25 × the largest clearance in
+    /// the domain (the radius of its biggest empty ball), so that one value
+    /// suits a Cornell box and a palace alike.
+    pub precluster_radius: Option<Positive>,
+    /// Largest angle between a pre-cluster seed's normal and a member's.
+    pub precluster_angle_deg: Degrees,
+    /// Radius of the ball every shrink starts from (world units). `None`: the
+    /// domain's diagonal, larger than any ball that fits inside it.
+    pub initial_radius: Option<Positive>,
+    /// Guard against noise: a shrink towards a point q that the new centre c
+    /// sees at less than this angle from p (∠pcq) is refused and the ball
+    /// stops (Ma et al. 2012's separation-angle denoising).
+    pub min_separation_deg: Degrees,
+    /// Guard: most shrinking steps per ball.
+    pub max_iterations: Count<10_000>,
+    /// Medial balls smaller than this (world units) are dropped: they sit in
+    /// creases and narrow gaps, too close to a surface for a useful probe.
+    /// `None`: 3 voxels.
+    pub min_radius: Option<Positive>,
+    /// Medial balls within `cluster_radius` × the seed ball's radius (or
+    /// `precluster_radius`, if larger), and visible from its centre, join its
+    /// cluster; one probe per cluster. 1: balls whose centres lie inside the
+    /// seed's ball.
+    pub cluster_radius: Positive,
+}
+
+impl Default for MedialAxisParams {
+    fn default() -> Self {
+        MedialAxisParams {
+            point_spacing: None,
+            precluster_radius: None,
+            precluster_angle_deg: Degrees(30.0),
+            initial_radius: None,
+            min_separation_deg: Degrees(20.0),
+            max_iterations: Count(64),
+            min_radius: None,
+            cluster_radius: Positive(1.0),
+        }
+    }
+}
+
+/// The `medial-axis` method, ours: [`medial_axis`].
+pub struct MedialAxis;
+
+impl Method for MedialAxis {
+    type Params = MedialAxisParams;
+    const WORD: &'static str = "medial-axis";
+    const TAKES_ARGUMENT: bool = false;
+    const FORM: &'static str = "medial-axis";
+    const ABOUT: &'static str = "Wang et al. 2019 §3.1, Fig. 3: balls shrunk from pre-clustered oriented surface points to the medial axis, clustered by visibility";
+    const ROLE: Role = Role::Ours;
+
+    fn name(_: &MedialAxisParams) -> String {
+        Self::WORD.into()
+    }
+
+    fn parse_cli(
+        _: Option<&str>,
+        base: Option<&MedialAxisParams>,
+    ) -> std::result::Result<MedialAxisParams, String> {
+        Ok(base.copied().unwrap_or_default())
+    }
+
+    fn place(params: &MedialAxisParams, input: &PlacementInput) -> Result<ProbeSet> {
+        medial_axis(params, input)
+    }
+}
 
 /// Default `point_spacing`, in voxels.
 pub const DEFAULT_POINT_SPACING_VOXELS: f32 = 1.0;
@@ -80,7 +163,7 @@ impl Resolved {
     /// `domain_diagonal`.
     pub fn new(params: &MedialAxisParams, sdf: &Sdf, domain_diagonal: f32) -> Resolved {
         let voxel_size = sdf.voxel_size;
-        let or_voxels = |v: Option<crate::config::Positive>, voxels: f32| {
+        let or_voxels = |v: Option<crate::config::numbers::Positive>, voxels: f32| {
             v.map_or(voxels * voxel_size, |p| p.0)
         };
         Resolved {
@@ -210,7 +293,7 @@ pub fn medial_axis(params: &MedialAxisParams, input: &PlacementInput) -> Result<
         return Err(Error::User(format!(
             "placement.min_radius: no medial ball of the {} pre-clusters has a radius of at least {} with its centre free and inside the domain; lower min_radius or the voxel_size",
             clusters.len(),
-            crate::config::short(r.min_radius)
+            crate::config::numbers::short(r.min_radius)
         )));
     }
 

@@ -22,13 +22,63 @@
 //! instead.
 
 use super::cluster::cluster_by_visibility;
-use crate::config::SdfSkeletonParams;
+use crate::config::numbers::Positive;
 use crate::error::{Error, Result};
+use crate::placement::method::{Method, Role};
 use crate::probes::{PlacementInput, Probe, ProbeSet};
 use crate::sdf::{Sdf, VoxelClass};
 use glam::{IVec3, Vec3};
 use rayon::prelude::*;
+use serde::Deserialize;
 use std::collections::BTreeMap;
+
+/// Parameters of the SDF skeleton placement (Wang et al. 2019, §3.1).
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SdfSkeletonParams {
+    /// Voxels nearer to a surface than this (world units) are culled. `None`:
+    /// 4 voxels.
+    pub min_distance: Option<Positive>,
+    /// Skeleton voxels within `cluster_radius` × the seed voxel's distance to
+    /// the nearest surface, and visible from the seed, join its cluster.
+    pub cluster_radius: Positive,
+}
+
+impl Default for SdfSkeletonParams {
+    fn default() -> Self {
+        SdfSkeletonParams {
+            min_distance: None,
+            cluster_radius: Positive(2.0),
+        }
+    }
+}
+
+/// The `sdf-skeleton` method, ours: [`sdf_skeleton`].
+pub struct SdfSkeleton;
+
+impl Method for SdfSkeleton {
+    type Params = SdfSkeletonParams;
+    const WORD: &'static str = "sdf-skeleton";
+    const TAKES_ARGUMENT: bool = false;
+    const FORM: &'static str = "sdf-skeleton";
+    const ABOUT: &'static str = "Wang et al. 2019 §3.1: SDF voxels near surfaces culled, the skeleton of the rest clustered by visibility";
+    const ROLE: Role = Role::Ours;
+
+    fn name(_: &SdfSkeletonParams) -> String {
+        Self::WORD.into()
+    }
+
+    fn parse_cli(
+        _: Option<&str>,
+        base: Option<&SdfSkeletonParams>,
+    ) -> std::result::Result<SdfSkeletonParams, String> {
+        Ok(base.copied().unwrap_or_default())
+    }
+
+    fn place(params: &SdfSkeletonParams, input: &PlacementInput) -> Result<ProbeSet> {
+        sdf_skeleton(params, input)
+    }
+}
 
 /// Default culling distance, in voxels.
 pub const DEFAULT_MIN_DISTANCE_VOXELS: f32 = 4.0;
@@ -90,7 +140,7 @@ pub fn sdf_skeleton(params: &SdfSkeletonParams, input: &PlacementInput) -> Resul
         let largest = sdf.largest_clearance();
         return Err(Error::User(format!(
             "placement.min_distance: {} culls every free voxel (the largest clearance in the domain is {largest:.4}); lower it or the voxel_size",
-            crate::config::short(min_distance)
+            crate::config::numbers::short(min_distance)
         )));
     }
     let mut skeleton = medial_voxels(sdf, &kept);

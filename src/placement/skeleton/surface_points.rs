@@ -27,7 +27,6 @@
 //! and the ball stays tangent there. Bigger radii mean fewer balls, hence
 //! fewer probes: the paper's density control.
 
-use crate::config::MAX_SURFACE_POINTS;
 use crate::error::{Error, Result};
 use crate::sampling::{hash2, unit_f32};
 use crate::scene::Scene;
@@ -35,6 +34,10 @@ use crate::sdf::{Sdf, VoxelClass};
 use glam::Vec3;
 use kiddo::{ImmutableKdTree, SquaredEuclidean};
 use rayon::prelude::*;
+
+/// Most surface points the medial-axis method may sample; a `point_spacing`
+/// far below the scene's scale is a mistake, not a request for a billion points.
+pub const MAX_SURFACE_POINTS: u64 = 20_000_000;
 
 /// A surface point with a unit normal pointing into free space.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -81,7 +84,7 @@ pub fn sample_surface_points(
     if expected > MAX_SURFACE_POINTS as f64 {
         return Err(Error::User(format!(
             "placement.point_spacing: {} would sample {expected:.3e} surface points (the limit is {MAX_SURFACE_POINTS}); raise it",
-            crate::config::short(spacing)
+            crate::config::numbers::short(spacing)
         )));
     }
     let a1 = 1.0 / PLASTIC;

@@ -19,6 +19,3 @@ pub mod cluster;
 pub mod medial_axis;
 pub mod sdf_skeleton;
 pub mod surface_points;
-
-pub use medial_axis::medial_axis;
-pub use sdf_skeleton::sdf_skeleton;
