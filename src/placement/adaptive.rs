@@ -34,7 +34,7 @@
 use super::grid::grid_min_clearance;
 use crate::config::numbers::{short, Count, Positive};
 use crate::error::{Error, Result};
-use crate::placement::method::{Method, Role};
+use crate::placement::method::{length_argument, Method, Role};
 use crate::probes::{PlacementInput, Probe, ProbeSet};
 use crate::sdf::{Sdf, VoxelClass};
 use glam::{IVec3, Vec3};
@@ -79,10 +79,7 @@ impl Method for Adaptive {
         argument: Option<&str>,
         base: Option<&AdaptiveConfig>,
     ) -> std::result::Result<AdaptiveConfig, String> {
-        let v: f64 = argument.unwrap_or("").parse().map_err(|_| {
-            "the minimum spacing must be a number in world units, e.g. adaptive:0.5".to_string()
-        })?;
-        let min_spacing = Positive::try_from(v).map_err(|e| format!("spacing {e}"))?;
+        let min_spacing = length_argument(argument, "minimum spacing", "adaptive:0.5")?;
         let levels = base.map_or_else(default_adaptive_levels, |a| a.levels);
         Ok(AdaptiveConfig {
             min_spacing,

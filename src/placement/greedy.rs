@@ -45,7 +45,7 @@
 use super::grid::grid_min_clearance;
 use crate::config::numbers::Positive;
 use crate::error::{Error, Result};
-use crate::placement::method::{Method, Role};
+use crate::placement::method::{length_argument, Method, Role};
 use crate::probes::{PlacementInput, Probe, ProbeSet};
 use crate::sampling::hash2;
 use crate::scene::Bounds;
@@ -87,10 +87,7 @@ impl Method for Greedy {
         argument: Option<&str>,
         _: Option<&GreedyParams>,
     ) -> std::result::Result<GreedyParams, String> {
-        let v: f64 = argument.unwrap_or("").parse().map_err(|_| {
-            "the spacing must be a number in world units, e.g. greedy:0.5".to_string()
-        })?;
-        let spacing = Positive::try_from(v).map_err(|e| format!("spacing {e}"))?;
+        let spacing = length_argument(argument, "spacing", "greedy:0.5")?;
         Ok(GreedyParams { spacing })
     }
 

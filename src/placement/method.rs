@@ -86,6 +86,21 @@ pub(crate) fn argument<'a>(text: &'a str, word: &str, takes: bool) -> Option<Opt
     }
 }
 
+/// A length in world units given as a `--method` argument
+/// (`greedy:0.5`): `what` names it in the refusals, `example` shows a
+/// well-formed argument.
+pub(crate) fn length_argument(
+    argument: Option<&str>,
+    what: &str,
+    example: &str,
+) -> std::result::Result<crate::config::numbers::Positive, String> {
+    let v: f64 = argument
+        .unwrap_or("")
+        .parse()
+        .map_err(|_| format!("the {what} must be a number in world units, e.g. {example}"))?;
+    crate::config::numbers::Positive::try_from(v).map_err(|e| format!("spacing {e}"))
+}
+
 /// The forms of `entries` as one phrase: `a, b or c`.
 pub(crate) fn forms(entries: &[Entry]) -> String {
     let forms: Vec<&str> = entries.iter().map(|e| e.form).collect();

@@ -394,3 +394,11 @@ fn the_methods_table_is_the_registrys_list() {
         "docs/config.md's methods table is not the registry's; the block:\n{block}"
     );
 }
+
+/// The README stays a short manual (issue 46): at most 12 000 bytes, the
+/// long guides in docs/.
+#[test]
+fn the_readme_stays_under_twelve_thousand_bytes() {
+    let bytes = std::fs::read(root().join("README.md")).unwrap().len();
+    assert!(bytes <= 12_000, "README.md is {bytes} bytes");
+}
