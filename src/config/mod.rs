@@ -6,6 +6,11 @@
 //! out-of-range values. That way every mistake, an unknown field, a wrong type
 //! or a value out of range, is reported with the field's path *and* the line
 //! and column where the parser stood, in one line.
+//!
+//! By concern: the root [`Config`] and its loading here; every stage's
+//! parameters in `params`; the validated numbers in `numbers`; where the
+//! text writes a field in `locate`. The placement methods' parameters live
+//! with their methods (`crate::placement`), re-exported here.
 
 mod locate;
 pub(crate) mod numbers;

@@ -4,11 +4,15 @@
 //! BVH, SDF, domain) to a [`ProbeSet`]; coverage and reports treat all methods
 //! alike, so comparisons between them are fair.
 //!
-//! Besides the paper's methods (in `skeleton`) and McGuire's grid
-//! ([`grid`]), two competitors live in their own modules: [`relocate`], the grid
-//! with RTXGI/DDGI probe relocation and classification that current engines
-//! ship, and [`greedy`], Silvennoinen & Lehtinen 2017's greedy thinning of
-//! voxels near surfaces.
+//! A method is one file implementing [`Method`] and one line of the list in
+//! [`registry`], from which its config form ([`Placement`]), its
+//! `--method` form, its name and its row in docs/config.md derive
+//! (docs/layout.md, "Adding a placement method"). The list: the paper's
+//! two (Wang et al. 2019 §3.1, in `skeleton`), McGuire's grid ([`grid`]),
+//! and three competitors: [`relocate`], the grid with RTXGI/DDGI probe
+//! relocation and classification that current engines ship, [`greedy`],
+//! Silvennoinen & Lehtinen 2017's greedy thinning of voxels near surfaces,
+//! and [`adaptive`], Unity's Adaptive Probe Volumes.
 
 pub mod adaptive;
 pub mod controls;

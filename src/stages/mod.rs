@@ -11,7 +11,7 @@
 //! | [`diffuse::bench`], [`diffuse::measure`]: irradiance at receivers as engines blend probes | [`diffuse::DiffuseMeasure`] | Ramamoorthi & Hanrahan 2001; McGuire §5.2 |
 //!
 //! Stages compute; they never encode a file. Each product carries the wall
-//! times of its steps in a [`Stopwatch`] the job folds into its own.
+//! times of its steps in a [`Stopwatch`](crate::progress::Stopwatch) the job folds into its own.
 
 pub mod bake;
 pub mod diffuse;
