@@ -323,7 +323,17 @@ fn no_import_circle_among_the_files_of_src() {
     assert!(has(&["error"], &["config", "locate"]));
     assert!(has(&["output", "commit"], &["encode", "png"]));
     if let Some(c) = circle(&edges) {
-        let names: Vec<&str> = c.iter().map(|m| files[m].as_str()).collect();
+        let top = root();
+        let names: Vec<String> = c
+            .iter()
+            .map(|m| {
+                let path = Path::new(&files[m]);
+                path.strip_prefix(&top)
+                    .unwrap_or(path)
+                    .display()
+                    .to_string()
+            })
+            .collect();
         panic!("an import circle: {} → {}", names.join(" → "), names[0]);
     }
 }
