@@ -21,7 +21,7 @@ use locate::{check_voxel_size_word, field_before};
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
 
-pub use crate::placement::adaptive::{AdaptiveConfig, DEFAULT_ADAPTIVE_LEVELS};
+pub use crate::placement::adaptive::AdaptiveConfig;
 pub use crate::placement::greedy::GreedyParams;
 pub use crate::placement::registry::Placement;
 pub use crate::placement::skeleton::medial_axis::MedialAxisParams;

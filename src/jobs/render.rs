@@ -3,7 +3,7 @@
 //! measured against the reference (Wang et al. 2019 §5.1).
 
 use super::outcome::Outcome;
-pub use super::run::Variant;
+use super::run::Variant;
 use super::run::{push_warnings, Job, RunOptions};
 use super::{bake, place};
 use crate::error::{Error, Result};

@@ -52,12 +52,8 @@ pub struct AdaptiveConfig {
     pub levels: Count<4>,
 }
 
-/// The levels of an `Adaptive` placement when the config gives none, and
-/// those `compare` gives its adaptive baseline.
-pub const DEFAULT_ADAPTIVE_LEVELS: u32 = 3;
-
 fn default_adaptive_levels() -> Count<4> {
-    Count(DEFAULT_ADAPTIVE_LEVELS)
+    Count(DEFAULT_LEVELS)
 }
 
 /// The `adaptive:MIN_SPACING` method, a competitor: [`adaptive`].
@@ -102,8 +98,9 @@ impl Method for Adaptive {
 /// `min_spacing` is too fine for the domain.
 pub const MAX_POINTS: usize = 4 * crate::limits::MAX_PROBES;
 
-/// Levels `compare` gives the baseline (the config's default too).
-pub const DEFAULT_LEVELS: u32 = DEFAULT_ADAPTIVE_LEVELS;
+/// The levels of an `Adaptive` placement when the config gives none, and
+/// those `compare` gives its adaptive baseline.
+pub const DEFAULT_LEVELS: u32 = 3;
 
 /// Bisection steps [`spacing_for_count`] takes on the log of the spacing.
 pub const SPACING_STEPS: u32 = 40;
