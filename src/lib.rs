@@ -74,6 +74,7 @@ pub mod coverage;
 pub(crate) mod diffuse;
 pub(crate) mod encode;
 pub mod error;
+pub(crate) mod export;
 /// The test scenes we generate in code and the generality check: for the
 /// tests, examples and benchmarks (`features = ["testkit"]`), not in the
 /// default library.

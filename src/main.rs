@@ -30,17 +30,16 @@ enum Variants {
     Both,
 }
 
-/// `export --format`.
-#[derive(Clone, Copy, ValueEnum)]
-enum Formats {
-    /// probes.glb: glTF 2.0 (Blender, three.js).
-    Glb,
-    /// probes.tscn: a Godot 4 scene of LightmapProbe nodes.
-    Tscn,
-    /// probes.unity.json: for integrations/unity's LightProbeGroup importer.
-    Unity,
-    /// ddgi.json: a DDGI volume (grid: and relocated: placements without refinement).
-    Ddgi,
+/// `export --format`: the words of the library's list of formats.
+fn format_values() -> clap::builder::PossibleValuesParser {
+    let values: Vec<clap::builder::PossibleValue> = jobs::export::formats()
+        .into_iter()
+        .map(|(word, file, about)| {
+            clap::builder::PossibleValue::new(word)
+                .help(format!("{file}: {}", about.replace('`', "")))
+        })
+        .collect();
+    values.into()
 }
 
 /// What every job shares: the config, the earlier run, the overrides.
@@ -119,8 +118,8 @@ enum Command {
         /// An output directory of place, bake or render.
         dir: PathBuf,
         /// Formats to write, comma-separated.
-        #[arg(long, value_enum, value_delimiter = ',', required = true)]
-        format: Vec<Formats>,
+        #[arg(long, value_parser = format_values(), value_delimiter = ',', required = true)]
+        format: Vec<String>,
         /// Put the scene's triangles, with their base colours, into probes.glb.
         #[arg(long)]
         scene: bool,
@@ -227,15 +226,7 @@ fn main() -> ExitCode {
         } => {
             let options = jobs::ExportOptions {
                 dir,
-                formats: format
-                    .iter()
-                    .map(|f| match f {
-                        Formats::Glb => jobs::export::Format::Glb,
-                        Formats::Tscn => jobs::export::Format::Tscn,
-                        Formats::Unity => jobs::export::Format::Unity,
-                        Formats::Ddgi => jobs::export::Format::Ddgi,
-                    })
-                    .collect(),
+                formats: format,
                 scene,
                 out,
                 progress: Progress::new(false)

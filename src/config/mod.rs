@@ -21,6 +21,7 @@ use locate::{check_voxel_size_word, field_before};
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
 
+pub use crate::export::Export;
 pub use crate::placement::adaptive::AdaptiveConfig;
 pub use crate::placement::greedy::GreedyParams;
 pub use crate::placement::registry::Placement;

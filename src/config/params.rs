@@ -723,24 +723,3 @@ pub enum Materials {
     /// nearly matte scene one view cannot otherwise tell placements apart.
     AllGlossy(Fraction),
 }
-
-/// A file for another tool, written with a run's outputs (the config's
-/// `export` list, or `probeplace export DIR --format …`); docs/engines.md
-/// says how each is used, docs/formats.md what each holds.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
-pub enum Export {
-    /// `probes.glb`: glTF 2.0, one node per probe with a marker mesh, for
-    /// Blender, three.js and any glTF viewer.
-    Glb,
-    /// `probes.glb` with the scene's triangles too, one material per base
-    /// colour (`--format glb --scene`).
-    GlbWithScene,
-    /// `probes.tscn`: a Godot 4 scene, one `LightmapProbe` per probe.
-    Tscn,
-    /// `probes.unity.json`: the flat probe list the Unity importer
-    /// (integrations/unity) reads into a `LightProbeGroup`.
-    Unity,
-    /// `ddgi.json`: a DDGI volume (origin, spacing, counts, per-probe
-    /// offsets and states) for `Grid` and `Relocated` placements.
-    Ddgi,
-}

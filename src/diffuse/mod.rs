@@ -40,7 +40,7 @@ use crate::render::material::cosine_hemisphere;
 use crate::sampling::{fibonacci_sphere, hash2, random_rotation, unit_f32, Sampler};
 use glam::Vec3;
 use rayon::prelude::*;
-pub use sh::ShL2;
+pub use sh::{ProbeLight, ProbeSh, ShL2};
 
 /// A receiver's relative error is taken against at least this share of the
 /// mean reference luminance of its set: a receiver a hundred times darker
@@ -201,16 +201,6 @@ fn clean(v: Vec3) -> Vec3 {
     } else {
         Vec3::ZERO
     }
-}
-
-/// A probe's diffuse light: its incident radiance in SH L2, all of it and
-/// the reflected part.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct ProbeSh {
-    /// Everything arriving.
-    pub total: ShL2,
-    /// Light reflected at least once.
-    pub indirect: ShL2,
 }
 
 /// Each probe's incident radiance projected to SH L2 ([`sh`]) from `rays`

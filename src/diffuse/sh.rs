@@ -133,6 +133,27 @@ impl ShL2 {
     }
 }
 
+/// A probe's diffuse light: its incident radiance in SH L2, all of it and
+/// the reflected part.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct ProbeSh {
+    /// Everything arriving.
+    pub total: ShL2,
+    /// Light reflected at least once.
+    pub indirect: ShL2,
+}
+
+/// A probe's diffuse light as engines store it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ProbeLight {
+    /// Its incident radiance in SH L2, total and indirect
+    /// ([`super::bake_sh`]).
+    pub sh: ProbeSh,
+    /// Path-traced irradiance (total) at the probe for a surface facing
+    /// each of [`super::AXES`]: what the SH's irradiance should be near.
+    pub irradiance_axes: [Vec3; 6],
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

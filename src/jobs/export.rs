@@ -1,5 +1,5 @@
 //! The `export` job: an earlier run's probes written for other tools
-//! (`report::export`: glTF, Godot, Unity, DDGI), and the
+//! (the formats of [`crate::export::registry`]: glTF, Godot, Unity, DDGI), and the
 //! config's `export` list, which `place`, `bake` and `render` honour.
 //!
 //! `probeplace export DIR` reads DIR as `--from DIR` does (`Job::new_as`):
@@ -12,25 +12,23 @@
 
 use super::outcome::Outcome;
 use super::run::{Job, RunOptions};
-use crate::config::{Export, Placement};
 use crate::error::{Error, Result};
+use crate::export::format::{words, Planned};
+use crate::export::{Export, Source, FORMATS};
 use crate::progress::Progress;
-use crate::report::export::{self as encode, Source};
 use crate::scene::Scene;
 use serde_json::{json, Value};
 use std::path::PathBuf;
 
-/// An export format as the command line names it (`--format`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Format {
-    /// `probes.glb`.
-    Glb,
-    /// `probes.tscn`.
-    Tscn,
-    /// `probes.unity.json`.
-    Unity,
-    /// `ddgi.json`.
-    Ddgi,
+/// The formats `--format` names: each word once, in the list's order,
+/// with the file it writes and what that is for (the first format of the
+/// word, the one without the scene).
+pub fn formats() -> Vec<(&'static str, &'static str, &'static str)> {
+    words(FORMATS)
+        .into_iter()
+        .filter_map(|w| FORMATS.iter().find(|f| f.word == w))
+        .map(|f| (f.word, f.file, f.about))
+        .collect()
 }
 
 /// What `probeplace export` is given.
@@ -38,8 +36,9 @@ pub enum Format {
 pub struct ExportOptions {
     /// The earlier run's output directory.
     pub dir: PathBuf,
-    /// The formats, in the order given.
-    pub formats: Vec<Format>,
+    /// The formats by their `--format` words ([`FORMATS`]), in the order
+    /// given.
+    pub formats: Vec<String>,
     /// Put the scene's triangles into `probes.glb` (`--scene`).
     pub scene: bool,
     /// Where to write (default: `dir`).
@@ -51,28 +50,31 @@ pub struct ExportOptions {
 impl ExportOptions {
     /// The exports asked for, each once, in order.
     fn exports(&self) -> Result<Vec<Export>> {
+        let words = words(FORMATS);
         if self.formats.is_empty() {
-            return Err(Error::User(
-                "--format: name at least one of glb, tscn, unity, ddgi".into(),
-            ));
-        }
-        if self.scene && !self.formats.contains(&Format::Glb) {
-            return Err(Error::User(
-                "--scene: only the glb export holds the scene mesh; add glb to --format".into(),
-            ));
+            return Err(Error::User(format!(
+                "--format: name at least one of {}",
+                words.join(", ")
+            )));
         }
         let mut out = Vec::new();
-        for f in &self.formats {
-            let e = match f {
-                Format::Glb if self.scene => Export::GlbWithScene,
-                Format::Glb => Export::Glb,
-                Format::Tscn => Export::Tscn,
-                Format::Unity => Export::Unity,
-                Format::Ddgi => Export::Ddgi,
-            };
+        for word in &self.formats {
+            let e = Export::of_word(word, self.scene).ok_or_else(|| {
+                Error::User(format!(
+                    "--format {word}: unknown format; expected one of {}",
+                    words.join(", ")
+                ))
+            })?;
             if !out.contains(&e) {
                 out.push(e);
             }
+        }
+        if self.scene && !out.iter().any(|e| e.entry().scene) {
+            let holders: Vec<&str> = FORMATS.iter().filter(|f| f.scene).map(|f| f.word).collect();
+            let holders = holders.join(", ");
+            return Err(Error::User(format!(
+                "--scene: only the {holders} export holds the scene mesh; add {holders} to --format"
+            )));
         }
         Ok(out)
     }
@@ -125,12 +127,14 @@ pub fn export(options: &ExportOptions) -> Result<Outcome> {
             Some((file, why)) => Error::user_file(&dir.join(file), why),
             None => Error::user_file(&dir, m),
         })?;
-    if exports.contains(&Export::Ddgi) && !encode::ddgi::has_volume(&source.method) {
-        // Before the scene is read: the cheap refusal first.
-        let why = encode::ddgi::encode(&source).err().unwrap_or_default();
-        return Err(refusal(&dir, Export::Ddgi, &why));
+    // Before the scene is read: the cheap refusals first.
+    if let Some((e, why)) = exports
+        .iter()
+        .find_map(|&e| e.refuses(&source).map(|w| (e, w)))
+    {
+        return Err(refusal(&dir, e, &why));
     }
-    let scene = match exports.contains(&Export::GlbWithScene) {
+    let scene = match exports.iter().any(|e| e.entry().scene) {
         true => Some(job.watch.try_time("load", || {
             crate::scene::load_obj(&job.config.scene, job.config.scale.0, job.config.up)
         })?),
@@ -174,7 +178,7 @@ const INPUTS: [&str; 3] = ["probes.json", "report.json", "svo.bin"];
 fn refusal(dir: &std::path::Path, export: Export, message: &str) -> Error {
     match message.split_once(": ") {
         Some((file, why)) if INPUTS.contains(&file) => Error::user_file(&dir.join(file), why),
-        _ => Error::user_file(dir, format!("--format {}: {message}", format_name(export))),
+        _ => Error::user_file(dir, format!("--format {}: {message}", export.entry().word)),
     }
 }
 
@@ -198,8 +202,8 @@ fn add(
     let started = std::time::Instant::now();
     let mut written = Vec::new();
     for &e in exports {
-        let bytes = encode::encode(e, source, scene).map_err(|m| (e, m))?;
-        let name = encode::file_name(e);
+        let bytes = e.encode(source, scene).map_err(|m| (e, m))?;
+        let name = e.entry().file;
         written.push((name, bytes.len()));
         job.set.add(name, bytes);
     }
@@ -208,36 +212,21 @@ fn add(
     Ok(written)
 }
 
-/// The `--format` word of `e`.
-fn format_name(e: Export) -> &'static str {
-    match e {
-        Export::Glb | Export::GlbWithScene => "glb",
-        Export::Tscn => "tscn",
-        Export::Unity => "unity",
-        Export::Ddgi => "ddgi",
-    }
-}
-
 /// Refuses, before any stage, a config whose `export` list the run cannot
-/// write: `Ddgi` needs a `Grid` or `Relocated` placement without
-/// refinement, whose probes stay in their cells.
+/// write ([`crate::export::format::Format::refuses_plan`]: a DDGI volume
+/// needs a grid whose probes stay in their cells).
 pub(crate) fn check_configured(job: &Job) -> Result<()> {
     let c = &job.config;
-    let grid = matches!(c.placement, Placement::Grid(_) | Placement::Relocated(_));
-    let controlled = !c.fixed_probes.is_empty() || !c.exclude.is_empty() || c.max_probes.is_some();
-    let plain =
-        grid && !c.refine.enabled && !controlled && job.provenance.overrides.probes.is_none();
-    if c.export.contains(&Export::Ddgi) && !plain {
-        let why = if grid && controlled {
-            "fixed_probes, exclude and max_probes add probes to the grid or take cells from it"
-        } else if grid {
-            "refinement moves, adds and removes probes (set refine: (enabled: false), or --no-refine)"
-        } else {
-            "this run places by another method"
-        };
-        return Err(job.config_error(Error::User(format!(
-            "export: Ddgi needs a Grid or Relocated placement whose probes stay in their cells; {why}"
-        ))));
+    let plan = Planned {
+        placement: &c.placement,
+        refined: c.refine.enabled,
+        controlled: !c.fixed_probes.is_empty() || !c.exclude.is_empty() || c.max_probes.is_some(),
+        probes_file: job.provenance.overrides.probes.is_some(),
+    };
+    for &e in &c.export {
+        if let Some(why) = e.refuses_plan(&plan) {
+            return Err(job.config_error(Error::User(format!("export: {e:?} {why}"))));
+        }
     }
     Ok(())
 }
@@ -245,7 +234,7 @@ pub(crate) fn check_configured(job: &Job) -> Result<()> {
 /// Adds the config's exports to `job`'s set, computed from the set's own
 /// `probes.json` and `svo.bin` and the run's `report` (so they equal what
 /// `probeplace export` gives on the committed directory); `scene` is the
-/// run's, for [`Export::GlbWithScene`].
+/// run's, for the formats that hold it.
 pub(crate) fn add_configured(job: &mut Job, report: &Value, scene: &Scene) -> Result<()> {
     if job.config.export.is_empty() {
         return Ok(());

@@ -189,7 +189,7 @@ impl Job {
             None => Some(config.placement),
         };
         apply(&mut config, &overrides)?;
-        let files = provenance::input_files(&config, &overrides);
+        let files = provenance::inputs::input_files(&config, &overrides);
         let provenance = Provenance::of_files(&config, &config_path, &text, &overrides, &files)?;
         // A `--probes` file that is not ours, or not probes, is refused here,
         // before the first stage, not after the scene's SDF and coverage.

@@ -23,6 +23,7 @@
 //! docs/method.md describes both; saturating is the default.
 
 pub mod atlas;
+pub(crate) mod cover;
 pub mod diffuse;
 pub mod fitness;
 pub mod gibbs;

@@ -12,7 +12,6 @@
 
 pub mod bake;
 pub mod compare;
-pub mod export;
 pub mod html;
 pub(crate) mod markup;
 pub mod preview;

@@ -7,12 +7,12 @@
 //! Y10 (z), Y11 (x), Y2-2 (xy), Y2-1 (yz), Y20, Y21 (xz), Y22`), in the
 //! run's world frame; the irradiance at normal `n` is `Σ Â_l L_lm Y_lm(n)`
 //! with `Â = π, 2π/3, π/4`. The exports convert them to each engine's
-//! convention (`report::export`).
+//! convention (`crate::export`).
 
+use crate::diffuse::sh::ProbeLight;
+use crate::diffuse::sh::ProbeSh;
 use crate::diffuse::sh::{ShL2, COEFFICIENTS};
-use crate::diffuse::ProbeSh;
 use crate::provenance::Provenance;
-use crate::stages::bake::ProbeLight;
 use glam::Vec3;
 use serde::Deserialize;
 use serde_json::json;

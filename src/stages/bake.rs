@@ -5,6 +5,7 @@
 
 use super::prepare::Prepared;
 use crate::config::Config;
+pub use crate::diffuse::ProbeLight;
 use crate::error::Result;
 use crate::lightfield::LightField;
 use crate::limits;
@@ -21,17 +22,6 @@ const BAKE_STREAMS: u64 = 0x1F_BA4E;
 
 /// Seed offset of the SH projections' and their references' streams.
 const SH_STREAMS: u64 = 0x5_4A12;
-
-/// A probe's diffuse light as engines store it.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct ProbeLight {
-    /// Its incident radiance in SH L2, total and indirect
-    /// ([`crate::diffuse::bake_sh`]).
-    pub sh: crate::diffuse::ProbeSh,
-    /// Path-traced irradiance (total) at the probe for a surface facing
-    /// each of [`crate::diffuse::AXES`]: what the SH's irradiance should be near.
-    pub irradiance_axes: [Vec3; 6],
-}
 
 /// Free points whose random rays check the tracer in every bake.
 pub const TRACER_CHECK_RAYS: usize = 4096;

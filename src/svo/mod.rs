@@ -23,9 +23,9 @@ pub mod octree;
 pub mod rank;
 mod tiles;
 
-use crate::config::SvoParams;
+use crate::config::params::SvoParams;
 use crate::error::{Error, Result};
-use crate::placement::{PlacementInput, ProbeSet};
+use crate::probes::{PlacementInput, ProbeSet};
 use crate::sampling::{hash2, unit_f32};
 use crate::sdf;
 use glam::{DVec3, UVec3, Vec3};
@@ -306,7 +306,7 @@ pub(crate) fn check_work(params: &SvoParams, dims: glam::UVec3, probes: usize) -
         "svo",
         &format!(
             "the octree of {} leaves for {probes} probes ({}² directions each)",
-            crate::config::short(cells),
+            crate::config::numbers::short(cells),
             params.directions.0
         ),
         seconds_units,

@@ -1,45 +1,12 @@
-//! Files for other tools: a run's probes as a glTF 2.0 binary for Blender
-//! and three.js ([`gltf`]), a Godot 4 scene ([`godot`]), the flat list the
-//! Unity importer reads ([`unity`]) and a DDGI volume description
-//! ([`ddgi`]). docs/formats.md specifies each file, docs/engines.md says
-//! how each is loaded.
-//!
-//! Every export is computed from the files of one run, `probes.json`,
-//! `report.json` and `svo.bin` ([`Source::read`]), whether the run writes
-//! them (the config's `export` list) or `probeplace export DIR` reads them
-//! later: both give the same bytes.
-//!
-//! **Frame.** All four are in the run's world frame (docs/formats.md): the
-//! OBJ's right-handed frame, scaled by `scale` and turned Y-up for `up: Z`
-//! files. glTF and Godot use the same right-handed, Y-up frame, so no
-//! conversion is made; glTF takes a unit to be a metre, so a scene in
-//! other units is exported at the `scale` its config gives. The Unity
-//! file stays in world coordinates too; its importer negates x, as Unity's
-//! own OBJ, FBX and glTF importers do. The DDGI volume uses RTXGI's
-//! right-handed Y-up convention.
+//! What every export is computed from: one run's `probes.json`,
+//! `report.json` and `svo.bin` ([`Source::read`]), with `sh.json` when the
+//! run baked.
 
-pub mod ddgi;
-pub mod gltf;
-pub mod godot;
-pub mod unity;
-
-use crate::config::Export;
 use crate::provenance::Provenance;
-use crate::scene::Scene;
 use crate::svo::Svo;
 use glam::DVec3;
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
-
-/// The file an export is written as.
-pub fn file_name(export: Export) -> &'static str {
-    match export {
-        Export::Glb | Export::GlbWithScene => "probes.glb",
-        Export::Tscn => "probes.tscn",
-        Export::Unity => "probes.unity.json",
-        Export::Ddgi => "ddgi.json",
-    }
-}
 
 /// An axis-aligned box in world coordinates.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -85,7 +52,7 @@ pub struct Source {
     pub stats: serde_json::Map<String, Value>,
     /// Each probe's diffuse light (`sh.json`, written by `bake`); `None`
     /// for a run that did not bake.
-    pub light: Option<Vec<crate::stages::bake::ProbeLight>>,
+    pub light: Option<Vec<crate::diffuse::sh::ProbeLight>>,
 }
 
 /// The fields of `probes.json` the exports read.
@@ -223,23 +190,6 @@ fn influence_boxes(svo: &Svo, origin: DVec3, probes: usize) -> Vec<Option<WorldB
             })
         })
         .collect()
-}
-
-/// The file of `export` for `source`; `scene` is the run's scene, needed
-/// only by [`Export::GlbWithScene`]. The error is a user error's reason
-/// (a DDGI volume of a placement that is no grid), led by the input file
-/// at fault (`probes.json: …`) when one is.
-pub fn encode(export: Export, source: &Source, scene: Option<&Scene>) -> Result<Vec<u8>, String> {
-    Ok(match export {
-        Export::Glb => gltf::encode(source, None),
-        Export::GlbWithScene => gltf::encode(
-            source,
-            Some(scene.ok_or("the scene mesh needs the run's scene")?),
-        ),
-        Export::Tscn => godot::encode(source).into_bytes(),
-        Export::Unity => unity::encode(source),
-        Export::Ddgi => ddgi::encode(source)?,
-    })
 }
 
 /// The provenance facts every export repeats: what ties it to the run.

@@ -7,7 +7,7 @@
 //! (`translation`, f64 as written in `probes.json`), drawing a shared
 //! marker mesh, an octahedron whose radius is 1% of the domain's diagonal,
 //! and carrying `extras`: `index`, `clearance`, `influence_box` and `fixed`
-//! ([`super::SourceProbe::influence`]). With the scene, node `scene`
+//! ([`super::source::SourceProbe::influence`]). With the scene, node `scene`
 //! holds its triangles, one primitive per material with the material's
 //! base colour (`Kd`, linear) and emission; its vertices are relative to
 //! the scene's own origin and the node is translated there, so large world
@@ -19,7 +19,8 @@
 //! scene primitives carry no normals, so viewers shade them flat as the
 //! specification asks (§3.7.2.1).
 
-use super::Source;
+use super::format::Format;
+use super::source::Source;
 use crate::scene::Scene;
 use serde_json::{json, Value};
 
@@ -98,6 +99,35 @@ fn octahedron(r: f32) -> (Vec<[f32; 3]>, Vec<[f32; 3]>) {
     (positions, normals)
 }
 
+/// `probes.glb`: the probes alone.
+pub struct Glb;
+
+impl Format for Glb {
+    const WORD: &'static str = "glb";
+    const FILE: &'static str = "probes.glb";
+    const ABOUT: &'static str =
+        "glTF 2.0, one node per probe with a marker mesh, for Blender, three.js and any glTF viewer";
+
+    fn encode(source: &Source, _: Option<&Scene>) -> Result<Vec<u8>, String> {
+        Ok(encode(source, None))
+    }
+}
+
+/// `probes.glb` with the scene's triangles (`--format glb --scene`).
+pub struct GlbWithScene;
+
+impl Format for GlbWithScene {
+    const WORD: &'static str = "glb";
+    const FILE: &'static str = "probes.glb";
+    const ABOUT: &'static str =
+        "as `Glb`, with the scene's triangles too, one material per base colour";
+    const SCENE: bool = true;
+
+    fn encode(source: &Source, scene: Option<&Scene>) -> Result<Vec<u8>, String> {
+        Ok(encode(source, scene))
+    }
+}
+
 /// `probes.glb` of `source`, with `scene`'s triangles when given.
 ///
 /// Contract: a valid glTF 2.0 binary (the Khronos validator reports no
@@ -172,7 +202,7 @@ pub fn encode(source: &Source, scene: Option<&Scene>) -> Vec<u8> {
         "asset": {
             "version": "2.0",
             "generator": crate::provenance::TOOL,
-            "extras": { "provenance": super::provenance_summary(&source.provenance) },
+            "extras": { "provenance": super::source::provenance_summary(&source.provenance) },
         },
         "scene": 0,
         "scenes": [{ "name": "probeplace", "nodes": roots }],
@@ -257,7 +287,7 @@ fn glb(json: &[u8], bin: &[u8]) -> Vec<u8> {
 }
 
 /// SH L2 coefficients as nine `[r, g, b]` rows ([`crate::report::sh`]).
-pub(crate) fn sh_rows(sh: &crate::diffuse::ShL2) -> Value {
+pub(crate) fn sh_rows(sh: &crate::diffuse::sh::ShL2) -> Value {
     json!(sh
         .coefficients
         .iter()

@@ -11,8 +11,22 @@
 //! as the root's. The scene has no resources, so the header has no
 //! `load_steps` (the format omits it then).
 
-use super::Source;
+use super::format::Format;
+use super::source::Source;
 use std::fmt::Write;
+
+/// `probes.tscn`.
+pub struct Tscn;
+
+impl Format for Tscn {
+    const WORD: &'static str = "tscn";
+    const FILE: &'static str = "probes.tscn";
+    const ABOUT: &'static str = "a Godot 4 scene, one `LightmapProbe` per probe";
+
+    fn encode(source: &Source, _: Option<&crate::scene::Scene>) -> Result<Vec<u8>, String> {
+        Ok(encode(source).into_bytes())
+    }
+}
 
 /// `probes.tscn` of `source`.
 ///

@@ -15,11 +15,26 @@
 //! Unity's own OBJ, FBX and glTF importers do, so the probes land on a
 //! scene imported into Unity from its OBJ or from `probes.glb`.
 
-use super::Source;
+use super::format::Format;
+use super::source::Source;
 use serde_json::json;
 
 /// The `format` the importer checks.
 pub const FORMAT: &str = "probeplace.unity";
+
+/// `probes.unity.json`.
+pub struct Unity;
+
+impl Format for Unity {
+    const WORD: &'static str = "unity";
+    const FILE: &'static str = "probes.unity.json";
+    const ABOUT: &'static str =
+        "the flat probe list the Unity importer (integrations/unity) reads into a `LightProbeGroup`";
+
+    fn encode(source: &Source, _: Option<&crate::scene::Scene>) -> Result<Vec<u8>, String> {
+        Ok(encode(source))
+    }
+}
 
 /// `probes.unity.json` of `source`.
 pub fn encode(source: &Source) -> Vec<u8> {

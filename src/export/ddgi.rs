@@ -27,8 +27,10 @@
 //! offsets zero. Offsets below a millionth of the spacing, the f32
 //! rounding of the grid's own positions, are written as 0.
 
-use super::{Source, WorldBox};
-use crate::config::GridParams;
+use super::format::{Format, Planned};
+use super::source::{Source, WorldBox};
+use crate::config::params::GridParams;
+use crate::placement::registry::Placement;
 use serde_json::{json, Value};
 
 /// Largest offset relocation gives, as a share of the cell, with room for
@@ -37,6 +39,47 @@ const MAX_OFFSET: f64 = crate::placement::relocate::MAX_OFFSET_FRACTION as f64 +
 
 /// Offsets smaller than this share of the spacing are rounding.
 const ROUNDING: f64 = 1e-6;
+
+/// `ddgi.json`.
+pub struct Ddgi;
+
+impl Format for Ddgi {
+    const WORD: &'static str = "ddgi";
+    const FILE: &'static str = "ddgi.json";
+    const ABOUT: &'static str =
+        "a DDGI volume (origin, spacing, counts, per-probe offsets and states) for `Grid` and `Relocated` placements";
+
+    /// A volume needs a grid whose probes stay in their cells.
+    fn refuses_plan(plan: &Planned) -> Option<String> {
+        let grid = matches!(plan.placement, Placement::Grid(_) | Placement::Relocated(_));
+        let plain = grid && !plan.refined && !plan.controlled && !plan.probes_file;
+        let why = if plain {
+            return None;
+        } else if grid && plan.controlled {
+            "fixed_probes, exclude and max_probes add probes to the grid or take cells from it"
+        } else if grid {
+            "refinement moves, adds and removes probes (set refine: (enabled: false), or --no-refine)"
+        } else {
+            "this run places by another method"
+        };
+        Some(format!(
+            "needs a Grid or Relocated placement whose probes stay in their cells; {why}"
+        ))
+    }
+
+    /// The cheap refusal, before the scene is read: a method that is no
+    /// grid.
+    fn refuses(source: &Source) -> Option<String> {
+        match has_volume(&source.method) {
+            true => None,
+            false => Some(encode(source).err().unwrap_or_default()),
+        }
+    }
+
+    fn encode(source: &Source, _: Option<&crate::scene::Scene>) -> Result<Vec<u8>, String> {
+        encode(source)
+    }
+}
 
 /// The grid of a method name, and whether it was relocated; `None` for any
 /// other method (a refined grid's name ends in `+refine`).
@@ -159,7 +202,7 @@ pub fn encode(source: &Source) -> Result<Vec<u8>, String> {
         &json!({
             "format": "probeplace.ddgi",
             "version": 1,
-            "provenance": super::provenance_summary(&source.provenance),
+            "provenance": super::source::provenance_summary(&source.provenance),
             "method": source.method,
             "coordinate_system": "right-handed, +Y up (RTXGI_COORDINATE_SYSTEM_RIGHT)",
             "counts": n,
