@@ -85,6 +85,9 @@ pub struct ObjFile {
 /// The file is parsed in parallel batches ([`parse_batched`]); a file that
 /// batch parsing does not accept as it stands (any mistake, any limit) is
 /// read again by [`parse`], whose messages name the first line at fault.
+/// Both read each line by one grammar ([`statement`]); they differ only
+/// in when a face's indices can be checked against the vertices read so
+/// far (at once, or once the batch's pieces are joined).
 pub fn read(path: &Path) -> Result<ObjFile> {
     let limit = limits::memory_budget().saturating_mul(4);
     let (file, _) = input::open(path, "scene file", limit)?;
@@ -302,28 +305,12 @@ fn parse_piece(text: &[u8]) -> Option<Piece> {
             line = &line[..line.len() - 1];
         }
         let text = String::from_utf8_lossy(line);
-        let text = text.split('#').next().unwrap_or("");
-        let mut words = text.split_ascii_whitespace();
-        let Some(keyword) = words.next() else {
-            continue;
-        };
-        match keyword {
-            "v" => {
-                let mut c = [0.0f64; 3];
-                for slot in c.iter_mut() {
-                    *slot = words.next()?.parse().ok()?;
-                }
-                piece.positions.push(DVec3::from_array(c));
-            }
-            "f" => {
-                face.clear();
+        match statement(uncommented(&text), &mut face).ok()? {
+            Statement::Vertex(p) => piece.positions.push(p),
+            Statement::Face => {
                 let count = piece.positions.len() as i64;
-                for w in words {
-                    if face.len() == MAX_FACE_VERTICES {
-                        return None;
-                    }
-                    let i: i64 = w.split('/').next().unwrap_or("").parse().ok()?;
-                    let resolved = match i {
+                for i in face.iter_mut() {
+                    *i = match *i {
                         0 => return None,
                         i if !(-FAR..=FAR).contains(&i) => return None,
                         i if i > 0 => {
@@ -332,10 +319,6 @@ fn parse_piece(text: &[u8]) -> Option<Piece> {
                         }
                         i => RELATIVE + count + i,
                     };
-                    face.push(resolved);
-                }
-                if face.len() < 3 {
-                    return None;
                 }
                 let material = piece.usemtl.len() as u32;
                 let material = material.checked_sub(1).unwrap_or(INHERITED);
@@ -345,12 +328,89 @@ fn parse_piece(text: &[u8]) -> Option<Piece> {
                         .push(([face[0], face[k], face[k + 1]], material));
                 }
             }
-            "usemtl" => piece.usemtl.push(rest_of(text, keyword).to_string()),
-            "mtllib" => piece.mtllib.push(words.map(str::to_string).collect()),
-            _ => {}
+            Statement::UseMtl(name) => piece.usemtl.push(name.to_string()),
+            Statement::MtlLib(words) => piece.mtllib.push(words.map(str::to_string).collect()),
+            Statement::Skipped => {}
         }
     }
     Some(piece)
+}
+
+/// One OBJ statement, as the grammar both readers share reads it
+/// ([`statement`]); what it means (the vertices it names, the material in
+/// force) is left to the reader.
+enum Statement<'a> {
+    /// `v x y z`.
+    Vertex(DVec3),
+    /// `f i j k …`: the face's position indices as written (1-based,
+    /// negative relative to the vertices read so far) are in the buffer
+    /// [`statement`] was given.
+    Face,
+    /// `usemtl NAME` (the rest of the line).
+    UseMtl(&'a str),
+    /// `mtllib A B …`.
+    MtlLib(std::str::SplitAsciiWhitespace<'a>),
+    /// A blank line, a comment, or a statement the stages do not use.
+    Skipped,
+}
+
+/// Why a line is no OBJ statement.
+enum Problem<'a> {
+    /// A vertex of this many coordinates, not 3.
+    VertexCoordinates(usize),
+    /// A vertex coordinate that is no number.
+    Coordinate(&'a str),
+    /// A face vertex that is no index.
+    Index(&'a str),
+    /// A face of more than [`MAX_FACE_VERTICES`] vertices.
+    FaceTooLong,
+    /// A face of this many vertices, fewer than 3.
+    FaceTooShort(usize),
+}
+
+/// `line` without its comment (from the first `#`).
+fn uncommented(line: &str) -> &str {
+    line.split('#').next().unwrap_or("")
+}
+
+/// Reads one line (its comment removed: [`uncommented`]) as an OBJ
+/// statement: the grammar of the module docs, which [`parse`] and the
+/// batched reader share. A face's indices go into `face`, as written.
+fn statement<'a>(
+    text: &'a str,
+    face: &mut Vec<i64>,
+) -> std::result::Result<Statement<'a>, Problem<'a>> {
+    let mut words = text.split_ascii_whitespace();
+    let Some(keyword) = words.next() else {
+        return Ok(Statement::Skipped);
+    };
+    Ok(match keyword {
+        "v" => {
+            let mut c = [0.0f64; 3];
+            for (i, slot) in c.iter_mut().enumerate() {
+                let w = words.next().ok_or(Problem::VertexCoordinates(i))?;
+                *slot = w.parse().map_err(|_| Problem::Coordinate(w))?;
+            }
+            Statement::Vertex(DVec3::from_array(c))
+        }
+        "f" => {
+            face.clear();
+            for w in words {
+                if face.len() == MAX_FACE_VERTICES {
+                    return Err(Problem::FaceTooLong);
+                }
+                let index = w.split('/').next().unwrap_or("");
+                face.push(index.parse().map_err(|_| Problem::Index(w))?);
+            }
+            if face.len() < 3 {
+                return Err(Problem::FaceTooShort(face.len()));
+            }
+            Statement::Face
+        }
+        "usemtl" => Statement::UseMtl(rest_of(text, keyword)),
+        "mtllib" => Statement::MtlLib(words),
+        _ => Statement::Skipped,
+    })
 }
 
 /// What loading one material library gave.
@@ -390,7 +450,8 @@ pub fn parse(
     let mut materials = MaterialState::default();
     let mut current = u32::MAX;
     let mut line = Vec::new();
-    let mut face: Vec<u32> = Vec::new();
+    let mut face: Vec<i64> = Vec::new();
+    let mut corners: Vec<u32> = Vec::new();
     let mut n = 0usize;
     let at = |n: usize, msg: String| Error::User(format!("{}:{n}: {msg}", name.display()));
     loop {
@@ -436,41 +497,32 @@ pub fn parse(
             }
         }
         let text = String::from_utf8_lossy(&line);
-        let text = text.split('#').next().unwrap_or("");
-        let mut words = text.split_ascii_whitespace();
-        let Some(keyword) = words.next() else {
-            continue;
-        };
-        match keyword {
-            "v" => {
-                let mut c = [0.0f64; 3];
-                for (i, slot) in c.iter_mut().enumerate() {
-                    let w = words
-                        .next()
-                        .ok_or_else(|| at(n, format!("a vertex needs 3 coordinates, found {i}")))?;
-                    *slot = w.parse().map_err(|_| {
-                        at(
-                            n,
-                            format!("vertex coordinate `{}` is not a number", short(w)),
-                        )
-                    })?;
-                }
-                obj.positions.push(DVec3::from_array(c));
-            }
-            "f" => {
-                face.clear();
-                let count = obj.positions.len() as i64;
-                for w in words {
-                    if face.len() == MAX_FACE_VERTICES {
-                        return Err(at(
-                            n,
-                            format!("a face of more than {MAX_FACE_VERTICES} vertices"),
-                        ));
+        let parsed = statement(uncommented(&text), &mut face).map_err(|p| {
+            at(
+                n,
+                match p {
+                    Problem::VertexCoordinates(i) => {
+                        format!("a vertex needs 3 coordinates, found {i}")
                     }
-                    let index = w.split('/').next().unwrap_or("");
-                    let i: i64 = index.parse().map_err(|_| {
-                        at(n, format!("face vertex `{}` is not an index", short(w)))
-                    })?;
+                    Problem::Coordinate(w) => {
+                        format!("vertex coordinate `{}` is not a number", short(w))
+                    }
+                    Problem::Index(w) => format!("face vertex `{}` is not an index", short(w)),
+                    Problem::FaceTooLong => {
+                        format!("a face of more than {MAX_FACE_VERTICES} vertices")
+                    }
+                    Problem::FaceTooShort(k) => {
+                        format!("a face needs at least 3 vertices, found {k}")
+                    }
+                },
+            )
+        })?;
+        match parsed {
+            Statement::Vertex(p) => obj.positions.push(p),
+            Statement::Face => {
+                let count = obj.positions.len() as i64;
+                corners.clear();
+                for &i in &face {
                     let resolved = if i > 0 { i - 1 } else { count + i };
                     if i == 0 || resolved < 0 || resolved >= count {
                         return Err(at(
@@ -480,22 +532,16 @@ pub fn parse(
                             ),
                         ));
                     }
-                    face.push(resolved as u32);
+                    corners.push(resolved as u32);
                 }
-                if face.len() < 3 {
-                    return Err(at(
-                        n,
-                        format!("a face needs at least 3 vertices, found {}", face.len()),
-                    ));
-                }
-                for k in 1..face.len() - 1 {
+                for k in 1..corners.len() - 1 {
                     obj.triangles
-                        .push(([face[0], face[k], face[k + 1]], current));
+                        .push(([corners[0], corners[k], corners[k + 1]], current));
                 }
             }
-            "usemtl" => current = materials.used(rest_of(text, keyword)),
-            "mtllib" => materials.load(&mut obj, words, library)?,
-            _ => {}
+            Statement::UseMtl(m) => current = materials.used(m),
+            Statement::MtlLib(words) => materials.load(&mut obj, words, library)?,
+            Statement::Skipped => {}
         }
     }
     materials.resolve(&mut obj, name);
