@@ -40,14 +40,15 @@
 use super::bake;
 use super::outcome::Outcome;
 use super::run::{Job, RunOptions};
-use crate::config::{
-    CameraParams, Config, GreedyParams, GridParams, Materials, Placement, Positive,
-};
+use crate::config::{CameraParams, Config, GridParams, Materials, Placement};
 use crate::coverage::CoverageReference;
 use crate::encode::png::encode_png;
 use crate::error::{Error, Result};
 use crate::gpu::{Context, SelectionKind};
 use crate::lightfield::LightField;
+use crate::placement::grid::nearest_grid;
+use crate::placement::method::Role;
+use crate::placement::registry::METHODS;
 use crate::placement::{self, ProbeSet};
 use crate::progress::Progress;
 use crate::report::compare::{
@@ -274,7 +275,7 @@ fn write(
         scene: config.scene.display().to_string(),
         seed: config.seed,
         adapter,
-        quality_metric: "mse_glossy_filtered",
+        quality_metric: crate::report::compare::QUALITY.entry().key,
         performance_metric: metric,
         width: config.reference.width.0,
         height: config.reference.height.0,
@@ -822,34 +823,17 @@ impl Bench<'_> {
         grids: &[(usize, GridParams)],
         ours_count: usize,
     ) -> Result<()> {
-        let mut competitors = Vec::new();
-        if let Some((_, g)) = nearest_grid(grids, ours_count) {
-            competitors.push((Placement::Relocated(*g), Family::Relocated));
-        }
-        let spacing =
-            placement::greedy::spacing_for_count(&self.prepared.domain, ours_count.max(1));
-        competitors.push((
-            Placement::Greedy(GreedyParams {
-                spacing: Positive(spacing),
-            }),
-            Family::Greedy,
-        ));
         let input = self
             .prepared
             .placement_input(self.config.seed, &self.progress);
-        if let Some(min_spacing) = placement::adaptive::spacing_for_count(
-            &input,
-            crate::placement::adaptive::DEFAULT_LEVELS,
-            ours_count.max(1),
-        ) {
-            competitors.push((
-                Placement::Adaptive(crate::config::AdaptiveConfig {
-                    min_spacing: Positive(min_spacing),
-                    levels: crate::config::Count(crate::placement::adaptive::DEFAULT_LEVELS),
-                }),
-                Family::Adaptive,
-            ));
-        }
+        let competitors: Vec<(Placement, Family)> = METHODS
+            .iter()
+            .filter(|m| m.role == Role::Competitor)
+            .filter_map(|m| {
+                Placement::at_count(m.variant, &input, grids, ours_count)
+                    .map(|p| (p, Family::Competitor(m.word)))
+            })
+            .collect();
         for (method, family) in competitors {
             let t = std::time::Instant::now();
             let name = method.name();
@@ -983,9 +967,6 @@ impl Bench<'_> {
         for (tracer_name, kind, march) in tracers {
             let rendered = self.render(name, &tracer, kind, march, figures)?;
             let cameras: Vec<CameraRow> = rendered.iter().map(|r| r.metrics.clone()).collect();
-            let mean = |f: fn(&CameraRow) -> f64| {
-                cameras.iter().map(f).sum::<f64>() / cameras.len().max(1) as f64
-            };
             self.rows.push(PlacementRow {
                 name: name.to_string(),
                 family,
@@ -995,12 +976,9 @@ impl Bench<'_> {
                 probes_in_solid: health.probes_in_solid,
                 probe_bytes,
                 svo_bytes,
-                mse_glossy: mean(|c| c.mse_glossy),
-                mse_glossy_filtered: mean(|c| c.mse_glossy_filtered),
-                mse_glossy_relative: mean(|c| c.mse_glossy_relative),
-                flip: mean(|c| c.flip),
-                unresolved_fraction: mean(|c| c.unresolved_fraction),
-                texel_fetches_per_ray: mean(|c| c.texel_fetches_per_ray),
+                means: crate::stages::validate::PerMetric::from_fn(|m| {
+                    cameras.iter().map(|c| c.figures[m]).sum::<f64>() / cameras.len().max(1) as f64
+                }),
                 shading_probe_distance,
                 gpu_ms: cameras.iter().map(|c| c.gpu_ms).sum(),
                 cameras,
@@ -1085,14 +1063,6 @@ struct Rendered {
     blocks: Blocks,
     /// Render, MSE heat map and ꟻLIP map, PNG, where the page shows them.
     figures: Option<[Vec<u8>; 3]>,
-}
-
-/// The grid of `grids` (with their probe counts) nearest `count` probes;
-/// ties to the larger, as the equal-count match takes them.
-fn nearest_grid(grids: &[(usize, GridParams)], count: usize) -> Option<&(usize, GridParams)> {
-    grids
-        .iter()
-        .min_by_key(|(n, _)| (n.abs_diff(count), usize::MAX - n))
 }
 
 /// [`nearest_grid`] among `grids` by their cell counts, before any is

@@ -66,6 +66,21 @@ impl Method for Adaptive {
     const FORM: &'static str = "adaptive:MIN_SPACING";
     const ABOUT: &'static str = "Unity's Adaptive Probe Volumes, as documented: bricks of 4×4×4 probes subdivided where geometry is near, probes in geometry pushed out or dropped";
     const ROLE: Role = Role::Competitor;
+    const LABEL: &'static str = "adaptive (Unity APV)";
+    const MARKER: (&'static str, &'static str) = ("#20a0a0", "diamond");
+
+    /// The minimum spacing whose count is nearest `count`, at the default
+    /// levels.
+    fn at_count(
+        input: &PlacementInput,
+        _: &[(usize, crate::config::params::GridParams)],
+        count: usize,
+    ) -> Option<AdaptiveConfig> {
+        spacing_for_count(input, DEFAULT_LEVELS, count.max(1)).map(|min_spacing| AdaptiveConfig {
+            min_spacing: Positive(min_spacing),
+            levels: Count(DEFAULT_LEVELS),
+        })
+    }
 
     fn name(params: &AdaptiveConfig) -> String {
         format!("adaptive:{}", short(params.min_spacing.0))

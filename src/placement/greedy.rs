@@ -78,6 +78,19 @@ impl Method for Greedy {
     const FORM: &'static str = "greedy:SPACING";
     const ABOUT: &'static str = "Silvennoinen & Lehtinen 2017 §4.1: candidate voxels near surfaces thinned greedily by kernel density";
     const ROLE: Role = Role::Competitor;
+    const LABEL: &'static str = "greedy (Silvennoinen & Lehtinen)";
+    const MARKER: (&'static str, &'static str) = ("#a03090", "triangle");
+
+    /// The spacing that gives about `count` probes over the domain.
+    fn at_count(
+        input: &PlacementInput,
+        _: &[(usize, crate::config::params::GridParams)],
+        count: usize,
+    ) -> Option<GreedyParams> {
+        Some(GreedyParams {
+            spacing: Positive(spacing_for_count(input.domain, count.max(1))),
+        })
+    }
 
     fn name(params: &GreedyParams) -> String {
         format!("greedy:{}", crate::config::numbers::short(params.spacing.0))

@@ -199,6 +199,17 @@ pub fn grid_sweep(domain: &Bounds, count: usize) -> Vec<GridParams> {
     out.into_iter().map(|(_, g)| g).collect()
 }
 
+/// The grid of `grids` (with their probe counts) nearest `count` probes;
+/// ties to the larger, as the equal-count match takes them.
+pub(crate) fn nearest_grid(
+    grids: &[(usize, GridParams)],
+    count: usize,
+) -> Option<&(usize, GridParams)> {
+    grids
+        .iter()
+        .min_by_key(|(n, _)| (n.abs_diff(count), usize::MAX - n))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

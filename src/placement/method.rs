@@ -4,6 +4,7 @@
 //! methods and the methods `compare` runs as ours all derive from that
 //! list (docs/layout.md, "Adding a placement method").
 
+use crate::config::params::GridParams;
 use crate::error::Result;
 use crate::probes::{PlacementInput, ProbeSet};
 
@@ -41,6 +42,12 @@ pub trait Method {
     const ABOUT: &'static str;
     /// How `compare` uses it.
     const ROLE: Role;
+    /// Its name in `compare`'s tables and legends (`greedy (Silvennoinen
+    /// & Lehtinen)`).
+    const LABEL: &'static str = Self::WORD;
+    /// Its colour and marker (`circle`, `square`, `diamond`, `triangle`)
+    /// in `compare`'s plots.
+    const MARKER: (&'static str, &'static str) = ("#808080", "circle");
 
     /// The configured method's name in reports (`grid:4x2x4`).
     fn name(params: &Self::Params) -> String;
@@ -55,6 +62,18 @@ pub trait Method {
 
     /// Places the probes.
     fn place(params: &Self::Params, input: &PlacementInput) -> Result<ProbeSet>;
+
+    /// For a [`Role::Competitor`]: the parameters that place about
+    /// `count` probes over `input`, given the grids `compare` swept (each
+    /// with the probes it placed); `None` where none do, and for every
+    /// other role. `compare` places each competitor so, at our count.
+    fn at_count(
+        _input: &PlacementInput,
+        _grids: &[(usize, GridParams)],
+        _count: usize,
+    ) -> Option<Self::Params> {
+        None
+    }
 }
 
 /// A method of the list, as the command line, the docs and `compare` see
@@ -71,6 +90,10 @@ pub struct Entry {
     pub about: &'static str,
     /// [`Method::ROLE`].
     pub role: Role,
+    /// [`Method::LABEL`].
+    pub label: &'static str,
+    /// [`Method::MARKER`].
+    pub marker: (&'static str, &'static str),
 }
 
 /// The argument of `text` for a method of `word`: `Some(None)` for the
@@ -133,6 +156,8 @@ macro_rules! methods {
                 form: <$method as $crate::placement::method::Method>::FORM,
                 about: <$method as $crate::placement::method::Method>::ABOUT,
                 role: <$method as $crate::placement::method::Method>::ROLE,
+                label: <$method as $crate::placement::method::Method>::LABEL,
+                marker: <$method as $crate::placement::method::Method>::MARKER,
             },)+
         ];
 
@@ -155,6 +180,25 @@ macro_rules! methods {
                 match self {
                     $(Placement::$variant(p) => <$method>::place(p, input),)+
                 }
+            }
+
+            /// The method of the list named `variant` with the parameters
+            /// that place about `count` probes ([`Method::at_count`](
+            /// $crate::placement::method::Method::at_count)); `None` for a
+            /// method that has no such rule, or where it finds none.
+            pub fn at_count(
+                variant: &str,
+                input: &$crate::probes::PlacementInput,
+                grids: &[(usize, $crate::config::params::GridParams)],
+                count: usize,
+            ) -> Option<Placement> {
+                use $crate::placement::method::Method;
+                $(
+                    if variant == stringify!($variant) {
+                        return <$method>::at_count(input, grids, count).map(Placement::$variant);
+                    }
+                )+
+                None
             }
 
             /// Parses a method given on the command line (a form of
@@ -212,6 +256,8 @@ mod tests {
             form,
             about: "",
             role: Role::None,
+            label: "",
+            marker: ("", ""),
         };
         assert_eq!(forms(&[e("a")]), "a");
         assert_eq!(forms(&[e("a"), e("b"), e("c")]), "a, b or c");

@@ -121,6 +121,8 @@ mod tests {
         let progress = crate::progress::Progress::hidden();
         let input = crate::scene::testing::input_over(&scene, &bvh, &sdf, 1, &progress);
         let set = q.place(&input).unwrap();
+        // No rule for a probe count: `compare` does not run it as a competitor.
+        assert_eq!(Placement::at_count("Toy", &input, &[], 5), None);
         assert_eq!(set.method, "toy:0.25");
         assert_eq!(set.probes.len(), 1);
         assert_eq!(

@@ -237,9 +237,20 @@ impl Method for Relocated {
     const FORM: &'static str = "relocated:NxMxK";
     const ABOUT: &'static str = "RTXGI/DDGI (Majercik et al. 2019): the uniform grid with its probes moved out of geometry within their cells, and switched off where they stay inside or see no surface";
     const ROLE: Role = Role::Competitor;
+    const LABEL: &'static str = "grid, relocated (RTXGI)";
+    const MARKER: (&'static str, &'static str) = ("#c07020", "diamond");
 
     fn name(params: &GridParams) -> String {
         format!("relocated:{}", params.dims_text())
+    }
+
+    /// The swept grid whose probe count is nearest `count`, relocated.
+    fn at_count(
+        _: &PlacementInput,
+        grids: &[(usize, GridParams)],
+        count: usize,
+    ) -> Option<GridParams> {
+        super::grid::nearest_grid(grids, count).map(|&(_, g)| g)
     }
 
     fn parse_cli(

@@ -3,7 +3,9 @@
 //! (Figs. 8–12, Tables 1–2): equal probe count, equal quality and equal
 //! performance.
 
-use crate::stages::validate::Blocks;
+use crate::placement::method::Role;
+use crate::placement::registry::METHODS;
+use crate::stages::validate::{Blocks, Metric, PerMetric};
 use crate::stats::{paired_ratio_over_views, Interval, RESAMPLES};
 use rayon::prelude::*;
 use serde::Serialize;
@@ -17,19 +19,16 @@ pub const TRACER_HIZ: &str = "hiz+svo";
 pub const TRACER_BILEVEL: &str = "bilevel+grid";
 
 /// Which kind of placement a row is.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "kebab-case")]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Family {
     /// Ours: a skeleton placement refined (Wang et al. 2019 §3).
     Ours,
     /// A uniform grid of the sweep (McGuire et al. 2017).
     Grid,
-    /// A grid with RTXGI-style relocation and classification.
-    Relocated,
-    /// Silvennoinen & Lehtinen 2017's greedy voxel placement.
-    Greedy,
-    /// Unity's Adaptive Probe Volumes, as documented.
-    Adaptive,
+    /// A competitor of the list of methods (`Role::Competitor`: RTXGI's
+    /// relocated grid, Silvennoinen & Lehtinen's greedy placement, Unity's
+    /// adaptive probe volumes), by its `--method` word.
+    Competitor(&'static str),
     /// A probe set made elsewhere (`--probes FILE.json`), scored as given.
     Given,
 }
@@ -40,10 +39,16 @@ impl Family {
         match self {
             Family::Ours => "ours",
             Family::Grid => "grid",
-            Family::Relocated => "relocated",
-            Family::Greedy => "greedy",
-            Family::Adaptive => "adaptive",
+            Family::Competitor(word) => word,
             Family::Given => "given",
+        }
+    }
+
+    /// The competitor's entry of the list of methods.
+    fn method(self) -> Option<&'static crate::placement::method::Entry> {
+        match self {
+            Family::Competitor(word) => METHODS.iter().find(|m| m.word == word),
+            _ => None,
         }
     }
 
@@ -52,11 +57,69 @@ impl Family {
         match self {
             Family::Ours => "ours",
             Family::Grid => "uniform grid",
-            Family::Relocated => "grid, relocated (RTXGI)",
-            Family::Greedy => "greedy (Silvennoinen & Lehtinen)",
-            Family::Adaptive => "adaptive (Unity APV)",
+            Family::Competitor(word) => self.method().map_or(word, |m| m.label),
             Family::Given => "given (--probes)",
         }
+    }
+
+    /// Colour and marker in the plots.
+    pub fn marker(self) -> (&'static str, &'static str) {
+        match self {
+            Family::Ours => ("#2a8a2a", "circle"),
+            Family::Grid => ("#3060c0", "square"),
+            Family::Competitor(_) => self.method().map_or(("#808080", "circle"), |m| m.marker),
+            Family::Given => ("#202020", "circle"),
+        }
+    }
+
+    /// Every family in the order of tables and legends: ours, the grids,
+    /// the competitors in the list's order, a given set.
+    pub fn all() -> Vec<Family> {
+        let mut out = vec![Family::Ours, Family::Grid];
+        out.extend(
+            METHODS
+                .iter()
+                .filter(|m| m.role == Role::Competitor)
+                .map(|m| Family::Competitor(m.word)),
+        );
+        out.push(Family::Given);
+        out
+    }
+}
+
+impl Serialize for Family {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(self.key())
+    }
+}
+
+/// The quality figure the matches use, and the paired figure the
+/// summaries quote: the filtered glossy MSE.
+pub const QUALITY: Metric = Metric::MseGlossyFiltered;
+
+/// The cost figure equal performance falls back to without GPU times.
+pub const WORK: Metric = Metric::TexelFetchesPerRay;
+
+/// Each paired metric's interval ([`Metric::paired`]), by key, in the
+/// list's order.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Intervals(pub Vec<(Metric, Interval)>);
+
+impl Intervals {
+    /// The interval of `m`, when it is paired.
+    pub fn of(&self, m: Metric) -> Option<&Interval> {
+        self.0.iter().find(|(k, _)| *k == m).map(|(_, i)| i)
+    }
+}
+
+impl Serialize for Intervals {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::SerializeMap;
+        let mut map = s.serialize_map(Some(self.0.len()))?;
+        for (m, i) in &self.0 {
+            map.serialize_entry(m.entry().key, i)?;
+        }
+        map.end()
     }
 }
 
@@ -83,22 +146,13 @@ pub struct PlacementRow {
     pub probe_bytes: u64,
     /// Bytes of the SVO of probe indices (Wang et al. 2019 §4.1).
     pub svo_bytes: u64,
-    /// Mean over cameras of [`CameraRow::mse_glossy`].
-    pub mse_glossy: f64,
-    /// Mean over cameras of [`CameraRow::mse_glossy_filtered`]: the quality
-    /// figure the matches use. At the sample counts a comparison can
-    /// afford, the unfiltered MSE is mostly Monte Carlo noise that every
-    /// placement shares; filtering leaves the errors placement causes.
-    pub mse_glossy_filtered: f64,
-    /// Mean over cameras of [`CameraRow::mse_glossy_relative`].
-    pub mse_glossy_relative: f64,
-    /// Mean over cameras of [`CameraRow::flip`].
-    pub flip: f64,
-    /// Mean over cameras of [`CameraRow::unresolved_fraction`]: glossy
-    /// rays no probe resolved, answered by the fallback.
-    pub unresolved_fraction: f64,
-    /// Mean over cameras of [`CameraRow::texel_fetches_per_ray`].
-    pub texel_fetches_per_ray: f64,
+    /// Each metric's mean over cameras ([`crate::stages::validate::registry`]),
+    /// by key. The matches compare [`QUALITY`]: at the sample counts a
+    /// comparison can afford, the unfiltered MSE is mostly Monte Carlo
+    /// noise that every placement shares; filtering leaves the errors
+    /// placement causes.
+    #[serde(flatten)]
+    pub means: PerMetric<f64>,
     /// Mean over cameras of the distance from each shading point to the
     /// nearest probe that sees it ([`crate::stages::validate::shading_probe_distance`],
     /// world units): the parallax a glossy lookup suffers grows with it.
@@ -307,14 +361,14 @@ pub struct Ratio {
     pub tracer: &'static str,
     /// Its probe count.
     pub probes: usize,
-    /// Its pooled filtered glossy MSE over ours, with the interval: above
-    /// 1, ours has the lower error.
-    pub mse_glossy_filtered: Interval,
-    /// The same for the pooled ꟻLIP error.
-    pub flip: Interval,
-    /// Both intervals lie wholly above 1: ours wins on both metrics.
+    /// Each paired metric's pooled error over ours, with its interval:
+    /// above 1, ours has the lower error.
+    #[serde(flatten)]
+    pub intervals: Intervals,
+    /// Every interval lies wholly above 1: ours wins on every paired
+    /// metric.
     pub win: bool,
-    /// Both intervals lie wholly below 1: the rival wins on both.
+    /// Every interval lies wholly below 1: the rival wins on every one.
     pub loss: bool,
     /// The diffuse errors, SH over tetrahedra (`null` without the
     /// diffuse evaluation).
@@ -421,16 +475,16 @@ pub struct CompareReport {
 }
 
 impl PlacementRow {
-    /// The quality figure the matches use: [`PlacementRow::mse_glossy_filtered`].
+    /// The quality figure the matches use: the mean of [`QUALITY`].
     pub fn error(&self) -> f64 {
-        self.mse_glossy_filtered
+        self.means[QUALITY]
     }
 
     /// The figure equal performance matches on.
     pub fn performance(&self, metric: &str) -> f64 {
         match metric {
             "gpu_ms" => self.gpu_ms.unwrap_or(f64::NAN),
-            _ => self.texel_fetches_per_ray,
+            _ => self.means[WORK],
         }
     }
 }
@@ -444,7 +498,7 @@ pub fn performance_metric(adapter: &str, rows: &[PlacementRow]) -> &'static str 
     if !software && rows.iter().all(|r| r.gpu_ms.is_some()) {
         "gpu_ms"
     } else {
-        "texel_fetches_per_ray"
+        WORK.entry().key
     }
 }
 
@@ -535,20 +589,21 @@ pub fn comparisons(rows: &[PlacementRow], metric: &str, seed: u64) -> Vec<Compar
 /// `rival`'s pooled errors over `ours`, with two-stage bootstrap intervals
 /// over views and blocks.
 fn ratio_against(rival: &PlacementRow, ours: &PlacementRow, seed: u64) -> Ratio {
-    let interval = |f: fn(&Blocks) -> &Vec<f64>, mean: f64, ours_mean: f64| {
+    let interval = |m: Metric| {
+        let f = |b: &Blocks| -> Vec<f64> { b[m].clone() };
         let paired = rival.blocks.len() == ours.blocks.len()
             && !ours.blocks.is_empty()
             && rival
                 .blocks
                 .iter()
                 .zip(&ours.blocks)
-                .all(|(a, b)| f(a).len() == f(b).len() && !f(a).is_empty());
+                .all(|(a, b)| a[m].len() == b[m].len() && !a[m].is_empty());
         if paired {
-            let num: Vec<Vec<f64>> = rival.blocks.iter().map(|b| f(b).clone()).collect();
-            let den: Vec<Vec<f64>> = ours.blocks.iter().map(|b| f(b).clone()).collect();
+            let num: Vec<Vec<f64>> = rival.blocks.iter().map(f).collect();
+            let den: Vec<Vec<f64>> = ours.blocks.iter().map(f).collect();
             paired_ratio_over_views(&num, &den, RESAMPLES, seed)
         } else {
-            let v = mean / ours_mean;
+            let v = rival.means[m] / ours.means[m];
             Interval {
                 value: v,
                 lo: v,
@@ -556,21 +611,15 @@ fn ratio_against(rival: &PlacementRow, ours: &PlacementRow, seed: u64) -> Ratio 
             }
         }
     };
-    let mse = interval(
-        |b| &b.mse_glossy_filtered,
-        rival.mse_glossy_filtered,
-        ours.mse_glossy_filtered,
-    );
-    let flip = interval(|b| &b.flip, rival.flip, ours.flip);
+    let intervals = Intervals(Metric::paired().map(|m| (m, interval(m))).collect());
     Ratio {
         against: rival.name.clone(),
         family: rival.family,
         tracer: rival.tracer,
         probes: rival.probes,
-        win: mse.lo > 1.0 && flip.lo > 1.0,
-        loss: mse.hi < 1.0 && flip.hi < 1.0,
-        mse_glossy_filtered: mse,
-        flip,
+        win: intervals.0.iter().all(|(_, i)| i.lo > 1.0),
+        loss: intervals.0.iter().all(|(_, i)| i.hi < 1.0),
+        intervals,
         diffuse: diffuse_ratio(rival, ours, seed),
     }
 }
@@ -592,7 +641,7 @@ pub fn summary(report: &CompareReport) -> Vec<String> {
                 .iter()
                 .filter(|r| r.family == Family::Grid)
                 .map(|r| {
-                    let m = &r.mse_glossy_filtered;
+                    let m = r.intervals.of(QUALITY).expect("the quality metric is paired");
                     format!(
                         "{} on {} has {:.2}× [{:.2}, {:.2}] the error",
                         r.against, r.tracer, m.value, m.lo, m.hi
@@ -637,10 +686,16 @@ fn cell(v: Option<f64>) -> String {
     v.map(|x| format!("{x:.6}")).unwrap_or_default()
 }
 
-/// `compare.csv`: one line per placement and camera, a header first.
+/// `compare.csv`: one line per placement and camera, a header first; one
+/// column per metric of the list, in its order.
 pub fn to_csv(report: &CompareReport) -> String {
-    let mut out = String::from(
-        "placement,family,tracer,camera,chosen,probes,coverage,probes_in_solid,probe_bytes,svo_bytes,texel_fetches_per_ray,gpu_ms,mse_glossy,mse_glossy_filtered,mse_glossy_relative,flip,mse_full,unresolved_fraction,sh_surface_total,sh_surface_indirect,sh_free_total,sh_free_indirect,sh_leak_fraction,gather_surface_total,gather_free_total,gather_leak_fraction,invalid_probes,unreachable_probes\n",
+    let keys: Vec<&str> = crate::stages::validate::METRICS
+        .iter()
+        .map(|m| m.key)
+        .collect();
+    let mut out = format!(
+        "placement,family,tracer,camera,chosen,probes,coverage,probes_in_solid,probe_bytes,svo_bytes,{},gpu_ms,sh_surface_total,sh_surface_indirect,sh_free_total,sh_free_indirect,sh_leak_fraction,gather_surface_total,gather_free_total,gather_leak_fraction,invalid_probes,unreachable_probes\n",
+        keys.join(",")
     );
     for p in &report.placements {
         // The placement's diffuse figures, the same on each camera's line.
@@ -665,9 +720,13 @@ pub fn to_csv(report: &CompareReport) -> String {
         };
         for (i, c) in p.cameras.iter().enumerate() {
             let gpu = c.gpu_ms.map(|v| format!("{v:.3}")).unwrap_or_default();
+            let figures: Vec<String> = Metric::ALL
+                .iter()
+                .map(|&m| m.entry().show.csv(c.figures[m]))
+                .collect();
             let _ = writeln!(
                 out,
-                "{},{},{},{i},{},{},{:.6},{},{},{},{:.4},{gpu},{:.6e},{:.6e},{:.6e},{:.6},{:.6e},{:.6},{diffuse}",
+                "{},{},{},{i},{},{},{:.6},{},{},{},{},{gpu},{diffuse}",
                 p.name,
                 p.family.key(),
                 p.tracer,
@@ -677,13 +736,7 @@ pub fn to_csv(report: &CompareReport) -> String {
                 p.probes_in_solid,
                 p.probe_bytes,
                 p.svo_bytes,
-                c.texel_fetches_per_ray,
-                c.mse_glossy,
-                c.mse_glossy_filtered,
-                c.mse_glossy_relative,
-                c.flip,
-                c.mse_full,
-                c.unresolved_fraction,
+                figures.join(","),
             );
         }
     }
@@ -704,12 +757,11 @@ mod tests {
             probes_in_solid: 0,
             probe_bytes: 0,
             svo_bytes: 0,
-            mse_glossy: mse,
-            mse_glossy_filtered: mse,
-            mse_glossy_relative: mse,
-            flip: mse,
-            unresolved_fraction: 0.0,
-            texel_fetches_per_ray: fetches,
+            means: PerMetric::from_fn(|m| match m {
+                WORK => fetches,
+                Metric::UnresolvedFraction => 0.0,
+                _ => mse,
+            }),
             gpu_ms: None,
             shading_probe_distance: None,
             cameras: vec![],
@@ -735,10 +787,10 @@ mod tests {
                 let e: Vec<f64> = (0..50)
                     .map(|i| scale * (1.0 + ((i * 7 + v) % 11) as f64))
                     .collect();
-                Blocks {
-                    mse_glossy_filtered: e.clone(),
-                    flip: e,
-                }
+                let mut b = Blocks::default();
+                b[Metric::MseGlossyFiltered] = e.clone();
+                b[Metric::Flip] = e;
+                b
             })
             .collect()
     }
@@ -749,10 +801,10 @@ mod tests {
         ours.blocks = blocks(1.0, 4);
         let mut grid = row("g8", Family::Grid, 8, 2.0, 30.0);
         grid.blocks = blocks(2.0, 4);
-        let mut greedy = row("greedy", Family::Greedy, 10, 1.0, 20.0);
+        let mut greedy = row("greedy", Family::Competitor("greedy"), 10, 1.0, 20.0);
         greedy.blocks = blocks(1.0, 4);
         // Worse in half the views, better in the rest: no verdict.
-        let mut adaptive = row("adaptive", Family::Adaptive, 10, 1.0, 20.0);
+        let mut adaptive = row("adaptive", Family::Competitor("adaptive"), 10, 1.0, 20.0);
         adaptive.blocks = (0..4)
             .map(|v| blocks(if v % 2 == 0 { 0.4 } else { 1.6 }, 1).remove(0))
             .collect();
@@ -760,13 +812,15 @@ mod tests {
         let c = &comparisons(&rows, "texel_fetches_per_ray", 1)[0];
         let by = |n: &str| c.ratios.iter().find(|r| r.against == n).unwrap();
         let g = by("g8");
-        assert_eq!((g.mse_glossy_filtered.value, g.tracer), (2.0, TRACER_HIZ));
-        assert!(g.win && !g.loss && g.mse_glossy_filtered.lo > 1.0);
+        let of = |r: &Ratio, m: Metric| *r.intervals.of(m).unwrap();
+        assert_eq!((of(g, QUALITY).value, g.tracer), (2.0, TRACER_HIZ));
+        assert!(g.win && !g.loss && of(g, QUALITY).lo > 1.0);
         let tie = by("greedy");
-        assert_eq!((tie.flip.lo, tie.flip.hi), (1.0, 1.0));
+        let flip = of(tie, Metric::Flip);
+        assert_eq!((flip.lo, flip.hi), (1.0, 1.0));
         assert!(!tie.win && !tie.loss);
         let mixed = by("adaptive");
-        assert!(mixed.mse_glossy_filtered.lo < 1.0 && mixed.mse_glossy_filtered.hi > 1.0);
+        assert!(of(mixed, QUALITY).lo < 1.0 && of(mixed, QUALITY).hi > 1.0);
         assert!(!mixed.win && !mixed.loss);
         assert_eq!(c.ratios.len(), 3, "one equal-count grid, two competitors");
     }
@@ -801,7 +855,7 @@ mod tests {
         let rows = vec![
             row("ours", Family::Ours, 10, 0.5, 20.0),
             row("g8", Family::Grid, 8, 5.0, 30.0),
-            row("reloc", Family::Relocated, 7, 6.0, 30.0),
+            row("reloc", Family::Competitor("relocated"), 7, 6.0, 30.0),
         ];
         let cs = comparisons(&rows, "texel_fetches_per_ray", 1);
         assert_eq!(cs.len(), 2, "grids are not matched against themselves");

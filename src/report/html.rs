@@ -10,8 +10,10 @@
 //! keeps the page byte-identical from run to run without font files.
 
 use super::compare::{
-    CompareReport, Comparison, Family, Matched, PlacementRow, Ratio, TRACER_BILEVEL, TRACER_HIZ,
+    CompareReport, Comparison, Family, Matched, PlacementRow, Ratio, QUALITY, TRACER_BILEVEL,
+    TRACER_HIZ,
 };
+use crate::stages::validate::{Metric, METRICS};
 use crate::stats::Interval;
 use std::fmt::Write as _;
 
@@ -82,7 +84,7 @@ pub fn page(report: &CompareReport, figures: &Figures) -> String {
         "MSE",
         true,
         report,
-        |r| r.mse_glossy_filtered,
+        |r| r.error(),
     ));
     h.push_str(&plot(
         "Coverage (higher is better)",
@@ -105,15 +107,15 @@ pub fn page(report: &CompareReport, figures: &Figures) -> String {
     for (row, fig) in report.placements.iter().zip(&figures.placements) {
         let _ = writeln!(
             h,
-            "<section class=\"card {}\"><h3>{} <small>{} · {} · {} probes · filtered glossy MSE {} · ꟻLIP {:.4} · unresolved {:.2}%</small></h3>\n<div class=\"row\">",
+            "<section class=\"card {}\"><h3>{} <small>{} · {} · {} probes{}</small></h3>\n<div class=\"row\">",
             row.family.key(),
             escape(&row.name),
             row.family.label(),
             row.tracer,
             row.probes,
-            sci(row.mse_glossy_filtered),
-            row.flip,
-            100.0 * row.unresolved_fraction
+            Metric::paired()
+                .map(|m| format!(" · {} {}", m.entry().label, m.entry().show.cell(row.means[m])))
+                .collect::<String>()
         );
         figure(&mut h, &fig.views, "top and side views", "views");
         for (i, ((render, error), flip)) in fig
@@ -237,12 +239,16 @@ fn summary(h: &mut String, report: &CompareReport) {
         for r in c.ratios.iter().filter(|r| r.family == Family::Grid) {
             let _ = write!(
                 h,
-                "at equal count, {} ({} probes) on <code>{}</code> has {} the filtered MSE and {} the ꟻLIP error ({}); ",
+                "at equal count, {} ({} probes) on <code>{}</code> has {} ({}); ",
                 escape(&r.against),
                 r.probes,
                 r.tracer,
-                interval(&r.mse_glossy_filtered),
-                interval(&r.flip),
+                r.intervals
+                    .0
+                    .iter()
+                    .map(|(m, i)| format!("{} the {}", interval(i), m.entry().label))
+                    .collect::<Vec<_>>()
+                    .join(" and "),
                 verdict(r)
             );
         }
@@ -388,7 +394,11 @@ fn diffuse_tables(h: &mut String, report: &CompareReport) {
 
 /// Every ratio of our placements against their rivals, with intervals.
 fn ratios_table(h: &mut String, report: &CompareReport) {
-    h.push_str("<h2 id=\"ratios\">Ours against each rival at about equal count</h2>\n<p>Each ratio is the rival's pooled error over ours (above 1: ours is better), with its 95% interval from a two-stage paired bootstrap over views and 16-pixel blocks; it is a win only when both intervals lie above 1. Ours is traced with <code>hiz+svo</code>; the rival's tracer is given: a grid on <code>hiz+svo</code> isolates placement, on <code>bilevel+grid</code> it is what engines trace today.</p>\n<table id=\"ratios-table\">\n<tr><th>ours</th><th>probes</th><th>rival</th><th>kind</th><th>tracer</th><th>probes</th><th>filtered MSE ratio</th><th>ꟻLIP ratio</th><th>verdict</th></tr>\n");
+    h.push_str("<h2 id=\"ratios\">Ours against each rival at about equal count</h2>\n<p>Each ratio is the rival's pooled error over ours (above 1: ours is better), with its 95% interval from a two-stage paired bootstrap over views and 16-pixel blocks; it is a win only when every interval lies above 1. Ours is traced with <code>hiz+svo</code>; the rival's tracer is given: a grid on <code>hiz+svo</code> isolates placement, on <code>bilevel+grid</code> it is what engines trace today.</p>\n<table id=\"ratios-table\">\n<tr><th>ours</th><th>probes</th><th>rival</th><th>kind</th><th>tracer</th><th>probes</th>");
+    for m in Metric::paired() {
+        let _ = write!(h, "<th>{} ratio</th>", m.entry().label);
+    }
+    h.push_str("<th>verdict</th></tr>\n");
     for c in &report.comparisons {
         if !ours_or_given(report, c) {
             continue;
@@ -396,7 +406,7 @@ fn ratios_table(h: &mut String, report: &CompareReport) {
         for r in &c.ratios {
             let _ = writeln!(
                 h,
-                "<tr class=\"{}\"><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
+                "<tr class=\"{}\"><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td>{}<td>{}</td></tr>",
                 r.family.key(),
                 escape(&c.placement),
                 c.probes,
@@ -404,8 +414,11 @@ fn ratios_table(h: &mut String, report: &CompareReport) {
                 r.family.label(),
                 r.tracer,
                 r.probes,
-                interval(&r.mse_glossy_filtered),
-                interval(&r.flip),
+                r.intervals
+                    .0
+                    .iter()
+                    .map(|(_, i)| format!("<td>{}</td>", interval(i)))
+                    .collect::<String>(),
                 verdict(r)
             );
         }
@@ -414,18 +427,22 @@ fn ratios_table(h: &mut String, report: &CompareReport) {
 }
 
 fn placements_table(h: &mut String, report: &CompareReport) {
-    h.push_str("<h2 id=\"placements\">Placements</h2>\n<table id=\"placements-table\">\n<tr><th>placement</th><th>kind</th><th>probes</th><th>coverage</th><th>in solid</th><th>probe data</th><th>SVO</th><th>tracer</th><th>texel fetches / ray</th><th>GPU ms</th><th>glossy MSE</th><th>filtered glossy MSE</th><th>relative MSE</th><th>ꟻLIP</th><th>unresolved</th>");
+    h.push_str("<h2 id=\"placements\">Placements</h2>\n<table id=\"placements-table\">\n<tr><th>placement</th><th>kind</th><th>probes</th><th>coverage</th><th>in solid</th><th>probe data</th><th>SVO</th><th>tracer</th>");
+    for m in METRICS {
+        let _ = write!(h, "<th>{}</th>", m.label);
+    }
+    h.push_str("<th>GPU ms</th>");
     let cams = report.cameras.len();
     if cams > 1 {
         for i in 0..cams {
-            let _ = write!(h, "<th>filtered MSE view {i}</th>");
+            let _ = write!(h, "<th>{} view {i}</th>", QUALITY.entry().label);
         }
     }
     h.push_str("</tr>\n");
     for r in &report.placements {
         let _ = write!(
             h,
-            "<tr class=\"{}\"><td>{}</td><td>{}</td><td>{}</td><td>{:.2}%</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{:.1}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{:.4}</td><td>{:.2}%</td>",
+            "<tr class=\"{}\"><td>{}</td><td>{}</td><td>{}</td><td>{:.2}%</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td>{}<td>{}</td>",
             r.family.key(),
             escape(&r.name),
             r.family.label(),
@@ -435,17 +452,19 @@ fn placements_table(h: &mut String, report: &CompareReport) {
             bytes(r.probe_bytes),
             bytes(r.svo_bytes),
             r.tracer,
-            r.texel_fetches_per_ray,
+            Metric::ALL
+                .iter()
+                .map(|&m| format!("<td>{}</td>", m.entry().show.cell(r.means[m])))
+                .collect::<String>(),
             r.gpu_ms.map(|v| format!("{v:.1}")).unwrap_or_else(|| "–".into()),
-            sci(r.mse_glossy),
-            sci(r.mse_glossy_filtered),
-            sci(r.mse_glossy_relative),
-            r.flip,
-            100.0 * r.unresolved_fraction
         );
         if cams > 1 {
             for c in &r.cameras {
-                let _ = write!(h, "<td>{}</td>", sci(c.mse_glossy_filtered));
+                let _ = write!(
+                    h,
+                    "<td>{}</td>",
+                    QUALITY.entry().show.cell(c.figures[QUALITY])
+                );
             }
         }
         h.push_str("</tr>\n");
@@ -534,14 +553,7 @@ const RIGHT: f64 = 170.0;
 
 /// Colour and marker of each family.
 fn style(f: Family) -> (&'static str, &'static str) {
-    match f {
-        Family::Ours => ("#2a8a2a", "circle"),
-        Family::Grid => ("#3060c0", "square"),
-        Family::Relocated => ("#c07020", "diamond"),
-        Family::Greedy => ("#a03090", "triangle"),
-        Family::Adaptive => ("#20a0a0", "diamond"),
-        Family::Given => ("#202020", "circle"),
-    }
+    f.marker()
 }
 
 /// A point of a plot: its row, its probe count (x) and its value (y).
@@ -715,14 +727,7 @@ fn plot_points(s: &mut String, frame: &PlotFrame, points: &[PlotPoint]) {
 /// that has points.
 fn plot_legend(s: &mut String, points: &[PlotPoint]) {
     let mut ly = TOP + 10.0;
-    for f in [
-        Family::Ours,
-        Family::Grid,
-        Family::Relocated,
-        Family::Greedy,
-        Family::Adaptive,
-        Family::Given,
-    ] {
+    for f in Family::all() {
         if !points.iter().any(|p| p.0.family == f) {
             continue;
         }

@@ -16,6 +16,7 @@ use crate::error::Result;
 use crate::output::commit::OutputSet;
 use crate::scene::{Bounds, Scene};
 use crate::sdf::Sdf;
+use crate::stages::validate::METRICS;
 use crate::svo::Svo;
 use glam::{DVec3, Vec3};
 use serde_json::Value;
@@ -599,17 +600,20 @@ fn render_table(h: &mut String, r: &Value) {
     let rows: Vec<Vec<String>> = variants
         .iter()
         .map(|(name, v)| {
-            vec![
+            let mut row = vec![
                 escape(name),
                 format!(
                     "{} + {}",
                     escape(&text(&v["march"])),
                     escape(&text(&v["selection"]))
                 ),
-                num(&v["mse_glossy"]),
-                num(&v["mse_glossy_filtered"]),
-                num(&v["mse_full"]),
-                num(&v["texel_fetches_per_ray"]),
+            ];
+            // One column per metric of the list.
+            row.extend(METRICS.iter().map(|m| match v[m.key].as_f64() {
+                Some(x) => m.show.cell(x),
+                None => "–".into(),
+            }));
+            row.extend([
                 num(&v["surfel_fetches_per_ray"]),
                 num(&v["probe_switches_per_ray"]),
                 format!(
@@ -618,25 +622,18 @@ fn render_table(h: &mut String, r: &Value) {
                     num(&v["hits"]),
                     num(&v["misses"])
                 ),
-            ]
+            ]);
+            row
         })
         .collect();
-    html::table(
-        h,
-        "render-table",
-        &[
-            "variant",
-            "march + selection",
-            "glossy MSE",
-            "filtered glossy MSE",
-            "full MSE",
-            "texel fetches / ray",
-            "surfel fetches / ray",
-            "probe switches / ray",
-            "unresolved / hits / misses",
-        ],
-        &rows,
-    );
+    let mut heads = vec!["variant", "march + selection"];
+    heads.extend(METRICS.iter().map(|m| m.label));
+    heads.extend([
+        "surfel fetches / ray",
+        "probe switches / ray",
+        "unresolved / hits / misses",
+    ]);
+    html::table(h, "render-table", &heads, &rows);
 }
 
 /// A colour swatch.

@@ -2,7 +2,15 @@
 //! camera, and renders of the same view through the probes, measured
 //! against it. `render` and `compare` both go through here: one G-buffer
 //! per view, one tracer chosen once (the GPU's, or its CPU twin), one
-//! composition and one set of [`Metrics`].
+//! composition and one set of [`Metrics`]: the figures of the metrics of
+//! [`registry`] (one file each, docs/layout.md, "Adding a compare
+//! metric") and the tracer's counts.
+
+pub mod errors;
+pub mod metric;
+pub mod perceptual;
+pub mod registry;
+pub mod work;
 
 use super::prepare::Prepared;
 use crate::config::{CameraParams, Config};
@@ -11,33 +19,27 @@ use crate::gpu::{kind, twin, Context, ProbeTracer, Record, SelectionKind};
 use crate::lightfield::LightField;
 use crate::raster::RgbImage;
 use crate::render::flip;
-use crate::render::lights::luminance;
-use crate::render::probes::{
-    box_filter, compose, error_heat_map, gbuffer, mse, GBuffer, ProbeImage,
-};
+use crate::render::probes::{box_filter, compose, error_heat_map, gbuffer, GBuffer, ProbeImage};
 use crate::render::reference::{mean_of, render_reference};
 use crate::render::{Reference, Renderer};
 use crate::svo::Svo;
 use crate::trace::{check::padded_bounds, single::March, Lattice, Selection};
+pub use errors::{mean_luminance, RELATIVE_EPSILON};
 use glam::Vec3;
+use metric::{Measure, ViewRender};
+pub use registry::{Metric, PerMetric, METRICS};
 use serde::Serialize;
 
 /// Random streams of the validation renders' glossy rays.
 const GLOSSY_STREAMS: u64 = 0x6_1055;
 
-/// Radius of the box filter of [`Metrics::mse_glossy_filtered`].
+/// Radius of the box filter of [`errors::MseGlossyFiltered`].
 pub const FILTER_RADIUS: u32 = 3;
 
 /// Side in pixels of the blocks the comparison's intervals resample
 /// ([`crate::stats`]): over twice the filter's width, so that neighbouring
 /// blocks share few filtered pixels.
 pub const BLOCK: u32 = 16;
-
-/// `ε` of [`Metrics::mse_glossy_relative`] as a share of the squared mean
-/// luminance of the view's reference glossy indirect: keeps dark pixels
-/// from dominating (Rousselle et al. 2011's relative MSE adds such a
-/// constant).
-pub const RELATIVE_EPSILON: f64 = 0.01;
 
 /// The seed of camera `index`'s reference and rays; camera 0's is the
 /// config's, so `bake`'s reference is `compare`'s first.
@@ -268,26 +270,9 @@ impl<'a> Tracer<'a> {
 /// reference (Wang et al. 2019 §5.1, and the tracer's work per ray, §4.2).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Metrics {
-    /// Glossy-indirect MSE against the reference, per pixel and channel.
-    pub mse_glossy: f64,
-    /// Relative MSE of the filtered glossy indirect: the mean of
-    /// `(x − r)² / (r² + ε)` per pixel and channel, `ε` being
-    /// [`RELATIVE_EPSILON`] of the reference's squared mean luminance, so
-    /// that dim and bright regions weigh alike.
-    pub mse_glossy_relative: f64,
-    /// Mean ꟻLIP error ([`crate::render::flip`]) of the tone-mapped,
-    /// filtered glossy indirect against the reference's, in [0, 1].
-    pub flip: f64,
-    /// The same after a 7×7 box filter of both images, which removes most
-    /// sampling noise and keeps what placement changes: missing and wrong
-    /// reflections (Wang's Fig. 8 compares filtered glossy components).
-    pub mse_glossy_filtered: f64,
-    /// MSE of the whole image against the reference.
-    pub mse_full: f64,
-    /// Pyramid texels the march visits per glossy ray, at every level.
-    pub texel_fetches_per_ray: f64,
-    /// Glossy rays no probe resolved (unknown or no probe), as a fraction.
-    pub unresolved_fraction: f64,
+    /// The figure of every metric of [`registry`], by its key.
+    #[serde(flatten)]
+    pub figures: PerMetric<f64>,
     /// GPU time of the trace and the gather in milliseconds (timestamps);
     /// `null` on the CPU twin or without timestamp queries.
     pub gpu_ms: Option<f64>,
@@ -318,15 +303,10 @@ pub struct Validation {
 }
 
 /// One render's errors per block of [`BLOCK`]² pixels, row by row
-/// ([`crate::stats::block_means`]): what the comparison's bootstrap
-/// resamples.
-#[derive(Debug, Clone, PartialEq, Default)]
-pub struct Blocks {
-    /// Squared error of the filtered glossy indirect, per channel.
-    pub mse_glossy_filtered: Vec<f64>,
-    /// ꟻLIP error.
-    pub flip: Vec<f64>,
-}
+/// ([`crate::stats::block_means`]), for each paired metric
+/// ([`metric::ViewMetric::PAIRED`]; empty for the others): what the
+/// comparison's bootstrap resamples.
+pub type Blocks = PerMetric<Vec<f64>>;
 
 /// Most shading points of a view [`shading_probe_distance`] looks at (an
 /// even subsample of its pixels with a surface).
@@ -392,59 +372,41 @@ pub fn validate(view: &ValidationView, irradiance: &Answers, glossy: &Answers) -
     let rays = records.len().max(1) as f64;
     let sum = |f: fn(&Record) -> u32| records.iter().map(|r| f(r) as u64).sum::<u64>();
     let count = |k: u32| records.iter().filter(|r| r.kind == k).count() as u64;
-    let unresolved = count(kind::UNKNOWN) + count(kind::NO_PROBE);
     let r = &view.reference;
     let filtered = box_filter(&image.glossy_indirect, r.width, r.height, FILTER_RADIUS);
-    let squared: Vec<f64> = filtered
-        .iter()
-        .zip(&view.filtered_glossy)
-        .map(|(x, y)| {
-            (0..3)
-                .map(|c| (x[c] as f64 - y[c] as f64).powi(2))
-                .sum::<f64>()
-                / 3.0
-        })
-        .collect();
-    let epsilon = RELATIVE_EPSILON * mean_luminance(&view.filtered_glossy).powi(2);
-    let relative = filtered
-        .iter()
-        .zip(&view.filtered_glossy)
-        .map(|(x, y)| {
-            (0..3)
-                .map(|c| (x[c] as f64 - y[c] as f64).powi(2) / ((y[c] as f64).powi(2) + epsilon))
-                .sum::<f64>()
-                / 3.0
-        })
-        .sum::<f64>()
-        / filtered.len().max(1) as f64;
     let flip_map = flip::flip(
         &view.flip_reference,
         &flip::display(&filtered, r.width, r.height, view.glossy_exposure),
         r.width,
         r.height,
     );
-    let flip_values: Vec<f64> = flip_map.iter().map(|&e| e as f64).collect();
-    let width = r.width as usize;
-    let blocks = Blocks {
-        mse_glossy_filtered: crate::stats::block_means(&squared, width, BLOCK as usize),
-        flip: crate::stats::block_means(&flip_values, width, BLOCK as usize),
+    let render = ViewRender {
+        image: &image,
+        reference: r,
+        filtered: &filtered,
+        filtered_reference: &view.filtered_glossy,
+        flip_map: &flip_map,
+        records,
     };
-    let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len().max(1) as f64;
+    let mut blocks = Blocks::default();
+    let figures = PerMetric::from_fn(|m| match m.measure(&render) {
+        Measure::Pixels(v) => {
+            if m.entry().paired {
+                blocks[m] = crate::stats::block_means(&v, r.width as usize, BLOCK as usize);
+            }
+            v.iter().sum::<f64>() / v.len().max(1) as f64
+        }
+        Measure::Value(v) => v,
+    });
     let metrics = Metrics {
-        mse_glossy: mse(&image.glossy_indirect, &r.glossy_indirect),
-        mse_glossy_relative: if epsilon > 0.0 { relative } else { 0.0 },
-        flip: mean(&flip_values),
-        mse_glossy_filtered: mean(&squared),
-        mse_full: mse(&image.full, &r.full),
-        texel_fetches_per_ray: sum(|r| r.fetches) as f64 / rays,
-        unresolved_fraction: unresolved as f64 / rays,
+        figures,
         gpu_ms: glossy.1.zip(irradiance.1).map(|(a, b)| a + b),
         glossy_indirect_mean: mean_of(&image.glossy_indirect),
         surfel_fetches_per_ray: (crate::trace::single::SURFEL_TEST_FETCHES as u64
             * sum(|r| r.surfels)) as f64
             / rays,
         probe_switches_per_ray: sum(|r| r.probes.saturating_sub(1)) as f64 / rays,
-        unresolved_rays: unresolved,
+        unresolved_rays: count(kind::UNKNOWN) + count(kind::NO_PROBE),
         hits: count(kind::HIT),
         misses: count(kind::MISS),
     };
@@ -454,16 +416,6 @@ pub fn validate(view: &ValidationView, irradiance: &Answers, glossy: &Answers) -
         blocks,
         flip_map,
     }
-}
-
-/// Mean luminance of `pixels`, non-finite values left out (0 for none).
-pub fn mean_luminance(pixels: &[[f32; 3]]) -> f64 {
-    pixels
-        .iter()
-        .map(|&p| luminance(Vec3::from(p)) as f64)
-        .filter(|v| v.is_finite())
-        .sum::<f64>()
-        / pixels.len().max(1) as f64
 }
 
 /// Exposure that maps the mean luminance of `pixels` to 0.4 (display
