@@ -88,6 +88,7 @@ pub mod jobs;
 pub mod lightfield;
 pub(crate) mod limits;
 pub(crate) mod output;
+pub(crate) mod page;
 pub mod placement;
 pub(crate) mod probes;
 pub mod progress;

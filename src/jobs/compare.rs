@@ -46,17 +46,18 @@ use crate::encode::png::encode_png;
 use crate::error::{Error, Result};
 use crate::gpu::{Context, SelectionKind};
 use crate::lightfield::LightField;
+use crate::page::html::{self, Figures, PlacementFigures};
+use crate::page::view3d;
 use crate::placement::grid::nearest_grid;
 use crate::placement::method::Role;
 use crate::placement::registry::METHODS;
 use crate::placement::{self, ProbeSet};
 use crate::progress::Progress;
+use crate::report;
 use crate::report::compare::{
     comparisons, performance_metric, to_csv, CameraRecord, CameraRow, CompareReport, Family,
     PlacementRow, TRACER_BILEVEL, TRACER_HIZ,
 };
-use crate::report::html::{self, Figures, PlacementFigures};
-use crate::report::{self, view3d};
 use crate::stages::bake::Work;
 use crate::stages::validate::{self, Blocks, Tracer, ValidationView};
 use crate::stages::{self, Placed, Prepared};

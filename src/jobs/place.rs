@@ -82,8 +82,8 @@ pub(crate) fn view(
     report: &Value,
     probes: &ProbeSet,
     svo: &Svo,
-) -> crate::report::view3d::View3d {
-    report::run_html::view(
+) -> crate::page::view3d::View3d {
+    crate::page::run_html::view(
         &prepared.scene,
         &prepared.domain,
         &prepared.sdf,

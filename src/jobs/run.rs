@@ -8,9 +8,9 @@ use crate::config::{Config, GridParams, Placement};
 use crate::error::{Error, Result};
 use crate::output::commit::{self, OutputSet};
 use crate::output::manifest;
+use crate::page::view3d::View3d;
 use crate::progress::{Progress, Stopwatch};
 use crate::provenance::{self, Overrides, Provenance};
-use crate::report::view3d::View3d;
 use crate::stages::{self, Prepared};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
@@ -314,7 +314,7 @@ impl Job {
     /// images of the set, `view`), and commits the whole set.
     pub fn finish_run(mut self, mut report: Value, view: &View3d) -> Result<Outcome> {
         self.stamp(&mut report);
-        let page = crate::report::run_html::page(&report, &self.set, view)?;
+        let page = crate::page::run_html::page(&report, &self.set, view)?;
         self.set.add("report.html", page.into_bytes());
         let summary = summary(&report);
         self.write("report.json", report, summary)

@@ -1,7 +1,7 @@
 //! Outputs of a run: `probes.json` (what a renderer loads), `report.json`
-//! (what a script checks), `placement.png` and `report.html` (what a person
-//! looks at: [`run_html`], with the 3D view of [`view3d`]). Formats are
-//! specified in docs/formats.md.
+//! (what a script checks), the bake's, render's and compare's reports and
+//! `placement.png` (what a person looks at; the pages, `report.html`, are
+//! [`crate::page`]'s). Formats are specified in docs/formats.md.
 //!
 //! Every coordinate written is a world coordinate in f64, converted from the
 //! stages' scene-local f32 ones by [`Scene::to_world`] here, at the boundary.
@@ -12,13 +12,9 @@
 
 pub mod bake;
 pub mod compare;
-pub mod html;
-pub(crate) mod markup;
 pub mod preview;
 pub mod render;
-pub mod run_html;
 pub mod sh;
-pub mod view3d;
 
 use crate::config::UpAxis;
 use crate::coverage::Coverage;

@@ -652,8 +652,8 @@ fn gradient(stops: &str) -> String {
 /// The run's images in the order of the files list of docs/formats.md,
 /// each with what it shows and what to look for; returns how many.
 fn images(h: &mut String, r: &Value, set: &OutputSet) -> Result<usize> {
-    use super::preview::{BOUNDS_COLOR, HOLE_COLOR, PROBE_FILL};
     use crate::refine::{SEEN, UNSEEN};
+    use crate::report::preview::{BOUNDS_COLOR, HOLE_COLOR, PROBE_FILL};
     let mut list: Vec<(String, String)> = vec![
         (
             "placement.png".into(),

@@ -18,7 +18,7 @@
 //!   leaf cells whose lists name it ([`Svo::listings`]): where a renderer
 //!   reading `svo.bin` consults the probe, fallback cells included; at most
 //!   [`PROBE_BUDGET`] probes a set, every k-th beyond;
-//! - the coverage holes, at most [`super::HOLE_SAMPLE`] a set.
+//! - the coverage holes, at most [`crate::report::HOLE_SAMPLE`] a set.
 //!
 //! Coordinates are the scene's local ones (world minus
 //! [`Scene::origin`], which the page adds back for the figures it shows),
@@ -66,9 +66,9 @@ const OUTSIDE: [u8; 3] = [140, 140, 140];
 /// A probe's influence box on hover.
 const BOX: [u8; 3] = [255, 150, 40];
 /// The domain's frame, as in `placement.png`.
-const DOMAIN: [u8; 3] = super::preview::BOUNDS_COLOR;
+const DOMAIN: [u8; 3] = crate::report::preview::BOUNDS_COLOR;
 /// The coverage holes, as in `placement.png`.
-const HOLE: [u8; 3] = super::preview::HOLE_COLOR;
+const HOLE: [u8; 3] = crate::report::preview::HOLE_COLOR;
 /// The background.
 const BACKGROUND: [u8; 3] = [30, 34, 40];
 
@@ -620,10 +620,10 @@ mod tests {
     #[test]
     fn samples_are_bounded_and_spread() {
         let holes: Vec<u32> = (0..10_000).collect();
-        let s = super::super::hole_sample(&holes);
-        assert!(s.len() <= super::super::HOLE_SAMPLE && s.len() > super::super::HOLE_SAMPLE / 2);
+        let s = crate::report::hole_sample(&holes);
+        assert!(s.len() <= crate::report::HOLE_SAMPLE && s.len() > crate::report::HOLE_SAMPLE / 2);
         assert_eq!(s[0], 0);
         assert!(*s.last().unwrap() > 9_000);
-        assert_eq!(super::super::hole_sample(&holes[..7]), holes[..7].to_vec());
+        assert_eq!(crate::report::hole_sample(&holes[..7]), holes[..7].to_vec());
     }
 }

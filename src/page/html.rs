@@ -9,7 +9,7 @@
 //! scatter plots need only axes, ticks and polylines, and hand-written SVG
 //! keeps the page byte-identical from run to run without font files.
 
-use super::compare::{
+use crate::report::compare::{
     CompareReport, Comparison, Family, Matched, PlacementRow, Ratio, QUALITY, TRACER_BILEVEL,
     TRACER_HIZ,
 };
