@@ -72,6 +72,8 @@
 pub mod config;
 pub mod coverage;
 pub(crate) mod diffuse;
+#[cfg(test)]
+mod doc_blocks;
 pub(crate) mod encode;
 pub mod error;
 pub(crate) mod export;

@@ -168,16 +168,6 @@ mod tests {
                 f.variant, f.file, f.about
             );
         }
-        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/formats.md");
-        let text = std::fs::read_to_string(path).unwrap();
-        let (begin, end) = ("<!-- formats begin", "<!-- formats end -->");
-        let start = text.find(begin).expect("the formats block");
-        let start = start + text[start..].find("-->\n").unwrap() + 4;
-        let stop = text.find(end).expect("the formats block's end");
-        assert_eq!(
-            &text[start..stop],
-            block,
-            "docs/formats.md's formats table is not the registry's; the block:\n{block}"
-        );
+        crate::doc_blocks::assert_doc_block("formats.md", "formats", &block);
     }
 }

@@ -111,16 +111,6 @@ mod tests {
             let paired = if m.paired { "yes" } else { "—" };
             block += &format!("| `{}` | {} | {paired} | {} |\n", m.key, m.label, m.about);
         }
-        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/formats.md");
-        let text = std::fs::read_to_string(path).unwrap();
-        let (begin, end) = ("<!-- metrics begin", "<!-- metrics end -->");
-        let start = text.find(begin).expect("the metrics block");
-        let start = start + text[start..].find("-->\n").unwrap() + 4;
-        let stop = text.find(end).expect("the metrics block's end");
-        assert_eq!(
-            &text[start..stop],
-            block,
-            "docs/formats.md's metrics table is not the registry's; the block:\n{block}"
-        );
+        crate::doc_blocks::assert_doc_block("formats.md", "metrics", &block);
     }
 }
