@@ -147,10 +147,10 @@ pub struct ProbeSh {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ProbeLight {
     /// Its incident radiance in SH L2, total and indirect
-    /// ([`super::bake_sh`]).
+    /// (`diffuse::bake_sh`).
     pub sh: ProbeSh,
     /// Path-traced irradiance (total) at the probe for a surface facing
-    /// each of [`super::AXES`]: what the SH's irradiance should be near.
+    /// each of `diffuse::AXES`: what the SH's irradiance should be near.
     pub irradiance_axes: [Vec3; 6],
 }
 

@@ -94,7 +94,7 @@ macro_rules! formats {
         /// A file for another tool, written with a run's outputs (the
         /// config's `export` list, or `probeplace export DIR --format …`):
         /// one variant per format of the list in this file, each
-        /// described by its [`FORMATS`] entry; docs/engines.md says how
+        /// described by its `FORMATS` entry; docs/engines.md says how
         /// each is used, docs/formats.md what each holds.
         #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Deserialize)]
         #[allow(missing_docs)]
@@ -117,7 +117,7 @@ macro_rules! formats {
             /// Every format, in the list's order.
             pub const ALL: &[Export] = &[$(Export::$variant,)+];
 
-            /// Its entry of [`FORMATS`].
+            /// Its entry of `FORMATS`.
             pub fn entry(self) -> &'static $crate::export::format::Entry {
                 &FORMATS[self as usize]
             }

@@ -1,5 +1,5 @@
 //! The `export` job: an earlier run's probes written for other tools
-//! (the formats of [`crate::export::registry`]: glTF, Godot, Unity, DDGI), and the
+//! (the formats of `export::registry`: glTF, Godot, Unity, DDGI), and the
 //! config's `export` list, which `place`, `bake` and `render` honour.
 //!
 //! `probeplace export DIR` reads DIR as `--from DIR` does (`Job::new_as`):
@@ -36,7 +36,7 @@ pub fn formats() -> Vec<(&'static str, &'static str, &'static str)> {
 pub struct ExportOptions {
     /// The earlier run's output directory.
     pub dir: PathBuf,
-    /// The formats by their `--format` words ([`FORMATS`]), in the order
+    /// The formats by their `--format` words (`export::FORMATS`), in the order
     /// given.
     pub formats: Vec<String>,
     /// Put the scene's triangles into `probes.glb` (`--scene`).
