@@ -503,12 +503,7 @@ fn compare_summary(compares: &[Value]) -> String {
         let competitors: Vec<&Value> = ratios
             .iter()
             .map(|&(_, r)| r)
-            .filter(|r| {
-                matches!(
-                    text(r, "family").as_str(),
-                    "relocated" | "greedy" | "adaptive"
-                )
-            })
+            .filter(|r| competitor_words().contains(&text(r, "family").as_str()))
             .collect();
         if !competitors.is_empty()
             && competitors
@@ -1151,11 +1146,23 @@ fn render_section(md: &mut String, reports: &[Value]) {
 
 // ---------------------------------------------------------------- compare
 
-fn family_rank(f: &str) -> usize {
-    ["ours", "grid", "relocated", "greedy", "adaptive"]
+/// The `family` of compare's competitors: the `--method` words of the
+/// placement registry's `Role::Competitor` methods, in its order.
+fn competitor_words() -> Vec<&'static str> {
+    use probeplace::placement::{Role, METHODS};
+    METHODS
         .iter()
-        .position(|x| *x == f)
-        .unwrap_or(5)
+        .filter(|m| m.role == Role::Competitor)
+        .map(|m| m.word)
+        .collect()
+}
+
+/// Where a family's rows stand in tables: ours, the grids, the
+/// competitors in the registry's order, then a given set.
+fn family_rank(f: &str) -> usize {
+    let mut order = vec!["ours", "grid"];
+    order.extend(competitor_words());
+    order.iter().position(|x| *x == f).unwrap_or(order.len())
 }
 
 /// Mean over cameras of a per-camera figure.
