@@ -1,4 +1,10 @@
 #![warn(missing_docs)]
+// The internal modules' items that only the tests, examples and benchmarks
+// use are `pub` for them (the `testkit` feature makes those modules
+// public); without the feature nothing outside the crate reaches them, so
+// the default build does not lint them as dead (the feature build, where
+// they are public, never did).
+#![cfg_attr(not(feature = "testkit"), allow(dead_code, unused_imports))]
 //! probeplace: decides where to put light-field probes in a 3D scene.
 //!
 //! The pipeline follows Wang et al. 2019, *Fast Non-uniform Radiance Probe
@@ -7,29 +13,40 @@
 //!
 //! | stage | module | paper |
 //! |---|---|---|
-//! | load the scene | [`scene`] | — |
-//! | ray casting, watertight ray/triangle test | [`scene::raycast`], [`scene::watertight`] | Woop, Benthin & Wald 2013 |
+//! | load the scene | `scene` | — |
+//! | ray casting, watertight ray/triangle test | `scene::raycast`, `scene::watertight` | Woop, Benthin & Wald 2013 |
 //! | voxel size chosen from the scene | `resolution` (internal) | — |
-//! | signed distance field | [`sdf`] | Wang §3.1 |
+//! | signed distance field | `sdf` | Wang §3.1 |
 //! | skeletons (SDF, medial axis) and clustering | `skeleton` (internal; the methods through [`placement`]) | Wang §3.1, Figs. 2–3; Ma et al. 2012 |
 //! | uniform grid baseline | [`placement`] | McGuire §4 |
-//! | coverage | [`coverage`] | Wang §2, §3.2 |
-//! | refinement, filling, pruning | [`refine`] | Wang §3.2–3.3, eqs. 1–3, Figs. 4–6 |
+//! | coverage | `coverage` | Wang §2, §3.2 |
+//! | refinement, filling, pruning | `refine` | Wang §3.2–3.3, eqs. 1–3, Figs. 4–6 |
 //! | octahedral probe maps | [`lightfield`] | McGuire §3 |
 //! | sparse voxel octree of probe indices | [`svo`] | Wang §4.1, Fig. 7 |
-//! | path tracing: probe radiance, reference images | [`render`] | McGuire §3, §5.1; Wang §5.1 |
+//! | path tracing: probe radiance, reference images | `render` | McGuire §3, §5.1; Wang §5.1 |
 //! | light-field probe bake: maps, pyramid, irradiance | [`lightfield`] | McGuire §3, §5.2; Wang §4.2 |
-//! | light-field ray tracing on the CPU | [`trace`] | McGuire §4, Listing 1 |
-//! | light-field ray tracing on the GPU (wgpu): bi-level and Hi-Z | [`gpu`] | McGuire §4, §5.2; Wang §4.2 |
-//! | validation renders against the reference | [`render::probes`] | Wang §5.1 |
+//! | light-field ray tracing on the CPU | `trace` | McGuire §4, Listing 1 |
+//! | light-field ray tracing on the GPU (wgpu): bi-level and Hi-Z | `gpu` | McGuire §4, §5.2; Wang §4.2 |
+//! | validation renders against the reference | `render::probes` | Wang §5.1 |
 //! | competing placements: relocated grid, greedy voxels | [`placement`] | RTXGI; Silvennoinen & Lehtinen 2017 §4.1 |
-//! | comparisons against grids and competitors | [`jobs::compare`] | Wang §5, Figs. 8–12, Tables 1–2 |
+//! | comparisons against grids and competitors | [`jobs::compare()`] | Wang §5, Figs. 8–12, Tables 1–2 |
 //! | stock-config runs on any scene against the grids | `generality` (the `testkit` feature) | Wang §5, Table 1 |
-//! | outputs, the HTML reports and their 3D view | `report`, `encode` (internal; the files in docs/formats.md) | — |
+//! | outputs, the HTML reports and their 3D view | `report`, `page`, `export`, `encode` (internal; the files in docs/formats.md) | — |
 //!
-//! [`stages`] composes them into typed products; [`jobs`] composes the
+//! `stages` composes them into typed products; [`jobs`] composes the
 //! stages into what the command line runs; the `probeplace` binary is a
 //! thin shell over the jobs.
+//!
+//! # The public API
+//!
+//! What a renderer and a pipeline need: the config ([`config`]), placing
+//! as a library call ([`jobs`]), the probe set and its file
+//! ([`placement`]), the readers of the binary outputs ([`svo`],
+//! [`lightfield`]), provenance ([`provenance`]) and the tile grid
+//! ([`tiles`]). The stages' modules (`scene`, `sdf`, `coverage`, `refine`,
+//! `render`, `trace`, `gpu`, `raster`, `sampling`, `stages`) are internal;
+//! the `testkit` feature, which the tests, examples and benchmarks turn
+//! on, makes them public for them, with the generated scenes.
 //!
 //! # A renderer's view
 //!
@@ -70,7 +87,10 @@
 //! ```
 
 pub mod config;
+#[cfg(feature = "testkit")]
 pub mod coverage;
+#[cfg(not(feature = "testkit"))]
+pub(crate) mod coverage;
 pub(crate) mod diffuse;
 #[cfg(test)]
 mod doc_blocks;
@@ -84,7 +104,10 @@ pub(crate) mod export;
 pub mod fixtures;
 #[cfg(any(test, feature = "testkit"))]
 pub mod generality;
+#[cfg(feature = "testkit")]
 pub mod gpu;
+#[cfg(not(feature = "testkit"))]
+pub(crate) mod gpu;
 pub(crate) mod input;
 pub mod jobs;
 pub mod lightfield;
@@ -95,19 +118,43 @@ pub mod placement;
 pub(crate) mod probes;
 pub mod progress;
 pub mod provenance;
+#[cfg(feature = "testkit")]
 pub mod raster;
+#[cfg(not(feature = "testkit"))]
+pub(crate) mod raster;
 pub(crate) mod reachable;
+#[cfg(feature = "testkit")]
 pub mod refine;
+#[cfg(not(feature = "testkit"))]
+pub(crate) mod refine;
+#[cfg(feature = "testkit")]
 pub mod render;
+#[cfg(not(feature = "testkit"))]
+pub(crate) mod render;
 pub(crate) mod report;
 pub(crate) mod resolution;
+#[cfg(feature = "testkit")]
 pub mod sampling;
+#[cfg(not(feature = "testkit"))]
+pub(crate) mod sampling;
+#[cfg(feature = "testkit")]
 pub mod scene;
+#[cfg(not(feature = "testkit"))]
+pub(crate) mod scene;
+#[cfg(feature = "testkit")]
 pub mod sdf;
+#[cfg(not(feature = "testkit"))]
+pub(crate) mod sdf;
+#[cfg(feature = "testkit")]
 pub mod stages;
+#[cfg(not(feature = "testkit"))]
+pub(crate) mod stages;
 pub(crate) mod stats;
 pub mod svo;
 pub mod tiles;
+#[cfg(feature = "testkit")]
 pub mod trace;
+#[cfg(not(feature = "testkit"))]
+pub(crate) mod trace;
 
 pub use error::{Error, Result};
