@@ -86,11 +86,21 @@
 //! # Ok::<(), probeplace::Error>(())
 //! ```
 
+/// Declares the stages' modules: `pub(crate)` in the default library,
+/// `pub` with the `testkit` feature, for the tests, examples, benchmarks
+/// and fuzz targets ("The public API" above).
+macro_rules! stage_modules {
+    ($($name:ident),+ $(,)?) => {$(
+        #[cfg(feature = "testkit")]
+        pub mod $name;
+        #[cfg(not(feature = "testkit"))]
+        pub(crate) mod $name;
+    )+};
+}
+
+stage_modules!(coverage, gpu, raster, refine, render, sampling, scene, sdf, stages, trace);
+
 pub mod config;
-#[cfg(feature = "testkit")]
-pub mod coverage;
-#[cfg(not(feature = "testkit"))]
-pub(crate) mod coverage;
 pub(crate) mod diffuse;
 #[cfg(test)]
 mod doc_blocks;
@@ -104,10 +114,6 @@ pub(crate) mod export;
 pub mod fixtures;
 #[cfg(any(test, feature = "testkit"))]
 pub mod generality;
-#[cfg(feature = "testkit")]
-pub mod gpu;
-#[cfg(not(feature = "testkit"))]
-pub(crate) mod gpu;
 pub(crate) mod input;
 pub mod jobs;
 pub mod lightfield;
@@ -118,43 +124,11 @@ pub mod placement;
 pub(crate) mod probes;
 pub mod progress;
 pub mod provenance;
-#[cfg(feature = "testkit")]
-pub mod raster;
-#[cfg(not(feature = "testkit"))]
-pub(crate) mod raster;
 pub(crate) mod reachable;
-#[cfg(feature = "testkit")]
-pub mod refine;
-#[cfg(not(feature = "testkit"))]
-pub(crate) mod refine;
-#[cfg(feature = "testkit")]
-pub mod render;
-#[cfg(not(feature = "testkit"))]
-pub(crate) mod render;
 pub(crate) mod report;
 pub(crate) mod resolution;
-#[cfg(feature = "testkit")]
-pub mod sampling;
-#[cfg(not(feature = "testkit"))]
-pub(crate) mod sampling;
-#[cfg(feature = "testkit")]
-pub mod scene;
-#[cfg(not(feature = "testkit"))]
-pub(crate) mod scene;
-#[cfg(feature = "testkit")]
-pub mod sdf;
-#[cfg(not(feature = "testkit"))]
-pub(crate) mod sdf;
-#[cfg(feature = "testkit")]
-pub mod stages;
-#[cfg(not(feature = "testkit"))]
-pub(crate) mod stages;
 pub(crate) mod stats;
 pub mod svo;
 pub mod tiles;
-#[cfg(feature = "testkit")]
-pub mod trace;
-#[cfg(not(feature = "testkit"))]
-pub(crate) mod trace;
 
 pub use error::{Error, Result};
