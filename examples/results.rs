@@ -500,10 +500,11 @@ fn compare_summary(compares: &[Value]) -> String {
         if same_grid.is_some_and(|(_, r)| r["win"] == true) {
             grid_wins += 1;
         }
+        let words = competitor_words();
         let competitors: Vec<&Value> = ratios
             .iter()
             .map(|&(_, r)| r)
-            .filter(|r| competitor_words().contains(&text(r, "family").as_str()))
+            .filter(|r| words.contains(&text(r, "family").as_str()))
             .collect();
         if !competitors.is_empty()
             && competitors

@@ -551,11 +551,6 @@ const BOTTOM: f64 = 45.0;
 const TOP: f64 = 30.0;
 const RIGHT: f64 = 170.0;
 
-/// Colour and marker of each family.
-fn style(f: Family) -> (&'static str, &'static str) {
-    f.marker()
-}
-
 /// A point of a plot: its row, its probe count (x) and its value (y).
 type PlotPoint<'a> = (&'a PlacementRow, f64, f64);
 
@@ -689,7 +684,7 @@ fn plot_grid_sweep(s: &mut String, frame: &PlotFrame, points: &[PlotPoint]) {
             let _ = writeln!(
                 s,
                 "<polyline fill=\"none\" stroke=\"{}\" stroke-width=\"1.5\"{dash} points=\"{}\"><title>grids on {tracer}</title></polyline>",
-                style(Family::Grid).0,
+                Family::Grid.marker().0,
                 line.join(" ")
             );
         }
@@ -700,7 +695,7 @@ fn plot_grid_sweep(s: &mut String, frame: &PlotFrame, points: &[PlotPoint]) {
 /// grid sweep its placement's name.
 fn plot_points(s: &mut String, frame: &PlotFrame, points: &[PlotPoint]) {
     for (r, x, v) in points {
-        let (color, shape) = style(r.family);
+        let (color, shape) = r.family.marker();
         let (cx, cy) = (frame.px(*x), frame.py(*v));
         let _ = writeln!(
             s,
@@ -731,7 +726,7 @@ fn plot_legend(s: &mut String, points: &[PlotPoint]) {
         if !points.iter().any(|p| p.0.family == f) {
             continue;
         }
-        let (color, shape) = style(f);
+        let (color, shape) = f.marker();
         let lx = LEFT + PLOT_W + 16.0;
         let _ = writeln!(
             s,
