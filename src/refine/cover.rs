@@ -9,18 +9,81 @@
 
 use super::holdout::CheckRound;
 use rayon::prelude::*;
+use std::cmp::Reverse;
 use std::collections::BTreeMap;
+
+/// A probe's standing in reverse greedy ([`reverse_greedy`]), ordered so
+/// that the least goes first: the probe that alone covers the fewest
+/// samples, then the one nearest a surface (the higher tier: a probe stands
+/// close to a surface only where no other serves), then the one that sees
+/// the fewest, then the later one. Refinement's prune (Wang et al. 2019
+/// §3.3, [`super::prune`]) and the merge's cover ([`cover`]) weigh their
+/// probes by this one order.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+pub(crate) struct Standing {
+    /// Samples no other kept probe covers (with demand, that lose their
+    /// cover without it).
+    alone: usize,
+    /// The tier, reversed.
+    tier: Reverse<usize>,
+    /// Samples it sees.
+    seen: usize,
+    /// The probe's index, reversed.
+    probe: Reverse<usize>,
+}
+
+impl Standing {
+    /// Probe `probe` of tier `tier`, which sees `seen` samples, `alone` of
+    /// them alone.
+    pub(crate) fn new(probe: usize, alone: usize, tier: usize, seen: usize) -> Standing {
+        Standing {
+            alone,
+            tier: Reverse(tier),
+            seen,
+            probe: Reverse(probe),
+        }
+    }
+}
+
+/// A set of kept probes that reverse greedy prunes.
+pub(crate) trait Prunable {
+    /// The least [`Standing`] among the probes that may go (kept, and not
+    /// pinned), or `None` when there are none.
+    fn weakest(&self) -> Option<Standing>;
+    /// Takes `probe` out of the set.
+    fn drop_probe(&mut self, probe: usize);
+}
+
+/// Reverse greedy pruning (Wang et al. 2019 §3.3): while some probe can
+/// go, drop the weakest ([`Standing`]). A probe can go when the covered
+/// samples, `covered` to begin with, stay at `target` or more; when the
+/// target is out of reach, when nothing depends on it alone. Returns the
+/// samples the kept probes cover.
+pub(crate) fn reverse_greedy(set: &mut impl Prunable, mut covered: usize, target: usize) -> usize {
+    // Covered only falls while it stays at the target, so this bound holds
+    // throughout.
+    let need = target.min(covered);
+    // The weakest has the fewest samples alone: when it cannot go, no
+    // other can.
+    while let Some(w) = set.weakest() {
+        if covered - w.alone < need {
+            break;
+        }
+        set.drop_probe(w.probe.0);
+        covered -= w.alone;
+    }
+    covered
+}
 
 /// Partial set cover: which probes to keep so that at least `need` of the
 /// lists name a kept one (every list names some probe).
 ///
 /// 1. **Greedy**: while fewer are covered, keep the probe named by the
 ///    most lists no kept probe is named by (ties: the lower index).
-/// 2. **Prune** (refinement's reverse greedy, [`super::prune`]):
-///    while some kept probe can go, drop the one that alone covers the
-///    fewest lists (ties: the one of the lower tier, nearer a surface;
-///    then the one named by fewest; then the higher index).
-///    A probe can go when the covered lists stay at `need` or more.
+/// 2. **Prune** ([`reverse_greedy`], refinement's prune too): while some
+///    kept probe can go, drop the weakest [`Standing`] (the one that alone
+///    covers the fewest lists). A probe can go when the covered lists stay
+///    at `need` or more.
 /// 3. **Swap two for one**: while some pair of kept probes can be
 ///    replaced by one other probe with `need` still met, replace the first
 ///    such pair (in index order) by the probe that covers the most of what
@@ -84,8 +147,8 @@ impl<'a> CoverLists<'a> {
     /// away: dropping a probe opens a hole that no other probe fills alone,
     /// yet moving one kept probe over to a position that sees that hole and
     /// most of what the moved probe saw leaves a smaller hole, and so on. So
-    /// the probe that alone covers the fewest lists is dropped (the one
-    /// [`CoverLists::weakest`] names) and [`CoverLists::climb`] exchanges
+    /// the probe that alone covers the fewest lists is dropped (the weakest
+    /// [`Standing`]) and [`CoverLists::climb`] exchanges
     /// probes until `need` holds again; when it cannot, the last cover that
     /// met `need` stands.
     /// On generated storeys-1's four tiles this took the merge from 35 probes
@@ -94,9 +157,10 @@ impl<'a> CoverLists<'a> {
     fn shrink(&self, kept: &mut [bool], need: usize) {
         loop {
             let (views, _) = self.kept_views(kept);
-            let Some((_, drop)) = self.weakest(kept, &views) else {
+            let Some(weakest) = self.standings(kept, &views).min() else {
                 return;
             };
+            let drop = weakest.probe.0;
             let mut trial = kept.to_vec();
             trial[drop] = false;
             if !self.climb(&mut trial, need) {
@@ -226,49 +290,32 @@ impl<'a> CoverLists<'a> {
         (views, covered)
     }
 
-    /// The kept probe pruning would drop first, with the number of lists it
-    /// alone covers (`views` from [`CoverLists::kept_views`]): the fewest
-    /// such lists, ties by the lower tier (nearer a surface), then by the
-    /// fewest lists naming it, then the higher index. Shared by
-    /// [`CoverLists::prune_cover`] and [`CoverLists::shrink`].
-    fn weakest(&self, kept: &[bool], views: &[u32]) -> Option<(usize, usize)> {
-        use std::cmp::Reverse;
-        (0..kept.len())
-            .filter(|&k| kept[k])
-            .map(|k| {
-                let alone = self.by_probe[k]
-                    .iter()
-                    .filter(|&&l| views[l as usize] == 1)
-                    .count();
-                (
-                    alone,
-                    Reverse(self.tier[k]),
-                    self.by_probe[k].len(),
-                    Reverse(k),
-                )
-            })
-            .min()
-            .map(|(alone, .., Reverse(k))| (alone, k))
+    /// The [`Standing`] of every kept probe (`views` from
+    /// [`CoverLists::kept_views`]).
+    fn standings<'s>(
+        &'s self,
+        kept: &'s [bool],
+        views: &'s [u32],
+    ) -> impl Iterator<Item = Standing> + 's {
+        (0..kept.len()).filter(|&k| kept[k]).map(move |k| {
+            let own = &self.by_probe[k];
+            let alone = own.iter().filter(|&&l| views[l as usize] == 1).count();
+            Standing::new(k, alone, self.tier[k] as usize, own.len())
+        })
     }
 
-    /// Step 2 of [`cover`].
+    /// Step 2 of [`cover`]: [`reverse_greedy`] over the kept probes.
     fn prune_cover(&self, kept: &mut [bool], need: usize) {
-        let (mut views, mut covered) = self.kept_views(kept);
-        loop {
-            // The weakest probe goes if any can: any other alone covers at
-            // least as many lists.
-            let Some((a, k)) = self.weakest(kept, &views) else {
-                return;
-            };
-            if covered - a < need {
-                return;
-            }
-            kept[k] = false;
-            covered -= a;
-            for &l in &self.by_probe[k] {
-                views[l as usize] -= 1;
-            }
-        }
+        let (views, covered) = self.kept_views(kept);
+        reverse_greedy(
+            &mut KeptLists {
+                lists: self,
+                kept,
+                views,
+            },
+            covered,
+            need,
+        );
     }
 
     /// Step 3 of [`cover`]: the first pair `(a, b)` of kept probes and the
@@ -338,6 +385,27 @@ impl<'a> CoverLists<'a> {
                 .min()
                 .map(|(_, c)| (a, b, c))
         })
+    }
+}
+
+/// The kept probes of [`CoverLists`] and how many of them each list
+/// names, as [`reverse_greedy`] prunes them.
+struct KeptLists<'c, 'a, 'k> {
+    lists: &'c CoverLists<'a>,
+    kept: &'k mut [bool],
+    views: Vec<u32>,
+}
+
+impl Prunable for KeptLists<'_, '_, '_> {
+    fn weakest(&self) -> Option<Standing> {
+        self.lists.standings(self.kept, &self.views).min()
+    }
+
+    fn drop_probe(&mut self, probe: usize) {
+        self.kept[probe] = false;
+        for &l in &self.lists.by_probe[probe] {
+            self.views[l as usize] -= 1;
+        }
     }
 }
 

@@ -18,11 +18,12 @@
 //!   even subsample of them; coverage is then recounted exactly and the
 //!   holes that remain are scored again, so filling ends only when the
 //!   target holds or no candidate sees any remaining hole.
-//! * **Prune** is reverse greedy: while some probe can go, drop the one that
+//! * **Prune** is reverse greedy ([`super::cover::reverse_greedy`], which
+//!   the tiles' merge runs too): while some probe can go, drop the one that
 //!   alone sees the fewest samples (ties: the one nearest a surface, by
-//!   tier; then the one that sees fewest overall; then the later one). A probe can go when coverage without it stays at
-//!   or above the target, or, when the target is out of reach, when nothing
-//!   depends on it alone.
+//!   tier; then the one that sees fewest overall; then the later one). A
+//!   probe can go when coverage without it stays at or above the target,
+//!   or, when the target is out of reach, when nothing depends on it alone.
 //! * **Merge** ([`CoverMatrix::merge_pairs`]) then replaces pairs of
 //!   neighbours by one position that keeps the target, and pruning runs
 //!   again. Both run once more after polish (src/refine/polish.rs) moves
@@ -40,6 +41,7 @@
 //! keeps, after pruning, the probes that give the most of the demanded
 //! views ([`CoverMatrix::select`]).
 
+use super::cover::{reverse_greedy, Prunable, Standing};
 use crate::coverage::{CoverageReference, SurfaceSample};
 use crate::progress::Progress;
 use crate::scene::raycast::{Blocker, SceneBvh};
@@ -1195,55 +1197,56 @@ fn greedy_on(
     picks
 }
 
-/// Reverse greedy pruning (module docs) of the live probes of `w`;
-/// `covered` is how many samples some probe sees.
-/// Among probes that may go, the one that alone sees the fewest samples
-/// goes first, then the one nearest a surface (highest tier), so that a
-/// probe stands close to a surface only where no other serves; ties: the
-/// one that sees fewest overall, then the later one. Kills the probes
-/// dropped (only live ones are considered) and returns what the rest cover.
 impl CoverMatrix<'_> {
+    /// Reverse greedy pruning (module docs, [`reverse_greedy`]) of the live
+    /// probes of `w` past the first `pinned`; `covered` is how many samples
+    /// are covered. Kills the probes dropped and returns what the rest cover.
     fn prune_greedy(
         &self,
         w: &mut Working,
         pinned: usize,
-        mut covered: usize,
+        covered: usize,
         target_count: usize,
     ) -> usize {
-        let words = w.count.len().div_ceil(64);
-        loop {
-            let (cols, count, tier_of, alive) = (&w.cols, &w.count, &w.tier_of, &w.alive);
-            // Samples that lose their cover with one view fewer.
-            let mut once: Bits = vec![0; words];
-            for (i, &c) in count.iter().enumerate() {
-                if self.need[i] > 0 && c == self.need[i] {
-                    once[i / 64] |= 1 << (i % 64);
-                }
+        let mut live = LiveProbes {
+            matrix: self,
+            w,
+            pinned,
+        };
+        reverse_greedy(&mut live, covered, target_count)
+    }
+}
+
+/// The live probes of a [`Working`] past the first `pinned`, as
+/// [`reverse_greedy`] prunes them.
+struct LiveProbes<'m, 'r, 'w> {
+    matrix: &'m CoverMatrix<'r>,
+    w: &'w mut Working,
+    pinned: usize,
+}
+
+impl Prunable for LiveProbes<'_, '_, '_> {
+    fn weakest(&self) -> Option<Standing> {
+        let (w, need) = (&self.w, &self.matrix.need);
+        // Samples that lose their cover with one view fewer.
+        let mut once: Bits = vec![0; w.count.len().div_ceil(64)];
+        for (i, &c) in w.count.iter().enumerate() {
+            if need[i] > 0 && c == need[i] {
+                once[i / 64] |= 1 << (i % 64);
             }
-            let need = target_count.min(covered);
-            let pick = (pinned..cols.len())
-                .filter(|&k| alive[k])
-                .map(|k| {
-                    (
-                        k,
-                        popcount_and(&cols[k], &once) as usize,
-                        popcount(&cols[k]),
-                    )
-                })
-                .filter(|&(_, unique, _)| unique == 0 || covered - unique >= need)
-                .min_by_key(|&(k, unique, total)| {
-                    (
-                        unique,
-                        std::cmp::Reverse(tier_of[k]),
-                        total,
-                        std::cmp::Reverse(k),
-                    )
-                });
-            let Some((k, unique, _)) = pick else { break };
-            w.kill(k);
-            covered -= unique;
         }
-        covered
+        (self.pinned..w.cols.len())
+            .filter(|&k| w.alive[k])
+            .map(|k| {
+                let col = &w.cols[k];
+                let alone = popcount_and(col, &once) as usize;
+                Standing::new(k, alone, w.tier_of[k], popcount(col) as usize)
+            })
+            .min()
+    }
+
+    fn drop_probe(&mut self, probe: usize) {
+        self.w.kill(probe);
     }
 }
 
