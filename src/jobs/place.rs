@@ -53,7 +53,7 @@ impl PlaceRun {
     pub fn commit(mut self) -> Result<Outcome> {
         let value = to_value(&self.report)?;
         super::export::add_configured(&mut self.job, &value, &self.prepared.scene)?;
-        let view = view(&self.prepared, &value, &self.probes, &self.svo);
+        let view = view(&self.prepared, &value, &self.probes, &self.svo)?;
         self.job.finish_run(value, &view)
     }
 }
@@ -82,15 +82,15 @@ pub(crate) fn view(
     report: &Value,
     probes: &ProbeSet,
     svo: &Svo,
-) -> crate::page::view3d::View3d {
-    crate::page::run_html::view(
+) -> Result<crate::page::view3d::View3d> {
+    Ok(crate::page::run_html::view(
         &prepared.scene,
         &prepared.domain,
         &prepared.sdf,
-        report,
+        &super::run::read_figures(report)?,
         &probes.positions(),
         svo,
-    )
+    ))
 }
 
 /// The placement a later job builds on.
@@ -107,7 +107,7 @@ impl BasePlacement {
     /// Finishes the run of a job built on this placement (`bake`,
     /// `render`): its `report.json`, and `report.html` with the 3D view.
     pub fn finish(self, job: Job, prepared: &Prepared) -> Result<Outcome> {
-        let view = view(prepared, &self.report, &self.probes, &self.svo);
+        let view = view(prepared, &self.report, &self.probes, &self.svo)?;
         job.finish_run(self.report, &view)
     }
 }
@@ -192,6 +192,10 @@ pub(crate) fn load(job: &mut Job, prepared: &Prepared) -> Result<Option<BasePlac
     let (Some(report), true, true) = (&e.report, e.has("probes.json"), e.has("svo.bin")) else {
         return Ok(None);
     };
+    // The page reads the report's figures when this job finishes: a report
+    // they do not read from is refused now, before any stage runs.
+    crate::page::figures::RunFigures::read(report)
+        .map_err(|m| Error::user_file(&e.path("report.json"), m))?;
     let probes_path = e.path("probes.json");
     let method = report["method"].as_str().unwrap_or("file").to_string();
     let probes = placement::file::read(&probes_path, &prepared.scene, &method)?;

@@ -314,7 +314,8 @@ impl Job {
     /// images of the set, `view`), and commits the whole set.
     pub fn finish_run(mut self, mut report: Value, view: &View3d) -> Result<Outcome> {
         self.stamp(&mut report);
-        let page = crate::page::run_html::page(&report, &self.set, view)?;
+        let figures = read_figures(&report)?;
+        let page = crate::page::run_html::page(&figures, &self.set, view)?;
         self.set.add("report.html", page.into_bytes());
         let summary = summary(&report);
         self.write("report.json", report, summary)
@@ -475,4 +476,11 @@ impl Variant {
             Variant::HiZ => "hiz",
         }
     }
+}
+
+/// The figures of `report`, a report this run assembled, as the page reads
+/// them ([`crate::page::figures::RunFigures`]).
+pub(crate) fn read_figures(report: &Value) -> Result<crate::page::figures::RunFigures> {
+    crate::page::figures::RunFigures::read(report)
+        .map_err(|m| Error::Internal(format!("report.json: {m}")))
 }

@@ -3,13 +3,14 @@
 //! captioned, in one self-contained page (the frame, tables and figures of
 //! [`super::html`]).
 //!
-//! The figures are read from the report as written (a `serde_json` value),
-//! since a job that reuses a placement (`--from`) has its figures only
-//! there. Everything on the page is deterministic but the `#timings`
+//! The figures are those of the report as written, read into types
+//! ([`super::figures::RunFigures`]), since a job that reuses a placement
+//! (`--from`) has its figures only there. Everything on the page is deterministic but the `#timings`
 //! section, which holds what `report.json`'s determinism leaves out too:
 //! `timings_ms` (every one of them), GPU times and the list of reused
 //! files.
 
+use super::figures::{Num, Ordered, RunFigures};
 use super::html::{self, bytes, escape, sci};
 use super::view3d::{self, View3d};
 use crate::error::Result;
@@ -19,37 +20,30 @@ use crate::sdf::Sdf;
 use crate::stages::validate::METRICS;
 use crate::svo::Svo;
 use glam::{DVec3, Vec3};
-use serde_json::Value;
 use std::fmt::Write as _;
 
-/// The page of the run whose `report.json` is `r`, with the images in
-/// `set` and `view`.
+/// The page of the run whose `report.json` reads as `r`, with the images
+/// in `set` and `view`.
 ///
 /// Contract: deterministic outside `#timings`; every image is a `data:`
 /// URI; missing sections of the report (no refinement, no bake) leave
 /// their tables out.
-pub fn page(r: &Value, set: &OutputSet, view: &View3d) -> Result<String> {
+pub fn page(r: &RunFigures, set: &OutputSet, view: &View3d) -> Result<String> {
     let mut h = String::with_capacity(4 << 20);
-    let job = if r["render"].is_object() {
-        "render"
-    } else if r["bake"].is_object() {
-        "bake"
-    } else {
-        "place"
-    };
-    let scene = text(&r["scene"]["path"]);
+    let job = r.job();
+    let scene = text(&r.scene.path);
     html::head(&mut h, &format!("probeplace {job}: {scene}"));
-    let p = &r["provenance"];
+    let p = &r.provenance;
     let _ = writeln!(
         h,
         "<h1>probeplace {job}: {}</h1>\n<p class=\"meta\">config <code>{}</code> · seed {} · method <b>{}</b> · {} · config hash {} · scene hash {}</p>",
         escape(&scene),
-        escape(&text(&r["config"])),
-        r["seed"],
-        escape(&text(&r["method"])),
-        escape(&text(&p["tool"])),
-        escape(&text(&p["config_hash"])),
-        escape(&text(&p["scene_hash"])),
+        escape(&text(&r.config)),
+        raw(r.seed),
+        escape(&text(&r.method)),
+        escape(&text(&p.tool)),
+        escape(&text(&p.config_hash)),
+        escape(&text(&p.scene_hash)),
     );
     summary(&mut h, r);
     view.section(
@@ -71,48 +65,50 @@ pub fn page(r: &Value, set: &OutputSet, view: &View3d) -> Result<String> {
 
 /// The 3D view of a run: `scene` over `domain`, its probes at `positions`
 /// (local coordinates) indexed by `svo` and scored against `sdf`, and the
-/// coverage holes `report` keeps (`coverage_holes`, world coordinates:
-/// the same whether the placement was computed or reused).
+/// coverage holes the report `r` keeps (`coverage_holes`, world
+/// coordinates: the same whether the placement was computed or reused).
 pub fn view(
     scene: &Scene,
     domain: &Bounds,
     sdf: &Sdf,
-    report: &Value,
+    r: &RunFigures,
     positions: &[Vec3],
     svo: &Svo,
 ) -> View3d {
-    let holes: Vec<Vec3> = report["coverage_holes"]
-        .as_array()
-        .map(|a| {
-            a.iter()
-                .filter_map(|p| {
-                    let c: Vec<f64> = p.as_array()?.iter().filter_map(Value::as_f64).collect();
-                    (c.len() == 3).then(|| scene.to_local(DVec3::new(c[0], c[1], c[2])))
-                })
-                .collect()
-        })
-        .unwrap_or_default();
-    let d = &report["coverage_detail"];
-    let total = d["coverable_samples"]
-        .as_u64()
-        .unwrap_or(0)
-        .saturating_sub(d["covered_samples"].as_u64().unwrap_or(0)) as usize;
-    let set = view3d::ProbeSet::new(&text(&report["method"]), positions, sdf, svo, &holes, total);
+    let holes: Vec<Vec3> = r
+        .coverage_holes
+        .iter()
+        .map(|&c| scene.to_local(DVec3::from_array(c)))
+        .collect();
+    let total = r.holes() as usize;
+    let set = view3d::ProbeSet::new(&text(&r.method), positions, sdf, svo, &holes, total);
     View3d::new(scene, domain, vec![set])
 }
 
-/// A JSON string's text (`?` when absent).
-fn text(v: &Value) -> String {
-    v.as_str().unwrap_or("?").to_string()
+/// A string of the report (`?` when absent).
+fn text(v: &Option<String>) -> String {
+    v.as_deref().unwrap_or("?").to_string()
 }
 
-/// A JSON number as a table shows it: whole numbers as they are, others
-/// with four significant digits; `–` when absent.
-fn num(v: &Value) -> String {
+/// A number as JSON writes it (`null` when absent).
+fn raw(v: Option<Num>) -> String {
     match v {
-        Value::Number(n) if n.is_u64() || n.is_i64() => n.to_string(),
-        Value::Number(n) => {
-            let x = n.as_f64().unwrap_or(f64::NAN);
+        Some(Num::Whole(n)) => n.to_string(),
+        Some(Num::Negative(n)) => n.to_string(),
+        Some(Num::Real(x)) => {
+            serde_json::Number::from_f64(x).map_or("null".into(), |n| n.to_string())
+        }
+        None => "null".into(),
+    }
+}
+
+/// A number as a table shows it: whole numbers as they are, others
+/// with four significant digits; `–` when absent.
+fn num(v: Option<Num>) -> String {
+    match v {
+        Some(Num::Whole(n)) => n.to_string(),
+        Some(Num::Negative(n)) => n.to_string(),
+        Some(Num::Real(x)) => {
             if x != 0.0 && (x.abs() < 1e-3 || x.abs() >= 1e6) {
                 sci(x)
             } else {
@@ -121,21 +117,25 @@ fn num(v: &Value) -> String {
                 s.trim_end_matches('.').to_string()
             }
         }
-        Value::Null => "–".into(),
-        other => escape(&other.to_string()),
+        None => "–".into(),
     }
 }
 
 /// A fraction as a percentage with two decimals.
-fn pct(v: &Value) -> String {
-    v.as_f64()
-        .map_or("–".into(), |x| format!("{:.2}%", 100.0 * x))
+fn pct(v: Option<f64>) -> String {
+    v.map_or("–".into(), |x| format!("{:.2}%", 100.0 * x))
 }
 
 /// `[x, y, z]` as `(x, y, z)`.
-fn triple(v: &Value) -> String {
-    match v.as_array() {
-        Some(a) => format!("({})", a.iter().map(num).collect::<Vec<_>>().join(", ")),
+fn triple(v: &Option<Vec<Num>>) -> String {
+    match v {
+        Some(a) => format!(
+            "({})",
+            a.iter()
+                .map(|&x| num(Some(x)))
+                .collect::<Vec<_>>()
+                .join(", ")
+        ),
         None => "–".into(),
     }
 }
@@ -157,28 +157,21 @@ fn row(name: &str, value: String, meaning: &str) -> [String; 3] {
 }
 
 /// The placement's headline figures.
-fn summary(h: &mut String, r: &Value) {
-    let d = &r["coverage_detail"];
-    let holes = d["coverable_samples"]
-        .as_u64()
-        .unwrap_or(0)
-        .saturating_sub(d["covered_samples"].as_u64().unwrap_or(0));
-    let res = &r["resolution"];
-    let scene = &r["scene"];
+fn summary(h: &mut String, r: &RunFigures) {
+    let d = &r.coverage_detail;
+    let holes = r.holes();
+    let source = r.resolution.as_ref().and_then(|res| res.source.clone());
+    let scene = &r.scene;
     let rows = vec![
         row(
             "method",
-            escape(&text(&r["method"])),
+            escape(&text(&r.method)),
             "the placement method; +refine when refinement ran (Wang et al. 2019 §3.3)",
         ),
-        row("probes", num(&r["probe_count"]), "probes placed"),
+        row("probes", num(r.probe_count), "probes placed"),
         row(
             "coverage",
-            format!(
-                "<b>{}</b> ± {}",
-                pct(&r["coverage"]),
-                pct(&r["coverage_ci95"])
-            ),
+            format!("<b>{}</b> ± {}", pct(r.coverage), pct(r.coverage_ci95)),
             "share of the coverable surface some probe sees, with its 95% interval",
         ),
         row(
@@ -190,70 +183,57 @@ fn summary(h: &mut String, r: &Value) {
             "coverable surface",
             format!(
                 "{} of {} samples ({})",
-                num(&d["coverable_samples"]),
-                num(&d["samples"]),
-                pct(&d["coverable_fraction"])
+                num(d.coverable_samples),
+                num(d.samples),
+                pct(d.coverable_fraction)
             ),
             "surface some free point sees; the rest counts for no method",
         ),
         row(
             "in solid",
-            num(&r["probes_in_solid"]),
+            num(r.probes_in_solid),
             "probes inside objects or walls",
         ),
         row(
             "near surfaces",
-            num(&r["probes_below_clearance"]),
+            num(r.probes_below_clearance),
             "probes filling placed below the placement's clearance",
         ),
         row(
             "outside the scene",
-            num(&r["probes_outside_scene"]),
+            num(r.probes_outside_scene),
             "probes in voxels classified outside",
         ),
         row(
             "outside the domain",
-            num(&r["probes_outside_domain"]),
+            num(r.probes_outside_domain),
             "probes outside the domain box",
         ),
         row(
             "best view incidence",
-            r["best_view_incidence_deg"]
-                .as_f64()
+            r.best_view_incidence_deg
                 .map_or("–".into(), |v| format!("{v:.1}°")),
             "mean angle of each covered sample's best view (0° head-on)",
         ),
         row(
             "voxel size",
-            format!(
-                "{} ({})",
-                num(&r["sdf"]["voxel_size"]),
-                escape(&text(&res["source"]))
-            ),
+            format!("{} ({})", num(r.sdf.voxel_size), escape(&text(&source))),
             "the SDF's voxel edge, and whether the config gave it or it was chosen from the scene",
         ),
-        row(
-            "SDF grid",
-            triple(&r["sdf"]["dims"]),
-            "voxels along x, y, z",
-        ),
+        row("SDF grid", triple(&r.sdf.dims), "voxels along x, y, z"),
         row(
             "scene",
             format!(
                 "{} triangles ({} dropped), area {}",
-                num(&scene["triangles"]),
-                num(&scene["dropped_triangles"]),
-                num(&scene["area"])
+                num(scene.triangles),
+                num(scene.dropped_triangles),
+                num(scene.area)
             ),
             "usable triangles, faces dropped as degenerate, one-sided surface area",
         ),
         row(
             "domain",
-            format!(
-                "{} to {}",
-                triple(&r["domain"]["min"]),
-                triple(&r["domain"]["max"])
-            ),
+            format!("{} to {}", triple(&r.domain.min), triple(&r.domain.max)),
             "where probes may go (world coordinates)",
         ),
     ];
@@ -261,73 +241,64 @@ fn summary(h: &mut String, r: &Value) {
 }
 
 /// The placement method's own figures and refinement's.
-fn placement_tables(h: &mut String, r: &Value) {
+fn placement_tables(h: &mut String, r: &RunFigures) {
     let mut rows = Vec::new();
-    for key in ["placement_stats", "placement_params"] {
-        if let Some(m) = r[key].as_object() {
-            for (k, v) in m {
-                let what = if key == "placement_stats" {
-                    "a count of the method's steps"
-                } else {
-                    "a parameter as used"
-                };
-                rows.push(row(k, num(v), what));
-            }
+    for (m, what) in [
+        (&r.placement_stats, "a count of the method's steps"),
+        (&r.placement_params, "a parameter as used"),
+    ] {
+        for (k, v) in m.iter().flat_map(|m| &m.0) {
+            rows.push(row(k, num(Some(*v)), what));
         }
     }
     if !rows.is_empty() {
         figures_table(h, "placement-table", "Placement method", rows);
     }
-    let f = &r["refine"];
-    if !f.is_object() {
+    let Some(f) = &r.refine else {
         return;
-    }
-    let arrow = |a: &str, b: &str| format!("{} → {}", pct(&f[a]), pct(&f[b]));
+    };
+    let arrow = |a: Option<f64>, b: Option<f64>| format!("{} → {}", pct(a), pct(b));
     let rows = vec![
-        row(
-            "iterations",
-            num(&f["iterations"]),
-            "sweeps over all probes",
-        ),
+        row("iterations", num(f.iterations), "sweeps over all probes"),
         row(
             "proposals",
             format!(
                 "{} ({} accepted, {} illegal)",
-                num(&f["proposals"]),
-                num(&f["accepted"]),
-                num(&f["rejected_illegal"])
+                num(f.proposals),
+                num(f.accepted),
+                num(f.rejected_illegal)
             ),
             "moves proposed, accepted by the Gibbs test, refused as illegal positions",
         ),
         row(
             "coverage",
-            arrow("coverage_initial", "coverage_final"),
+            arrow(f.coverage_initial, f.coverage_final),
             "before and after refinement, filling and pruning",
         ),
         row(
             "atlas coverage",
-            arrow("atlas_coverage_initial", "atlas_coverage_final"),
+            arrow(f.atlas_coverage_initial, f.atlas_coverage_final),
             "share of the atlas the probes' rays see (atlas.png)",
         ),
         row(
             "probes",
             format!(
                 "{} → {} ({} removed, {} added)",
-                num(&f["probes_initial"]),
-                num(&f["probes_final"]),
-                num(&f["removed"]),
-                num(&f["added"])
+                num(f.probes_initial),
+                num(f.probes_final),
+                num(f.removed),
+                num(f.added)
             ),
             "pruning removes, filling adds",
         ),
         row(
             "fitness R",
-            format!("{} → {}", num(&f["r_initial"]), num(&f["r_final"])),
+            format!("{} → {}", num(f.r_initial), num(f.r_final)),
             "eq. 1 of Wang et al. 2019, area-weighted (comparable within a scene)",
         ),
         row(
             "fill rounds",
-            f["fill_rounds"].as_array().map_or(0, Vec::len).to_string(),
+            f.fill_rounds.as_ref().map_or(0, Vec::len).to_string(),
             "rounds of filling",
         ),
     ];
@@ -336,43 +307,42 @@ fn placement_tables(h: &mut String, r: &Value) {
 
 /// What the diffuse step added, when it ran (`report.json`'s `diffuse`;
 /// its errors are training scores).
-fn diffuse_table(h: &mut String, r: &Value) {
-    let d = &r["diffuse"];
-    if !d.is_object() {
+fn diffuse_table(h: &mut String, r: &RunFigures) {
+    let Some(d) = &r.diffuse else {
         return;
-    }
+    };
     let rows = vec![
         row(
             "probes added",
-            num(&d["probes_added"]),
+            num(d.probes_added),
             "probes the diffuse step added after coverage, where SH blended over tetrahedra missed the diffuse light",
         ),
         row(
             "training points",
             format!(
                 "{} on surfaces, {} in free space",
-                num(&d["surface_points"]),
-                num(&d["free_points"])
+                num(d.surface_points),
+                num(d.free_points)
             ),
             "the points the step fitted, drawn from the seed",
         ),
         row(
             "training error",
-            format!("{} → {}", pct(&d["error_before"]), pct(&d["error_after"])),
+            format!("{} → {}", pct(d.error_before), pct(d.error_after)),
             "mean relative irradiance error of the blend at the training points, before and after: a training score",
         ),
         row(
             "above tolerance",
             format!(
                 "{} → {}",
-                pct(&d["above_tolerance_before"]),
-                pct(&d["above_tolerance_after"])
+                pct(d.above_tolerance_before),
+                pct(d.above_tolerance_after)
             ),
             "share of the training points off by more than refine.diffuse.tolerance",
         ),
         row(
             "stopped",
-            escape(d["stopped"].as_str().unwrap_or("?")),
+            escape(&text(&d.stopped)),
             "tolerance, budget (growth or max_probes), no gain, no candidate or no light",
         ),
     ];
@@ -381,33 +351,28 @@ fn diffuse_table(h: &mut String, r: &Value) {
 
 /// What the artist controls did, when the config set any
 /// (`report.json`'s `controls`).
-fn controls_table(h: &mut String, r: &Value) {
-    let c = &r["controls"];
-    let set = c["fixed_probes"].as_u64().unwrap_or(0) > 0
-        || c["excluded"].as_u64().unwrap_or(0) > 0
-        || !c["max_probes"].is_null()
-        || !c["min_probes"].is_null()
-        || c["density_regions"].as_u64().unwrap_or(0) > 0;
-    if !set {
+fn controls_table(h: &mut String, r: &RunFigures) {
+    let c = &r.controls;
+    if !c.any() {
         return;
     }
     let rows = vec![
         row(
             "fixed probes",
-            num(&c["fixed_probes"]),
+            num(c.fixed_probes),
             "the config's fixed_probes: the first probes, never moved or pruned",
         ),
         row(
             "excluded",
-            num(&c["excluded"]),
+            num(c.excluded),
             "placement probes dropped for standing in an exclude box",
         ),
         row(
             "budget",
             format!(
                 "{} (before it: {})",
-                num(&c["max_probes"]),
-                num(&c["probes_before_budget"])
+                num(c.max_probes),
+                num(c.probes_before_budget)
             ),
             "max_probes, and the probes the run had before the budget cut them",
         ),
@@ -415,8 +380,8 @@ fn controls_table(h: &mut String, r: &Value) {
             "floor",
             format!(
                 "{} (before it: {})",
-                num(&c["min_probes"]),
-                num(&c["probes_before_minimum"])
+                num(c.min_probes),
+                num(c.probes_before_minimum)
             ),
             "min_probes, and the probes the coverage target needed before the top-up added those that sharpen the views most",
         ),
@@ -424,14 +389,14 @@ fn controls_table(h: &mut String, r: &Value) {
             "density regions",
             format!(
                 "{} ({} samples)",
-                num(&c["density_regions"]),
-                num(&c["samples_with_density"])
+                num(c.density_regions),
+                num(c.samples_with_density)
             ),
             "probe_density boxes, and the coverage samples whose demand they change",
         ),
         row(
             "demand met",
-            pct(&c["demand_met"]),
+            pct(c.demand_met),
             "samples seen as many times as their density asks",
         ),
     ];
@@ -439,19 +404,18 @@ fn controls_table(h: &mut String, r: &Value) {
 }
 
 /// The SVO's figures.
-fn svo_table(h: &mut String, r: &Value) {
-    let s = &r["svo"];
-    if !s.is_object() {
+fn svo_table(h: &mut String, r: &RunFigures) {
+    let Some(s) = &r.svo else {
         return;
-    }
+    };
     let rows = vec![
         row(
             "nodes",
             format!(
                 "{} ({} leaves), depth {}",
-                num(&s["nodes"]),
-                num(&s["leaves"]),
-                num(&s["depth"])
+                num(s.nodes),
+                num(s.leaves),
+                num(s.depth)
             ),
             "inner nodes and leaves of svo.bin; the root is 2^depth leaves along an edge",
         ),
@@ -459,38 +423,38 @@ fn svo_table(h: &mut String, r: &Value) {
             "size",
             format!(
                 "{} (dense texture: {})",
-                bytes(s["bytes"].as_u64().unwrap_or(0)),
-                bytes(s["dense_bytes"].as_u64().unwrap_or(0))
+                bytes(s.bytes.unwrap_or(0)),
+                bytes(s.dense_bytes.unwrap_or(0))
             ),
             "svo.bin against the paper's dense RGBA8 texture at the same leaf size",
         ),
         row(
             "leaf size",
-            format!("{} over {}", num(&s["leaf_size"]), triple(&s["dims"])),
+            format!("{} over {}", num(s.leaf_size), triple(&s.dims)),
             "leaf edge and leaves along x, y, z",
         ),
         row(
             "free cells",
             format!(
                 "{} ({} by fallback)",
-                num(&s["free_cells"]),
-                num(&s["fallback_cells"])
+                num(s.free_cells),
+                num(s.fallback_cells)
             ),
             "leaf cells holding free space; fallback cells list the nearest probe that sees them",
         ),
         row(
             "without a visible probe",
-            num(&s["leaves_without_visible_probe"]),
+            num(s.leaves_without_visible_probe),
             "free cells no probe sees (on open scenes mostly above the roof)",
         ),
         row(
             "distinct lists",
-            num(&s["distinct_lists"]),
+            num(s.distinct_lists),
             "different probe lists in the payload",
         ),
         row(
             "first probe visible",
-            pct(&s["first_probe_visible"]),
+            pct(s.first_probe_visible),
             "random free points whose first listed probe sees them",
         ),
     ];
@@ -498,15 +462,14 @@ fn svo_table(h: &mut String, r: &Value) {
 }
 
 /// The bake's figures, after `bake` and `render`.
-fn bake_table(h: &mut String, r: &Value) {
-    let b = &r["bake"];
-    if !b.is_object() {
+fn bake_table(h: &mut String, r: &RunFigures) {
+    let Some(b) = &r.bake else {
         return;
-    }
-    let t = &b["tracer"];
-    let seen = t["seen"].as_f64().unwrap_or(0.0);
+    };
+    let t = &b.tracer;
+    let seen = t.seen.map_or(0.0, Num::as_f64);
     let agree = if seen > 0.0 {
-        format!("{:.2}%", 100.0 * t["agree"].as_f64().unwrap_or(0.0) / seen)
+        format!("{:.2}%", 100.0 * t.agree.map_or(0.0, Num::as_f64) / seen)
     } else {
         "–".into()
     };
@@ -515,8 +478,8 @@ fn bake_table(h: &mut String, r: &Value) {
             "maps",
             format!(
                 "{}² (irradiance {}²)",
-                num(&b["resolution"]),
-                num(&b["irradiance_resolution"])
+                num(b.resolution),
+                num(b.irradiance_resolution)
             ),
             "side of each probe's radiance, normal and distance maps, and of its irradiance maps",
         ),
@@ -524,23 +487,23 @@ fn bake_table(h: &mut String, r: &Value) {
             "probes",
             format!(
                 "{}, {} paths a texel, {} bounces",
-                num(&b["probes"]),
-                num(&b["samples"]),
-                num(&b["bounces"])
+                num(b.probes),
+                num(b.samples),
+                num(b.bounces)
             ),
             "probes baked, radiance paths per texel, indirect bounces",
         ),
         row(
             "lightfield.bin",
-            bytes(b["bytes"].as_u64().unwrap_or(0)),
+            bytes(b.bytes.unwrap_or(0)),
             "size of the baked probes",
         ),
         row(
             "lights",
             format!(
                 "{} emissive triangles, {} config lights",
-                num(&b["area_lights"]),
-                num(&b["config_lights"])
+                num(b.area_lights),
+                num(b.config_lights)
             ),
             "what lights the scene",
         ),
@@ -548,9 +511,9 @@ fn bake_table(h: &mut String, r: &Value) {
             "tracer agreement",
             format!(
                 "<b>{agree}</b> of {} seen rays ({} rays, {} unknown)",
-                num(&t["seen"]),
-                num(&t["rays"]),
-                num(&t["unknown"])
+                num(t.seen),
+                num(t.rays),
+                num(t.unknown)
             ),
             "the CPU light-field tracer against exact ray casts: hits within two texels",
         ),
@@ -558,24 +521,23 @@ fn bake_table(h: &mut String, r: &Value) {
             "escaping rays",
             format!(
                 "{} ({} called a miss)",
-                num(&t["escaping"]),
-                num(&t["escaping_missed"])
+                num(t.escaping),
+                num(t.escaping_missed)
             ),
             "rays that truly leave the scene, and those the tracer calls a miss",
         ),
     ];
-    let f = &b["reference"];
-    if f.is_object() {
+    if let Some(f) = &b.reference {
         rows.push(row(
             "reference",
             format!(
                 "{}×{}, {} paths a pixel, {} bounces; mean {}, glossy {}",
-                num(&f["width"]),
-                num(&f["height"]),
-                num(&f["samples_per_pixel"]),
-                num(&f["bounces"]),
-                triple(&f["mean"]),
-                triple(&f["glossy_indirect_mean"])
+                num(f.width),
+                num(f.height),
+                num(f.samples_per_pixel),
+                num(f.bounces),
+                triple(&f.mean),
+                triple(&f.glossy_indirect_mean)
             ),
             "the path-traced reference of the config's camera",
         ));
@@ -584,18 +546,21 @@ fn bake_table(h: &mut String, r: &Value) {
 }
 
 /// The validation render's figures per variant, after `render`.
-fn render_table(h: &mut String, r: &Value) {
-    let x = &r["render"];
-    let Some(variants) = x["variants"].as_object() else {
+fn render_table(h: &mut String, r: &RunFigures) {
+    let Some((x, variants)) = r
+        .render
+        .as_ref()
+        .and_then(|x| Some((x, &x.variants.as_ref()?.0)))
+    else {
         return;
     };
     let _ = writeln!(
         h,
         "<h2 id=\"render-table-section\">Validation render</h2>\n<p class=\"meta\">{}×{} pixels, {} glossy rays, on <b>{}</b>; errors against the reference (Wang et al. 2019 §5.1).</p>",
-        num(&x["width"]),
-        num(&x["height"]),
-        num(&x["glossy_rays"]),
-        escape(&text(&x["adapter"]))
+        num(x.width),
+        num(x.height),
+        num(x.glossy_rays),
+        escape(&text(&x.adapter))
     );
     let rows: Vec<Vec<String>> = variants
         .iter()
@@ -604,23 +569,23 @@ fn render_table(h: &mut String, r: &Value) {
                 escape(name),
                 format!(
                     "{} + {}",
-                    escape(&text(&v["march"])),
-                    escape(&text(&v["selection"]))
+                    escape(&text(&v.march)),
+                    escape(&text(&v.selection))
                 ),
             ];
             // One column per metric of the list.
-            row.extend(METRICS.iter().map(|m| match v[m.key].as_f64() {
+            row.extend(METRICS.iter().map(|m| match v.metric(m.key) {
                 Some(x) => m.show.cell(x),
                 None => "–".into(),
             }));
             row.extend([
-                num(&v["surfel_fetches_per_ray"]),
-                num(&v["probe_switches_per_ray"]),
+                num(v.surfel_fetches_per_ray),
+                num(v.probe_switches_per_ray),
                 format!(
                     "{} / {} / {}",
-                    num(&v["unresolved_rays"]),
-                    num(&v["hits"]),
-                    num(&v["misses"])
+                    num(v.unresolved_rays),
+                    num(v.hits),
+                    num(v.misses)
                 ),
             ]);
             row
@@ -651,7 +616,7 @@ fn gradient(stops: &str) -> String {
 
 /// The run's images in the order of the files list of docs/formats.md,
 /// each with what it shows and what to look for; returns how many.
-fn images(h: &mut String, r: &Value, set: &OutputSet) -> Result<usize> {
+fn images(h: &mut String, r: &RunFigures, set: &OutputSet) -> Result<usize> {
     use crate::refine::{SEEN, UNSEEN};
     use crate::report::preview::{BOUNDS_COLOR, HOLE_COLOR, PROBE_FILL};
     let mut list: Vec<(String, String)> = vec![
@@ -701,9 +666,9 @@ fn images(h: &mut String, r: &Value, set: &OutputSet) -> Result<usize> {
             "<b>reference-glossy.png</b>: its glossy indirect part (light the glossy lobe reflects after at least one bounce), at the same exposure; the errors are measured on it.".into(),
         ),
     ];
-    if let Some(variants) = r["render"]["variants"].as_object() {
+    if let Some(variants) = r.render.as_ref().and_then(|x| x.variants.as_ref()) {
         let heat = gradient("#000 0%,#f00 33.3%,#ff0 66.7%,#fff 100%");
-        for name in variants.keys() {
+        for (name, _) in &variants.0 {
             let name = escape(name);
             list.push((
                 format!("render_{name}.png"),
@@ -748,47 +713,43 @@ fn png_width(png: &[u8]) -> Option<u32> {
 }
 
 /// The run's warnings.
-fn warnings(h: &mut String, r: &Value) {
-    let Some(w) = r["warnings"].as_array().filter(|w| !w.is_empty()) else {
+fn warnings(h: &mut String, r: &RunFigures) {
+    if r.warnings.is_empty() {
         return;
-    };
+    }
     h.push_str("<h2 id=\"warnings\">Warnings</h2>\n<ul>\n");
-    for x in w {
-        let _ = writeln!(h, "<li>{}</li>", escape(&text(x)));
+    for x in &r.warnings {
+        let _ = writeln!(h, "<li>{}</li>", escape(x));
     }
     h.push_str("</ul>\n");
 }
 
 /// Every timing of the report, the GPU times and the reused files: the
 /// one section that differs between runs of the same inputs.
-fn timings(h: &mut String, r: &Value) {
+fn timings(h: &mut String, r: &RunFigures) {
     h.push_str("<section id=\"timings\">\n<h2>Timings</h2>\n");
     let mut rows = Vec::new();
-    let mut add = |prefix: &str, t: &Value| {
-        if let Some(m) = t.as_object() {
-            for (k, v) in m {
-                rows.push(vec![escape(&format!("{prefix}{k}")), num(v)]);
-            }
+    let mut add = |prefix: &str, t: Option<&Ordered<Num>>| {
+        for (k, v) in t.iter().flat_map(|m| &m.0) {
+            rows.push(vec![escape(&format!("{prefix}{k}")), num(Some(*v))]);
         }
     };
-    add("", &r["timings_ms"]);
-    add("bake.", &r["bake"]["timings_ms"]);
-    add("render.", &r["render"]["timings_ms"]);
-    if let Some(variants) = r["render"]["variants"].as_object() {
-        for (name, v) in variants {
-            if v["gpu_ms"].is_number() {
+    let (bake, render) = (r.bake.as_ref(), r.render.as_ref());
+    add("", r.timings_ms.as_ref());
+    add("bake.", bake.and_then(|b| b.timings_ms.as_ref()));
+    add("render.", render.and_then(|x| x.timings_ms.as_ref()));
+    if let Some(variants) = render.and_then(|x| x.variants.as_ref()) {
+        for (name, v) in &variants.0 {
+            if v.gpu_ms.is_some() {
                 rows.push(vec![
                     escape(&format!("render.{name}.gpu_ms")),
-                    num(&v["gpu_ms"]),
+                    num(v.gpu_ms),
                 ]);
             }
         }
     }
     html::table(h, "timings-table", &["stage", "ms"], &rows);
-    let reused: Vec<String> = r["reused"]
-        .as_array()
-        .map(|a| a.iter().map(|v| escape(&text(v))).collect())
-        .unwrap_or_default();
+    let reused: Vec<String> = r.reused.iter().map(|v| escape(v)).collect();
     if !reused.is_empty() {
         let _ = writeln!(
             h,

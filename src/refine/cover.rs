@@ -458,6 +458,41 @@ mod tests {
     use super::*;
 
     #[test]
+    fn reverse_greedy_drops_the_weakest_first_and_out_of_reach_only_what_nothing_needs() {
+        // Probe 2 sees what 0 and 1 see, and nothing alone; 3 sees one list
+        // alone, as 0 and 1 do, but it is of the nearer tier.
+        let lists = vec![vec![0], vec![0, 2], vec![1], vec![1, 2], vec![3]];
+        let tiers = [0, 0, 0, 1];
+        let c = CoverLists::new(4, &lists, &tiers);
+        let prune = |target: usize| {
+            let mut kept = vec![true; 4];
+            let (views, covered) = c.kept_views(&kept);
+            let mut set = KeptLists {
+                lists: &c,
+                kept: &mut kept,
+                views,
+            };
+            let covered = reverse_greedy(&mut set, covered, target);
+            (kept, covered)
+        };
+        // Everything needed: only 2 goes.
+        assert_eq!(prune(5), (vec![true, true, false, true], 5));
+        // A target past every list (out of reach): still only 2, which
+        // nothing depends on alone.
+        assert_eq!(prune(9), (vec![true, true, false, true], 5));
+        // One list to spare: 2 goes (nothing alone), then of the three that
+        // each see one list alone, 3, of the nearer tier.
+        assert_eq!(prune(4), (vec![true, true, false, false], 4));
+        // The order itself: fewest alone, then the nearer tier, then the
+        // fewest seen, then the later probe.
+        let w = |k, alone, tier, seen| Standing::new(k, alone, tier, seen);
+        assert!(w(5, 0, 0, 9) < w(1, 1, 1, 1));
+        assert!(w(5, 1, 1, 9) < w(1, 1, 0, 1));
+        assert!(w(5, 1, 0, 2) < w(1, 1, 0, 3));
+        assert!(w(5, 1, 0, 2) < w(1, 1, 0, 2));
+    }
+
+    #[test]
     fn the_cover_keeps_the_fewest_probes_that_reach_the_count() {
         // Probe 2 sees three samples, 3 one of them and one more, 1 a
         // sample 2 sees, 0 and 4 nothing listed.
