@@ -26,7 +26,7 @@
 //! 4. **Check.** The cover fitted the tiles' training samples; tile by
 //!    tile again, a fresh stream's core samples the kept probes miss are
 //!    listed with the positions that see them, and filled from
-//!    ([`crate::refine::cover::fill_round`]), for at most [`CHECK_ROUNDS`] rounds: one machine's
+//!    ([`crate::refine::holdout::fill_round`]), for at most [`CHECK_ROUNDS`] rounds: one machine's
 //!    [`crate::refine::holdout`] over the whole world.
 //! 5. **Index.** Tile by tile again, the SVO of the tile's box is baked
 //!    over the kept probes inside it and its leaves renumbered to the
@@ -295,7 +295,7 @@ pub fn merge(options: &MergeOptions) -> Result<Outcome> {
             holes.extend(tile.lists(&check, &missed, &relevant));
             carried = Some((entry.index, tile));
         }
-        let record = crate::refine::cover::fill_round(
+        let record = crate::refine::holdout::fill_round(
             round,
             (coverable, covered, &holes),
             &mut kept,

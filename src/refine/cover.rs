@@ -1,13 +1,13 @@
-//! Partial set cover over visibility lists ([`cover`]): the fewest
+//! Set cover: the one reverse greedy ([`reverse_greedy`], Wang et al.
+//! 2019 §3.3, by the order [`Standing`]) that prunes both refinement's bit
+//! matrix of one scene ([`super::prune`]) and the visibility lists below,
+//! and the partial set cover over those lists ([`cover`]): the fewest
 //! probes such that enough samples are seen by a kept one. Merging tiles
-//! (`probeplace merge`, docs/tiles.md) keeps the union of the tiles' probes
-//! this way; it is refinement's prune ([`super::prune`], Wang et al. 2019
-//! §3.3's reverse greedy) on lists rather than its bit matrix of one
-//! scene, with exchanges that find smaller covers. Its check rounds fill
-//! the holes fresh samples show the same way ([`fill_round`]), as one
-//! machine's refinement fills ([`super::holdout`]).
+//! (`probeplace merge`, docs/tiles.md) keeps the union of the tiles'
+//! probes this way, with exchanges that find smaller covers; its check
+//! rounds fill the holes fresh samples show as one machine's refinement
+//! fills ([`super::holdout::fill_round`]).
 
-use super::holdout::CheckRound;
 use rayon::prelude::*;
 use std::cmp::Reverse;
 use std::collections::BTreeMap;
@@ -409,50 +409,6 @@ impl Prunable for KeptLists<'_, '_, '_> {
     }
 }
 
-/// One check round of the merge: of `coverable` fresh core samples the
-/// kept probes saw `covered`; `holes` lists, for each of the rest, the
-/// positions that see it (empty where none does). When the round's
-/// interval reaches `target` nothing is added; else positions are kept,
-/// each the one named by most of the open holes (ties: the higher `tier`,
-/// then the lower index), until the round's coverage reaches the target
-/// plus [`super::holdout::FILL_MARGIN`] of its shortfall, as one
-/// machine's [`super::holdout`] fills. A round whose coverage had
-/// reached the target is the last (filling only adds views).
-pub(crate) fn fill_round(
-    round: u32,
-    (coverable, covered, holes): (usize, usize, &[Vec<u32>]),
-    kept: &mut [bool],
-    tier: &[u8],
-    target: f64,
-) -> CheckRound {
-    let mut record = CheckRound::measured(round, covered, coverable);
-    if record.holds(target) {
-        return record;
-    }
-    let want = record.fill_goal(target);
-    let mut open: Vec<&Vec<u32>> = holes.iter().collect();
-    let mut have = covered;
-    while have < want {
-        let mut gain = vec![0u32; kept.len()];
-        for l in &open {
-            for &k in l.iter() {
-                gain[k as usize] += 1;
-            }
-        }
-        let best = (0..kept.len())
-            .filter(|&k| !kept[k] && gain[k] > 0)
-            .max_by_key(|&k| (gain[k], tier[k], std::cmp::Reverse(k)));
-        let Some(k) = best else {
-            break;
-        };
-        kept[k] = true;
-        record.added += 1;
-        have += gain[k] as usize;
-        open.retain(|l| !l.contains(&(k as u32)));
-    }
-    record
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -582,32 +538,5 @@ mod tests {
                 .count(),
             2
         );
-    }
-
-    /// A round whose interval reaches the target adds nothing; one short of
-    /// it keeps the positions that see the most holes (ties: the higher
-    /// tier) until the target plus half its shortfall holds.
-    #[test]
-    fn a_round_fills_its_holes_to_the_target_and_margin() {
-        let target = 0.99;
-        // 1000 samples, 995 seen: 99.5% ± 0.44%, its lower end over 0.99.
-        let mut kept = vec![true, false, false, false];
-        let r = fill_round(0, (1000, 995, &[]), &mut kept, &[0; 4], target);
-        assert_eq!((r.added, r.coverage), (0, 0.995));
-        // 1000 samples, 980 seen; holes: probe 1 sees 12 of them, probes
-        // 2 and 3 the same 6 others (3 of the higher tier), none the last 2.
-        let mut holes: Vec<Vec<u32>> = vec![vec![1]; 12];
-        holes.extend(vec![vec![2, 3]; 6]);
-        holes.extend(vec![vec![]; 2]);
-        let tier = [0, 0, 0, 1];
-        let r = fill_round(1, (1000, 980, &holes), &mut kept, &tier, target);
-        // The goal, 99.5%: 995 of 1000, so 1 (992), then 3 (998).
-        assert_eq!(r.added, 2);
-        assert_eq!(kept, vec![true, true, false, true]);
-        assert_eq!(r.covered_samples, 980);
-        // No position sees what is left: nothing more to add.
-        let mut kept = vec![true, false, false, false];
-        let r = fill_round(2, (100, 50, &vec![vec![]; 50]), &mut kept, &tier, target);
-        assert_eq!(r.added, 0);
     }
 }
