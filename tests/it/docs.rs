@@ -437,3 +437,42 @@ fn the_readme_stays_under_twelve_thousand_bytes() {
     let bytes = std::fs::read(root().join("README.md")).unwrap().len();
     assert!(bytes <= 12_000, "README.md is {bytes} bytes");
 }
+
+/// docs/layout.md's table of the full tier names exactly the tests marked
+/// `#[ignore = "full tier …"]` in tests/it, each once, with what the CI
+/// tier keeps of its claim: a test moved to the full tier is written down.
+#[test]
+fn the_full_tier_table_is_the_tests_marked_full_tier() {
+    let mut marked = BTreeSet::new();
+    for entry in std::fs::read_dir(root().join("tests/it")).unwrap() {
+        let path = entry.unwrap().path();
+        let module = path.file_stem().unwrap().to_string_lossy().into_owned();
+        let text = std::fs::read_to_string(&path).unwrap();
+        let mut lines = text.lines();
+        while let Some(line) = lines.next() {
+            if !line.trim().starts_with("#[ignore = \"full tier") {
+                continue;
+            }
+            let name = lines
+                .find_map(|l| l.trim().strip_prefix("fn "))
+                .and_then(|l| l.split('(').next())
+                .unwrap_or_else(|| panic!("{}: no fn after a full-tier mark", path.display()));
+            assert!(marked.insert(format!("{module}::{name}")));
+        }
+    }
+    let rows = table(&doc("layout.md"), "## Test tiers", 0);
+    let listed: Vec<String> = rows.iter().map(|r| ticked(&r[0]).concat()).collect();
+    let set: BTreeSet<String> = listed.iter().cloned().collect();
+    assert_eq!(set.len(), listed.len(), "a test listed twice: {listed:?}");
+    assert_eq!(
+        set, marked,
+        "docs/layout.md's full-tier table against the marks"
+    );
+    for row in &rows {
+        assert!(
+            !row[1].is_empty(),
+            "{}: what does the CI tier keep?",
+            row[0]
+        );
+    }
+}

@@ -77,6 +77,7 @@ fn tracer_and_pyramid_on_cornell_glossy() {
 }
 
 #[test]
+#[ignore = "full tier (about 10 s): cargo test --release -- --include-ignored"]
 fn tracer_and_pyramid_on_holodeck() {
     shared_scenes();
     check_scene("configs/holodeck.ron", None);
@@ -164,12 +165,21 @@ fn bake_converges(config: &str, first: &'static Shared) -> &'static serde_json::
 }
 
 #[test]
+#[ignore = "full tier (about 8 s): cargo test --release -- --include-ignored"]
 fn cornell_fixture_bakes_and_its_reference_converges() {
     let config = "configs/cornell.ron";
-    let r = bake_converges(config, shared_job("bake", config, &[]));
-    // All-diffuse box: no glossy indirect light at all.
+    bake_converges(config, shared_job("bake", config, &[]));
+}
+
+/// The suite's shared bake of our all-diffuse box: its outputs are what its
+/// report says, and its reference holds no glossy indirect light at all.
+#[test]
+fn cornell_fixture_bakes_without_glossy_light() {
+    let config = "configs/cornell.ron";
+    let run = shared_job("bake", config, &[]);
+    assert_bake_outputs(config, &run.report, &run.dir);
     assert_eq!(
-        luminance(&r["bake"]["reference"]["glossy_indirect_mean"]),
+        luminance(&run.report["bake"]["reference"]["glossy_indirect_mean"]),
         0.0
     );
 }

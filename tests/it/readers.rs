@@ -421,6 +421,7 @@ fn cornell_light_field_reads_alike_in_python() {
 /// either takes minutes, and what a reader reads does not depend on the
 /// quality.
 #[test]
+#[ignore = "full tier (about 6 s): cargo test --release -- --include-ignored"]
 fn holodeck_and_sponza_light_fields_read_alike_in_python() {
     let test = "readers::holodeck_and_sponza_light_fields_read_alike_in_python";
     if !python(test) {

@@ -105,7 +105,10 @@ fn renders_cornell_glossy() {
     renders_both_variants("configs/cornell-glossy.ron");
 }
 
+/// The same acceptance on a second real scene (its path-traced reference at
+/// the shipped quality is most of its time).
 #[test]
+#[ignore = "full tier (about 40 s): cargo test --release -- --include-ignored"]
 fn renders_holodeck() {
     shared_scenes();
     renders_both_variants("configs/holodeck.ron");
