@@ -225,3 +225,67 @@ fn bake_and_render_pages_show_every_image_and_repeat() {
             .contains(&format!("alt=\"error_{variant}.png\"")));
     }
 }
+
+/// Every figure the render page shows is in the report under the name the
+/// page reads it by (the page's typed reading of `report.json`, whose every
+/// field is optional, shows an absent number as `–` and an absent text as
+/// `?`): on the suite's shared CornellBox-Glossy render, no value cell of
+/// the figure tables and no cell of the render table is either.
+#[test]
+fn the_render_page_finds_every_figure_it_shows() {
+    shared_scenes();
+    let run = shared_job("render", "configs/cornell-glossy.ron", &[]);
+    let html = std::fs::read_to_string(run.dir.join("report.html")).unwrap();
+    let text = |cell: &str| {
+        let mut out = String::new();
+        let mut tag = false;
+        for c in cell.chars() {
+            match c {
+                '<' => tag = true,
+                '>' => tag = false,
+                c if !tag => out.push(c),
+                _ => {}
+            }
+        }
+        out.trim().to_string()
+    };
+    let mut checked = 0;
+    for table in [
+        "summary-table",
+        "placement-table",
+        "refine-table",
+        "diffuse-table",
+        "svo-table",
+        "bake-table",
+        "render-table",
+    ] {
+        let at = html
+            .find(&format!("id=\"{table}\""))
+            .unwrap_or_else(|| panic!("no {table}"));
+        let body = &html[at..at + html[at..].find("</table>").unwrap()];
+        for row in body.split("<tr").skip(1) {
+            let cells: Vec<String> = row
+                .split("<td")
+                .skip(1)
+                .map(|c| text(&format!("<td{c}")))
+                .collect();
+            // The figure tables' values are their second cell; the render
+            // table's every cell but the variant's name is a figure.
+            let values = if table == "render-table" {
+                &cells[..]
+            } else if cells.len() > 1 {
+                &cells[1..2]
+            } else {
+                &cells[..0]
+            };
+            for v in values {
+                assert!(
+                    !v.split([' ', '(', ')', ',']).any(|w| w == "–" || w == "?"),
+                    "{table}: a figure the report lacks: {row}"
+                );
+                checked += 1;
+            }
+        }
+    }
+    assert!(checked > 40, "{checked} figures checked");
+}
