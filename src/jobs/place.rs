@@ -53,8 +53,9 @@ impl PlaceRun {
     pub fn commit(mut self) -> Result<Outcome> {
         let value = to_value(&self.report)?;
         super::export::add_configured(&mut self.job, &value, &self.prepared.scene)?;
-        let view = view(&self.prepared, &value, &self.probes, &self.svo)?;
-        self.job.finish_run(value, &view)
+        let (prepared, probes, svo) = (&self.prepared, &self.probes, &self.svo);
+        self.job
+            .finish_run(value, |figures| view(prepared, figures, probes, svo))
     }
 }
 
@@ -76,21 +77,21 @@ pub fn compute(options: &RunOptions) -> Result<PlaceRun> {
 }
 
 /// The 3D view of `report.html` for the placement `probes` (with its
-/// `svo`, in the scene's frame) whose report so far is `report`.
+/// `svo`, in the scene's frame) whose report reads as `figures`.
 pub(crate) fn view(
     prepared: &Prepared,
-    report: &Value,
+    figures: &crate::page::figures::RunFigures,
     probes: &ProbeSet,
     svo: &Svo,
-) -> Result<crate::page::view3d::View3d> {
-    Ok(crate::page::run_html::view(
+) -> crate::page::view3d::View3d {
+    crate::page::run_html::view(
         &prepared.scene,
         &prepared.domain,
         &prepared.sdf,
-        &super::run::read_figures(report)?,
+        figures,
         &probes.positions(),
         svo,
-    ))
+    )
 }
 
 /// The placement a later job builds on.
@@ -107,8 +108,8 @@ impl BasePlacement {
     /// Finishes the run of a job built on this placement (`bake`,
     /// `render`): its `report.json`, and `report.html` with the 3D view.
     pub fn finish(self, job: Job, prepared: &Prepared) -> Result<Outcome> {
-        let view = view(prepared, &self.report, &self.probes, &self.svo)?;
-        job.finish_run(self.report, &view)
+        let (probes, svo) = (&self.probes, &self.svo);
+        job.finish_run(self.report, |figures| view(prepared, figures, probes, svo))
     }
 }
 

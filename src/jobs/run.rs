@@ -8,6 +8,7 @@ use crate::config::{Config, GridParams, Placement};
 use crate::error::{Error, Result};
 use crate::output::commit::{self, OutputSet};
 use crate::output::manifest;
+use crate::page::figures::RunFigures;
 use crate::page::view3d::View3d;
 use crate::progress::{Progress, Stopwatch};
 use crate::provenance::{self, Overrides, Provenance};
@@ -310,12 +311,18 @@ impl Job {
     }
 
     /// Finishes a run's `report` (`place`, `bake`, `render`) as
-    /// `report.json`, writes `report.html` beside it (its figures, the
-    /// images of the set, `view`), and commits the whole set.
-    pub fn finish_run(mut self, mut report: Value, view: &View3d) -> Result<Outcome> {
+    /// `report.json`, writes `report.html` beside it (its figures, read
+    /// once, the images of the set, and the 3D view `view` makes of the
+    /// figures), and commits the whole set.
+    pub fn finish_run(
+        mut self,
+        mut report: Value,
+        view: impl FnOnce(&RunFigures) -> View3d,
+    ) -> Result<Outcome> {
         self.stamp(&mut report);
-        let figures = read_figures(&report)?;
-        let page = crate::page::run_html::page(&figures, &self.set, view)?;
+        let figures =
+            RunFigures::read(&report).map_err(|m| Error::Internal(format!("report.json: {m}")))?;
+        let page = crate::page::run_html::page(&figures, &self.set, &view(&figures))?;
         self.set.add("report.html", page.into_bytes());
         let summary = summary(&report);
         self.write("report.json", report, summary)
@@ -476,11 +483,4 @@ impl Variant {
             Variant::HiZ => "hiz",
         }
     }
-}
-
-/// The figures of `report`, a report this run assembled, as the page reads
-/// them ([`crate::page::figures::RunFigures`]).
-pub(crate) fn read_figures(report: &Value) -> Result<crate::page::figures::RunFigures> {
-    crate::page::figures::RunFigures::read(report)
-        .map_err(|m| Error::Internal(format!("report.json: {m}")))
 }
