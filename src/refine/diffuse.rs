@@ -49,6 +49,7 @@ use crate::config::DiffuseFill;
 use crate::coverage::SurfaceSample;
 use crate::diffuse::{self, bake_sh, dark_floor, Irradiance, ProbeSh, Receiver, ShLookup, AXES};
 use crate::probes::{PlacementInput, Probe, ProbeSet};
+use crate::progress::Stopwatch;
 use crate::render::integrator::Renderer;
 use crate::render::lights::luminance;
 use crate::sampling::hash2;
@@ -108,21 +109,49 @@ struct Training {
     floor: (f64, f64),
 }
 
+/// The steps [`insert`]'s stopwatch times: the training set (its
+/// path-traced reference irradiance) and the first bake of the probes'
+/// SH, then the rounds of insertion.
+pub const STEPS: [&str; 2] = ["diffuse_training", "diffuse_rounds"];
+
 /// Adds probes to `probes` where the blended SH misses the diffuse light
 /// (module docs), at most `budget` in all, none nearer than
 /// `min_clearance` to a surface. Probes added are appended after the
-/// given ones, which keep their order.
+/// given ones, which keep their order. The stopwatch holds the wall time
+/// of its [`STEPS`].
 ///
 /// Contract: deterministic for its inputs whatever the thread count; the
 /// given probes are kept unchanged; every added probe may stand
 /// ([`super::may_stand`]) at `min_clearance`.
 pub fn insert(
     params: &DiffuseFill,
+    probes: ProbeSet,
+    input: &PlacementInput,
+    renderer: &Renderer,
+    min_clearance: f32,
+    budget: usize,
+) -> (ProbeSet, DiffuseReport, Stopwatch) {
+    let mut steps = Stopwatch::new(false);
+    let mut lap = std::time::Instant::now();
+    let (probes, report) = insert_steps(params, probes, input, renderer, min_clearance, budget, &mut || {
+        steps.record(STEPS[0], lap.elapsed().as_secs_f64() * 1e3);
+        lap = std::time::Instant::now();
+    });
+    let name = if steps.to_map().is_empty() { STEPS[0] } else { STEPS[1] };
+    steps.record(name, lap.elapsed().as_secs_f64() * 1e3);
+    (probes, report, steps)
+}
+
+/// [`insert`], calling `trained` once the training set and the first SH
+/// bake are done.
+fn insert_steps(
+    params: &DiffuseFill,
     mut probes: ProbeSet,
     input: &PlacementInput,
     renderer: &Renderer,
     min_clearance: f32,
     budget: usize,
+    trained: &mut dyn FnMut(),
 ) -> (ProbeSet, DiffuseReport) {
     let placed = probes.probes.len();
     let budget = budget
@@ -138,6 +167,7 @@ pub fn insert(
     let rays = params.rays.0;
     let mut positions = probes.positions();
     let mut sh = bake_sh(renderer, &positions, rays, seed);
+    trained();
     // Off by more than a factor 1 + tolerance, either way.
     let tol = (1.0 + params.tolerance.0 as f64).ln();
     let min_gap = 2.0 * input.sdf.voxel_size;
@@ -475,7 +505,9 @@ mod tests {
             fixed: 0,
         };
         let renderer = Renderer::new(&scene, &bvh, lights, 1);
-        let (out, report) = insert(&params(), set, &input, &renderer, 0.25, budget);
+        let (out, report, steps) = insert(&params(), set, &input, &renderer, 0.25, budget);
+        let timed = steps.to_map();
+        assert!(STEPS.iter().all(|s| timed.contains_key(*s)), "{timed:?}");
         for p in &out.probes[8..] {
             assert!(
                 crate::refine::may_stand(&sdf, &scene.bounds, 0.25, p.position),

@@ -38,6 +38,7 @@ use crate::coverage::{CoverageReference, Stream, REFERENCE_MIN_CLEARANCE_VOXELS}
 use crate::error::Result;
 use crate::placement::controls::Controls;
 use crate::placement::{PlacementInput, Probe, ProbeSet};
+use crate::progress::Stopwatch;
 use crate::raster::RgbImage;
 use crate::sampling::hash2;
 use crate::scene::Bounds;
@@ -142,7 +143,15 @@ pub struct Refined {
     /// The visibility atlas before (left) and after (right), as in the
     /// paper's Fig. 5: texels some probe sees in green, the rest in red.
     pub atlas_image: RgbImage,
+    /// Wall time of refinement's steps, for `report.json`'s `timings_ms`
+    /// ([`STEPS`]): where a long refinement spends it.
+    pub steps: Stopwatch,
 }
+
+/// The steps [`Refined::steps`] times, in order: the views and sweeps
+/// (§3.3), filling and pruning on the training samples, the check rounds
+/// on fresh ones ([`holdout`]), and the final views and atlas.
+pub const STEPS: [&str; 4] = ["refine_sweeps", "refine_fill", "refine_rounds", "refine_finish"];
 
 /// Refinement parameters with every default resolved.
 struct Resolved {
@@ -292,6 +301,12 @@ pub fn refine(
     reference: &CoverageReference,
     controls: &Controls,
 ) -> Result<Refined> {
+    let mut steps = Stopwatch::new(false);
+    let mut lap = std::time::Instant::now();
+    let mut step = |name: &str| {
+        steps.record(name, lap.elapsed().as_secs_f64() * 1e3);
+        lap = std::time::Instant::now();
+    };
     let r = Resolved::new(params, &probes, input);
     let atlas = Atlas::new(input.scene, r.texel_size)?;
     check_work(
@@ -351,6 +366,7 @@ pub fn refine(
         },
     );
     let r_refined = AtlasState::new(params.fitness, &atlas, views_of(&refined)).r();
+    step(STEPS[0]);
 
     // Fill holes and prune superfluous probes (§1 "fewest probes").
     let mut tiers = fill_candidates(params, &r, input, reference, controls);
@@ -386,6 +402,7 @@ pub fn refine(
         }
         fp = fill_and_prune(&tiers);
     }
+    step(STEPS[1]);
     let rounds = hold(
         &holdout::HoldInput {
             input,
@@ -401,6 +418,7 @@ pub fn refine(
         (&refined, probes.fixed),
         &mut fp,
     );
+    step(STEPS[2]);
     let final_probes = kept_probes(&probes, &refined, &fp);
     let final_positions: Vec<Vec3> = final_probes.iter().map(|p| p.position).collect();
     let final_state = AtlasState::new(params.fitness, &atlas, views_of(&final_positions));
@@ -421,6 +439,7 @@ pub fn refine(
     };
     let report = refine_report(params, &r, &matrix, &outcome);
     let atlas_image = atlas_panels(&atlas, &atlas_initial, &final_state);
+    step(STEPS[3]);
     Ok(Refined {
         probes: ProbeSet {
             method: format!("{}+refine", probes.method),
@@ -432,6 +451,7 @@ pub fn refine(
         },
         report,
         atlas_image,
+        steps,
     })
 }
 

@@ -145,6 +145,7 @@ pub fn place(
         let out = timings.try_time("refine", || {
             refine::refine(&config.refine, probes, &input, fitted, &controls)
         })?;
+        timings.absorb(&out.steps);
         if out.probes.probes.is_empty() {
             return Err(pruned_all(config, fitted, placed));
         }
@@ -179,7 +180,7 @@ pub fn place(
             .refine
             .min_clearance
             .map_or(placement::grid_min_clearance(&prepared.sdf), |c| c.0);
-        let (p, r) = timings.time("diffuse", || {
+        let (p, r, steps) = timings.time("diffuse", || {
             refine::diffuse::insert(
                 &config.refine.diffuse,
                 probes,
@@ -189,6 +190,7 @@ pub fn place(
                 budget,
             )
         });
+        timings.absorb(&steps);
         (p, Some(r))
     } else {
         (probes, None)

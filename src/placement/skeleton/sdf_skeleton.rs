@@ -122,6 +122,16 @@ pub fn medial_voxels(sdf: &Sdf, kept: &[usize]) -> Vec<usize> {
     kept.par_iter().copied().filter(|&i| on_axis(i)).collect()
 }
 
+/// The culling distance when the config names none and four voxels cull
+/// every free voxel: half the domain's largest clearance. A coarse voxel
+/// on a large scene (`Auto` keeps Dabrovic Sponza tiled 8×8, 4M
+/// triangles, to 2²⁰ voxels of 0.87 m) puts four voxels beyond the widest
+/// aisle; half the largest clearance keeps the skeleton of the widest
+/// spaces, and refinement fills from there.
+fn fallback_min_distance(sdf: &Sdf) -> f32 {
+    0.5 * sdf.largest_clearance()
+}
+
 /// Places probes by SDF skeletonization (module docs, steps 1–4).
 ///
 /// Contract: every probe lies at the centre of a free voxel at least
@@ -132,10 +142,15 @@ pub fn medial_voxels(sdf: &Sdf, kept: &[usize]) -> Vec<usize> {
 /// leaves nothing.
 pub fn sdf_skeleton(params: &SdfSkeletonParams, input: &PlacementInput) -> Result<ProbeSet> {
     let sdf = input.sdf;
-    let min_distance = params
+    let mut min_distance = params
         .min_distance
         .map_or(DEFAULT_MIN_DISTANCE_VOXELS * sdf.voxel_size, |d| d.0);
-    let kept = cull(sdf, min_distance);
+    let mut kept = cull(sdf, min_distance);
+    let fallback = fallback_min_distance(sdf);
+    if kept.is_empty() && params.min_distance.is_none() && fallback > 0.0 {
+        min_distance = fallback;
+        kept = cull(sdf, min_distance);
+    }
     if kept.is_empty() {
         let largest = sdf.largest_clearance();
         return Err(Error::User(format!(
@@ -292,6 +307,38 @@ mod tests {
             .collect();
         assert!(counts.windows(2).all(|w| w[0] >= w[1]), "{counts:?}");
         assert!(counts[0] > counts[3], "{counts:?}");
+    }
+
+    /// A voxel so coarse that four of them pass the widest clearance (a
+    /// large scene at its `Auto` voxel): the default culls to half the
+    /// largest clearance and places, where a named distance as large stops.
+    #[test]
+    fn a_default_that_would_cull_everything_falls_back_to_half_the_largest_clearance() {
+        let (scene, bvh, sdf) = setup(0.5);
+        let largest = sdf.largest_clearance();
+        assert!(
+            4.0 * sdf.voxel_size >= largest,
+            "the room is too large for the test: {largest}"
+        );
+        let set = place_in(
+            &Placement::SdfSkeleton(SdfSkeletonParams::default()),
+            &scene,
+            &bvh,
+            &sdf,
+        )
+        .unwrap();
+        assert!(!set.probes.is_empty());
+        assert_eq!(set.min_clearance, 0.5 * largest);
+        assert_eq!(set.params["min_distance"], (0.5 * largest) as f64);
+        for p in &set.probes {
+            let v = sdf.voxel_at(p.position).unwrap();
+            assert!(sdf.distance[v] >= 0.5 * largest, "{p:?}");
+        }
+        let named = SdfSkeletonParams {
+            min_distance: Some(Positive(4.0 * sdf.voxel_size)),
+            ..SdfSkeletonParams::default()
+        };
+        assert!(run(&scene, &bvh, &sdf, named).is_err());
     }
 
     #[test]
