@@ -149,7 +149,8 @@ pub struct Refined {
 }
 
 /// The steps [`Refined::steps`] times, in order: the views and sweeps
-/// (§3.3), filling and pruning on the training samples, the check rounds
+/// (§3.3; the first check round's samples are judged beside them, on the
+/// core the sweeps leave idle), filling and pruning on the training samples, the check rounds
 /// on fresh ones ([`holdout`]), and the final views and atlas.
 pub const STEPS: [&str; 4] = ["refine_sweeps", "refine_fill", "refine_rounds", "refine_finish"];
 
