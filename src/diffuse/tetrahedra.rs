@@ -32,7 +32,6 @@
 
 use glam::{DVec3, Vec3};
 use robust::{insphere, orient3d, Coord3D};
-use std::collections::HashMap;
 
 /// The infinite vertex.
 const INF: u32 = u32::MAX;
@@ -173,6 +172,17 @@ struct Mesh<'a> {
     /// Neighbour across the face opposite each vertex.
     neighbours: Vec<[u32; 4]>,
     alive: Vec<bool>,
+    /// Per tetrahedron, the insertion whose cavity last took it
+    /// ([`Mesh::insert`]): a membership test without hashing, which took a
+    /// sixth of `Tetrahedralization::new`'s time as a hash set.
+    stamp: Vec<u32>,
+    /// The current insertion's number, for `stamp`.
+    insertion: u32,
+    /// The cavity's tetrahedra and its open faces (keyed by the two
+    /// vertices besides the new point, with the tetrahedron and slot),
+    /// kept between insertions so that none allocates.
+    cavity: Vec<u32>,
+    faces: Vec<((u32, u32), (u32, usize))>,
 }
 
 impl Mesh<'_> {
@@ -243,34 +253,41 @@ impl Mesh<'_> {
     /// Inserts point `q` into the cavity grown from `first`; returns one new
     /// tetrahedron.
     fn insert(&mut self, first: u32, q: u32) -> u32 {
-        let mut cavity = vec![first];
-        let mut in_cavity: HashMap<u32, ()> = HashMap::new();
-        in_cavity.insert(first, ());
+        self.insertion += 1;
+        let mark = self.insertion;
+        self.stamp.resize(self.tets.len(), 0);
+        let mut cavity = std::mem::take(&mut self.cavity);
+        cavity.clear();
+        cavity.push(first);
+        self.stamp[first as usize] = mark;
         let mut k = 0;
         while k < cavity.len() {
             let t = cavity[k];
             k += 1;
             for i in 0..4 {
                 let n = self.neighbours[t as usize][i];
-                if !in_cavity.contains_key(&n) && self.conflicts(n, q) {
-                    in_cavity.insert(n, ());
+                if self.stamp[n as usize] != mark && self.conflicts(n, q) {
+                    self.stamp[n as usize] = mark;
                     cavity.push(n);
                 }
             }
         }
-        // One new tetrahedron per boundary face of the cavity.
-        let mut faces: HashMap<(u32, u32), (u32, usize)> = HashMap::new();
+        // One new tetrahedron per boundary face of the cavity. The new
+        // ones are stamped 0: never in this cavity.
+        let mut faces = std::mem::take(&mut self.faces);
+        faces.clear();
         let mut last = NONE;
         for &t in &cavity {
             for i in 0..4 {
                 let outside = self.neighbours[t as usize][i];
-                if in_cavity.contains_key(&outside) {
+                if self.stamp[outside as usize] == mark {
                     continue;
                 }
                 let v = Self::with(self.tets[t as usize], i, q);
                 let id = self.tets.len() as u32;
                 self.tets.push(v);
                 self.alive.push(true);
+                self.stamp.push(0);
                 let mut nb = [NONE; 4];
                 nb[i] = outside;
                 self.neighbours.push(nb);
@@ -284,14 +301,13 @@ impl Mesh<'_> {
                     let mut others = (0..4).filter(|&m| m != i && m != j).map(|m| v[m]);
                     let (a, b) = (others.next().unwrap(), others.next().unwrap());
                     let key = (a.min(b), a.max(b));
-                    match faces.remove(&key) {
-                        Some((u, uj)) => {
+                    match faces.iter().position(|(k, _)| *k == key) {
+                        Some(f) => {
+                            let (_, (u, uj)) = faces.swap_remove(f);
                             self.neighbours[id as usize][j] = u;
                             self.neighbours[u as usize][uj] = id;
                         }
-                        None => {
-                            faces.insert(key, (id, j));
-                        }
+                        None => faces.push((key, (id, j))),
                     }
                 }
                 last = id;
@@ -301,6 +317,8 @@ impl Mesh<'_> {
             self.alive[t as usize] = false;
         }
         debug_assert!(faces.is_empty(), "the cavity's boundary is closed");
+        self.cavity = cavity;
+        self.faces = faces;
         last
     }
 }
@@ -326,6 +344,10 @@ impl Tetrahedralization {
             tets: Vec::new(),
             neighbours: Vec::new(),
             alive: Vec::new(),
+            stamp: Vec::new(),
+            insertion: 0,
+            cavity: Vec::new(),
+            faces: Vec::new(),
         };
         let [a, b, cc, d] = seed;
         let t0 = if mesh.orient([a, b, cc, d]) > 0.0 {
@@ -552,6 +574,7 @@ fn closest_on_triangle(p: DVec3, a: DVec3, b: DVec3, c: DVec3) -> (DVec3, [f64; 
 mod tests {
     use super::*;
     use crate::sampling::{hash2, unit_f32};
+    use std::collections::HashMap;
 
     fn grid(nx: u32, ny: u32, nz: u32, h: f32) -> Vec<Vec3> {
         let mut p = Vec::new();
