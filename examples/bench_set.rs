@@ -34,10 +34,9 @@
 #[path = "common/json.rs"]
 mod json;
 
+use probeplace::config::UpAxis;
 use probeplace::fixtures::{
-    city::write_city,
-    furniture_hall::write_furniture_hall,
-    tiling::{tile_obj, TileUp},
+    city::write_city, furniture_hall::write_furniture_hall, tiling::tile_obj,
     voxel_world::write_voxel_world,
 };
 use serde_json::{json, Value};
@@ -87,7 +86,7 @@ fn generate(dir: &Path) -> Result<()> {
         ("sponza-8x8", &sponza, 8, 1.0),
         ("holodeck-8x8", &holodeck, 8, 0.01),
     ] {
-        let t = tile_obj(src, &dir.join(name), name, [n, n], TileUp::Y, 0.1)?;
+        let t = tile_obj(src, &dir.join(name), name, [n, n], UpAxis::Y, 0.1)?;
         let lights = if scale == 1.0 { SUN } else { LAMP };
         write(
             name,

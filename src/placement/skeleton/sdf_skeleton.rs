@@ -146,10 +146,12 @@ pub fn sdf_skeleton(params: &SdfSkeletonParams, input: &PlacementInput) -> Resul
         .min_distance
         .map_or(DEFAULT_MIN_DISTANCE_VOXELS * sdf.voxel_size, |d| d.0);
     let mut kept = cull(sdf, min_distance);
-    let fallback = fallback_min_distance(sdf);
-    if kept.is_empty() && params.min_distance.is_none() && fallback > 0.0 {
-        min_distance = fallback;
-        kept = cull(sdf, min_distance);
+    if kept.is_empty() && params.min_distance.is_none() {
+        let fallback = fallback_min_distance(sdf);
+        if fallback > 0.0 {
+            min_distance = fallback;
+            kept = cull(sdf, min_distance);
+        }
     }
     if kept.is_empty() {
         let largest = sdf.largest_clearance();
