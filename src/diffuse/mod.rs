@@ -275,12 +275,16 @@ impl ShLookup {
 
     /// Irradiance at `r`, total and indirect, clamped at zero (SH ringing).
     pub fn irradiance(&self, r: &Receiver) -> Irradiance {
-        let mix = |f: fn(&ProbeSh) -> &ShL2, weights: &[(u32, f32)]| {
-            ShL2::blend(weights.iter().map(|&(i, w)| (f(&self.sh[i as usize]), w))).irradiance(r.n)
-        };
-        let weights: [(u32, f32); 4] = match &self.blend {
-            Blend::None => return Irradiance::default(),
-            Blend::Tetrahedra(t) => t.weights(r.p),
+        self.irradiance_inside(r).0
+    }
+
+    /// [`ShLookup::irradiance`], and whether `r` lies in a tetrahedron of
+    /// the blend (false outside the hull, and for blends of fewer than
+    /// four probes that span space).
+    pub(crate) fn irradiance_inside(&self, r: &Receiver) -> (Irradiance, bool) {
+        let (weights, inside): ([(u32, f32); 4], bool) = match &self.blend {
+            Blend::None => return (Irradiance::default(), false),
+            Blend::Tetrahedra(t) => t.blend_at(r.p),
             Blend::Nearest(points) => {
                 let i = (0..points.len())
                     .min_by(|&a, &b| {
@@ -289,13 +293,28 @@ impl ShLookup {
                             .total_cmp(&points[b].distance_squared(r.p))
                     })
                     .unwrap_or(0) as u32;
-                [(i, 1.0), (i, 0.0), (i, 0.0), (i, 0.0)]
+                ([(i, 1.0), (i, 0.0), (i, 0.0), (i, 0.0)], false)
             }
         };
-        Irradiance {
-            total: clean(mix(|s| &s.total, &weights)),
-            indirect: clean(mix(|s| &s.indirect, &weights)),
-        }
+        (blend_irradiance(&self.sh, &weights, r.n), inside)
+    }
+
+    /// Whether the blend is over tetrahedra (four or more probes that span
+    /// space), the blend [`tetrahedra::Incremental`] keeps open.
+    pub(crate) fn is_tetrahedral(&self) -> bool {
+        matches!(self.blend, Blend::Tetrahedra(_))
+    }
+}
+
+/// The irradiance along `n` of the probes' SH `sh` blended by `weights`,
+/// total and indirect, clamped at zero (SH ringing).
+pub(crate) fn blend_irradiance(sh: &[ProbeSh], weights: &[(u32, f32); 4], n: Vec3) -> Irradiance {
+    let mix = |f: fn(&ProbeSh) -> &ShL2| {
+        ShL2::blend(weights.iter().map(|&(i, w)| (f(&sh[i as usize]), w))).irradiance(n)
+    };
+    Irradiance {
+        total: clean(mix(|s| &s.total)),
+        indirect: clean(mix(|s| &s.indirect)),
     }
 }
 

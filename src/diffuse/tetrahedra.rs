@@ -49,7 +49,7 @@ pub struct Tetrahedralization {
     /// Hull triangles, counter-clockwise seen from outside.
     pub hull: Vec<[u32; 3]>,
     /// The caller's point count: indices at or above it name copies
-    /// ([`Tetrahedralization::spanning`]) and [`Tetrahedralization::weights`]
+    /// ([`Tetrahedralization::spanning`]) and [`Tetrahedralization::blend_at`]
     /// folds them back.
     originals: u32,
     /// The finite tetrahedra bucketed by bounding box, for point location.
@@ -165,9 +165,216 @@ fn c(p: DVec3) -> Coord3D<f64> {
     }
 }
 
+/// A Delaunay tetrahedralization that takes one point more at a time
+/// (Bowyer–Watson): [`crate::refine::diffuse`] tries a candidate probe by
+/// inserting it into a copy of the current probes' mesh, which replaces
+/// only the tetrahedra whose circumsphere holds it (its cavity) by the
+/// new point's star, instead of building the whole mesh again.
+#[derive(Debug, Clone)]
+pub(crate) struct Incremental {
+    mesh: Mesh,
+    /// A tetrahedron the last insertion made, where the next walk starts.
+    last: u32,
+}
+
+impl Incremental {
+    /// The tetrahedralization of `points`, as [`Tetrahedralization::new`]
+    /// builds it (the same mesh), kept open for insertions.
+    pub(crate) fn new(points: &[Vec3]) -> Option<Incremental> {
+        if points.iter().any(|p| !p.is_finite()) {
+            return None;
+        }
+        let pts: Vec<DVec3> = points.iter().map(|p| p.as_dvec3()).collect();
+        let order = crate::sampling::morton_order(points);
+        let seed = initial(&pts, &order)?;
+        let mut mesh = Mesh {
+            points: pts,
+            tets: Vec::new(),
+            neighbours: Vec::new(),
+            alive: Vec::new(),
+            stamp: Vec::new(),
+            insertion: 0,
+            cavity: Vec::new(),
+            faces: Vec::new(),
+        };
+        let [a, b, cc, d] = seed;
+        let t0 = if mesh.orient([a, b, cc, d]) > 0.0 {
+            [a, b, cc, d]
+        } else {
+            [b, a, cc, d]
+        };
+        // The tetrahedron, and a ghost on each face. A ghost is oriented as
+        // if the infinite vertex were a point far outside its face: the
+        // replaced vertex lay inside, so two finite vertices swap.
+        mesh.tets.push(t0);
+        mesh.neighbours.push([1, 2, 3, 4]);
+        mesh.alive.push(true);
+        for i in 0..4 {
+            // Ghost i+1 shares with ghost j+1 the face without slots i, j.
+            let mut v = Mesh::with(t0, i, INF);
+            let mut nb: [u32; 4] = std::array::from_fn(|j| if i == j { 0 } else { (j + 1) as u32 });
+            let (x, y) = match i {
+                0 => (1, 2),
+                1 => (0, 2),
+                _ => (0, 1),
+            };
+            v.swap(x, y);
+            nb.swap(x, y);
+            mesh.tets.push(v);
+            mesh.alive.push(true);
+            mesh.neighbours.push(nb);
+        }
+        let mut last = 0u32;
+        for &q in &order {
+            let q = q as u32;
+            if seed.contains(&q) {
+                continue;
+            }
+            let start = mesh.finite_start(last);
+            let Some(first) = mesh.locate(start, q) else {
+                continue;
+            };
+            last = mesh.insert(first, q);
+        }
+        Some(Incremental { mesh, last })
+    }
+
+    /// The tetrahedralization as it stands.
+    fn finish(self) -> Tetrahedralization {
+        let mesh = self.mesh;
+        let tetrahedra: Vec<[u32; 4]> = mesh
+            .tets
+            .iter()
+            .zip(&mesh.alive)
+            .filter(|&(v, &alive)| alive && !v.contains(&INF))
+            .map(|(v, _)| *v)
+            .collect();
+        let hull = mesh.hull();
+        Tetrahedralization {
+            originals: mesh.points.len() as u32,
+            buckets: Buckets::new(&mesh.points, &tetrahedra),
+            points: mesh.points,
+            tetrahedra,
+            hull,
+        }
+    }
+
+    /// Inserts `p` as the next point (index: the count before); returns
+    /// the finite tetrahedra it made (its star, empty when `p` repeats a
+    /// point or is not finite). Every other tetrahedron is unchanged.
+    pub(crate) fn insert(&mut self, p: Vec3) -> Vec<[u32; 4]> {
+        if !p.is_finite() {
+            return Vec::new();
+        }
+        let mesh = &mut self.mesh;
+        let q = mesh.points.len() as u32;
+        mesh.points.push(p.as_dvec3());
+        let start = mesh.finite_start(self.last);
+        let Some(first) = mesh.locate(start, q) else {
+            return Vec::new();
+        };
+        let before = mesh.tets.len();
+        self.last = mesh.insert(first, q);
+        mesh.tets[before..]
+            .iter()
+            .filter(|v| !v.contains(&INF))
+            .copied()
+            .collect()
+    }
+
+    /// The blend's weights at `p` in the first of `tets` that holds it
+    /// ([`Tetrahedralization::blend_at`] inside the hull).
+    pub(crate) fn weights_in(&self, tets: &[[u32; 4]], p: Vec3) -> Option<[(u32, f32); 4]> {
+        let q = p.as_dvec3();
+        tets.iter()
+            .find_map(|t| inside_weights(&self.mesh.points, t, q, u32::MAX))
+    }
+
+    /// The hull's triangles, counter-clockwise seen from outside.
+    pub(crate) fn hull(&self) -> Vec<[u32; 3]> {
+        self.mesh.hull()
+    }
+
+    /// The blend's weights at `p` outside the hull `hull` (this mesh's):
+    /// [`Tetrahedralization::blend_at`] there.
+    pub(crate) fn hull_weights(&self, hull: &[[u32; 3]], p: Vec3) -> [(u32, f32); 4] {
+        hull_weights(&self.mesh.points, hull, p.as_dvec3(), u32::MAX)
+    }
+
+    /// The box around `tets`.
+    pub(crate) fn bounds(&self, tets: &[[u32; 4]]) -> Option<(Vec3, Vec3)> {
+        let mut out: Option<(DVec3, DVec3)> = None;
+        for &i in tets.iter().flatten() {
+            let p = self.mesh.points[i as usize];
+            out = Some(match out {
+                Some((lo, hi)) => (lo.min(p), hi.max(p)),
+                None => (p, p),
+            });
+        }
+        out.map(|(lo, hi)| (lo.as_vec3(), hi.as_vec3()))
+    }
+}
+
+/// The weights of `q` in tetrahedron `t` of `points` when it lies inside
+/// (within rounding), vertex indices folded by `originals`.
+fn inside_weights(
+    points: &[DVec3],
+    t: &[u32; 4],
+    q: DVec3,
+    originals: u32,
+) -> Option<[(u32, f32); 4]> {
+    const SLACK: f64 = -1e-9;
+    let w = barycentric(points, t, q);
+    if w.iter().all(|&x| x >= SLACK) {
+        let w = w.map(|x| x.max(0.0));
+        let s: f64 = w.iter().sum();
+        return Some([0, 1, 2, 3].map(|k| (t[k] % originals, (w[k] / s) as f32)));
+    }
+    None
+}
+
+/// Barycentric weights of `p` in tetrahedron `t` of `points`.
+fn barycentric(points: &[DVec3], t: &[u32; 4], p: DVec3) -> [f64; 4] {
+    let [a, b, cc, d] = t.map(|i| points[i as usize]);
+    let vol = (b - a).dot((cc - a).cross(d - a));
+    let w1 = (p - a).dot((cc - a).cross(d - a)) / vol;
+    let w2 = (b - a).dot((p - a).cross(d - a)) / vol;
+    let w3 = (b - a).dot((cc - a).cross(p - a)) / vol;
+    [1.0 - w1 - w2 - w3, w1, w2, w3]
+}
+
+/// The weights of `q`'s closest point on the nearest of the `hull`
+/// triangles of `points` (a fourth weight of 0), indices folded by
+/// `originals`.
+fn hull_weights(points: &[DVec3], hull: &[[u32; 3]], q: DVec3, originals: u32) -> [(u32, f32); 4] {
+    let mut best = (
+        f64::INFINITY,
+        [(0u32, 1.0f32), (0, 0.0), (0, 0.0), (0, 0.0)],
+    );
+    for tri in hull {
+        let [a, b, cc] = tri.map(|i| points[i as usize]);
+        let (x, w) = closest_on_triangle(q, a, b, cc);
+        let dist = x.distance_squared(q);
+        if dist < best.0 {
+            let o = originals;
+            best = (
+                dist,
+                [
+                    (tri[0] % o, w[0] as f32),
+                    (tri[1] % o, w[1] as f32),
+                    (tri[2] % o, w[2] as f32),
+                    (tri[0] % o, 0.0),
+                ],
+            );
+        }
+    }
+    best.1
+}
+
 /// The triangulation under construction.
-struct Mesh<'a> {
-    points: &'a [DVec3],
+#[derive(Debug, Clone)]
+struct Mesh {
+    points: Vec<DVec3>,
     tets: Vec<[u32; 4]>,
     /// Neighbour across the face opposite each vertex.
     neighbours: Vec<[u32; 4]>,
@@ -185,7 +392,45 @@ struct Mesh<'a> {
     faces: Vec<((u32, u32), (u32, usize))>,
 }
 
-impl Mesh<'_> {
+impl Mesh {
+    /// `last` when it is a live finite tetrahedron, else the newest one:
+    /// where a point's walk starts.
+    fn finite_start(&self, last: u32) -> u32 {
+        if self.alive[last as usize] && !self.tets[last as usize].contains(&INF) {
+            last
+        } else {
+            (0..self.tets.len() as u32)
+                .rev()
+                .find(|&t| self.alive[t as usize] && !self.tets[t as usize].contains(&INF))
+                .expect("a finite tetrahedron")
+        }
+    }
+
+    /// The hull's triangles, counter-clockwise seen from outside: the
+    /// finite faces of the live ghost tetrahedra.
+    fn hull(&self) -> Vec<[u32; 3]> {
+        let mut hull = Vec::new();
+        for (t, v) in self.tets.iter().enumerate() {
+            if !self.alive[t] {
+                continue;
+            }
+            if let Some(k) = v.iter().position(|&x| x == INF) {
+                // orient(v with q at k) > 0 for q outside. Moving q
+                // from slot k to the last is an odd permutation for k
+                // even, so orient(f, q) > 0 outside for k odd; a face
+                // counter-clockwise from outside has orient(f, q) < 0
+                // there, so for k odd two vertices swap.
+                let f: Vec<u32> = (0..4).filter(|&m| m != k).map(|m| v[m]).collect();
+                hull.push(if k % 2 == 1 {
+                    [f[1], f[0], f[2]]
+                } else {
+                    [f[0], f[1], f[2]]
+                });
+            }
+        }
+        hull
+    }
+
     fn orient(&self, t: [u32; 4]) -> f64 {
         let p = |i: u32| c(self.points[i as usize]);
         orient3d(p(t[0]), p(t[1]), p(t[2]), p(t[3]))
@@ -333,99 +578,7 @@ impl Tetrahedralization {
     /// tetrahedron's circumsphere; repeated points are left out.
     /// Deterministic.
     pub fn new(points: &[Vec3]) -> Option<Tetrahedralization> {
-        if points.iter().any(|p| !p.is_finite()) {
-            return None;
-        }
-        let pts: Vec<DVec3> = points.iter().map(|p| p.as_dvec3()).collect();
-        let order = crate::sampling::morton_order(points);
-        let seed = initial(&pts, &order)?;
-        let mut mesh = Mesh {
-            points: &pts,
-            tets: Vec::new(),
-            neighbours: Vec::new(),
-            alive: Vec::new(),
-            stamp: Vec::new(),
-            insertion: 0,
-            cavity: Vec::new(),
-            faces: Vec::new(),
-        };
-        let [a, b, cc, d] = seed;
-        let t0 = if mesh.orient([a, b, cc, d]) > 0.0 {
-            [a, b, cc, d]
-        } else {
-            [b, a, cc, d]
-        };
-        // The tetrahedron, and a ghost on each face. A ghost is oriented as
-        // if the infinite vertex were a point far outside its face: the
-        // replaced vertex lay inside, so two finite vertices swap.
-        mesh.tets.push(t0);
-        mesh.neighbours.push([1, 2, 3, 4]);
-        mesh.alive.push(true);
-        for i in 0..4 {
-            // Ghost i+1 shares with ghost j+1 the face without slots i, j.
-            let mut v = Mesh::with(t0, i, INF);
-            let mut nb: [u32; 4] = std::array::from_fn(|j| if i == j { 0 } else { (j + 1) as u32 });
-            let (x, y) = match i {
-                0 => (1, 2),
-                1 => (0, 2),
-                _ => (0, 1),
-            };
-            v.swap(x, y);
-            nb.swap(x, y);
-            mesh.tets.push(v);
-            mesh.alive.push(true);
-            mesh.neighbours.push(nb);
-        }
-        let mut last = 0u32;
-        for &q in &order {
-            let q = q as u32;
-            if seed.contains(&q) {
-                continue;
-            }
-            let start = if mesh.alive[last as usize] && !mesh.tets[last as usize].contains(&INF) {
-                last
-            } else {
-                (0..mesh.tets.len() as u32)
-                    .rev()
-                    .find(|&t| mesh.alive[t as usize] && !mesh.tets[t as usize].contains(&INF))
-                    .expect("a finite tetrahedron")
-            };
-            let Some(first) = mesh.locate(start, q) else {
-                continue;
-            };
-            last = mesh.insert(first, q);
-        }
-        let mut tetrahedra = Vec::new();
-        let mut hull = Vec::new();
-        for (t, v) in mesh.tets.iter().enumerate() {
-            if !mesh.alive[t] {
-                continue;
-            }
-            match v.iter().position(|&x| x == INF) {
-                None => tetrahedra.push(*v),
-                Some(k) => {
-                    // orient(v with q at k) > 0 for q outside. Moving q
-                    // from slot k to the last is an odd permutation for k
-                    // even, so orient(f, q) > 0 outside for k odd; a face
-                    // counter-clockwise from outside has orient(f, q) < 0
-                    // there, so for k odd two vertices swap.
-                    let f: Vec<u32> = (0..4).filter(|&m| m != k).map(|m| v[m]).collect();
-                    let tri = if k % 2 == 1 {
-                        [f[1], f[0], f[2]]
-                    } else {
-                        [f[0], f[1], f[2]]
-                    };
-                    hull.push(tri);
-                }
-            }
-        }
-        Some(Tetrahedralization {
-            originals: pts.len() as u32,
-            buckets: Buckets::new(&pts, &tetrahedra),
-            points: pts,
-            tetrahedra,
-            hull,
-        })
+        Some(Incremental::new(points)?.finish())
     }
 
     /// [`Tetrahedralization::new`], or for points that do not span space
@@ -464,56 +617,36 @@ impl Tetrahedralization {
         Some(t)
     }
 
-    /// Barycentric weights of `p` in tetrahedron `t`.
-    fn barycentric(&self, t: &[u32; 4], p: DVec3) -> [f64; 4] {
-        let [a, b, cc, d] = t.map(|i| self.points[i as usize]);
-        let vol = (b - a).dot((cc - a).cross(d - a));
-        let w1 = (p - a).dot((cc - a).cross(d - a)) / vol;
-        let w2 = (b - a).dot((p - a).cross(d - a)) / vol;
-        let w3 = (b - a).dot((cc - a).cross(p - a)) / vol;
-        [1.0 - w1 - w2 - w3, w1, w2, w3]
-    }
-
     /// The probes and weights that blend at `p`: the four corners of the
     /// tetrahedron holding it with its barycentric weights, or outside the
     /// hull the corners of the nearest hull triangle with the weights of
     /// `p`'s closest point on it (a fourth weight of 0).
     ///
     /// Contract: weights non-negative, summing to 1; deterministic.
+    #[cfg(test)]
     pub fn weights(&self, p: Vec3) -> [(u32, f32); 4] {
+        self.blend_at(p).0
+    }
+
+    /// The probes and weights that blend at `p` (the corners of the
+    /// tetrahedron holding it with its barycentric weights, or outside the
+    /// hull the corners of the nearest hull triangle with the weights of
+    /// `p`'s closest point on it, a fourth weight of 0), and whether `p`
+    /// lies in a tetrahedron.
+    ///
+    /// Contract: weights non-negative, summing to 1; deterministic.
+    pub fn blend_at(&self, p: Vec3) -> ([(u32, f32); 4], bool) {
         let q = p.as_dvec3();
-        const SLACK: f64 = -1e-9;
         for &t in self.buckets.near(q) {
             let t = &self.tetrahedra[t as usize];
-            let w = self.barycentric(t, q);
-            if w.iter().all(|&x| x >= SLACK) {
-                let w = w.map(|x| x.max(0.0));
-                let s: f64 = w.iter().sum();
-                return [0, 1, 2, 3].map(|k| (t[k] % self.originals, (w[k] / s) as f32));
+            if let Some(w) = inside_weights(&self.points, t, q, self.originals) {
+                return (w, true);
             }
         }
-        let mut best = (
-            f64::INFINITY,
-            [(0u32, 1.0f32), (0, 0.0), (0, 0.0), (0, 0.0)],
-        );
-        for tri in &self.hull {
-            let [a, b, cc] = tri.map(|i| self.points[i as usize]);
-            let (x, w) = closest_on_triangle(q, a, b, cc);
-            let dist = x.distance_squared(q);
-            if dist < best.0 {
-                let o = self.originals;
-                best = (
-                    dist,
-                    [
-                        (tri[0] % o, w[0] as f32),
-                        (tri[1] % o, w[1] as f32),
-                        (tri[2] % o, w[2] as f32),
-                        (tri[0] % o, 0.0),
-                    ],
-                );
-            }
-        }
-        best.1
+        (
+            hull_weights(&self.points, &self.hull, q, self.originals),
+            false,
+        )
     }
 }
 
@@ -683,6 +816,46 @@ mod tests {
         assert_eq!(again.tetrahedra.len(), before, "repeats add nothing");
     }
 
+    /// Points inserted one at a time into an open mesh give the mesh
+    /// built from all of them (random points: the Delaunay mesh is
+    /// unique), and each insertion's star holds the new point.
+    #[test]
+    fn insertion_one_point_at_a_time_matches_a_whole_build() {
+        let p = random(80, 5);
+        let mut open = Incremental::new(&p[..20]).unwrap();
+        for (k, &q) in p.iter().enumerate().skip(20) {
+            let star = open.insert(q);
+            assert!(!star.is_empty());
+            assert!(star.iter().all(|t| t.contains(&(k as u32))), "{k}");
+        }
+        let whole = Tetrahedralization::new(&p).unwrap();
+        let sorted = |tets: &[[u32; 4]]| {
+            let mut v: Vec<[u32; 4]> = tets
+                .iter()
+                .map(|t| {
+                    let mut t = *t;
+                    t.sort();
+                    t
+                })
+                .collect();
+            v.sort();
+            v
+        };
+        let built = open.clone().finish();
+        assert_eq!(sorted(&built.tetrahedra), sorted(&whole.tetrahedra));
+        for q in random(50, 9) {
+            let w = open
+                .weights_in(&built.tetrahedra, q)
+                .unwrap_or_else(|| open.hull_weights(&built.hull, q));
+            let v = whole.weights(q);
+            let blend =
+                |w: [(u32, f32); 4]| w.iter().map(|&(i, x)| x * p[i as usize]).sum::<Vec3>();
+            assert!(blend(w).distance(blend(v)) < 1e-4, "{q}");
+        }
+        // A repeated point makes nothing.
+        assert!(open.insert(p[3]).is_empty());
+    }
+
     #[test]
     fn flat_and_tiny_sets_are_refused() {
         assert!(Tetrahedralization::new(&grid(4, 4, 1, 1.0)).is_none());
@@ -702,10 +875,11 @@ mod tests {
             let sum: f32 = w.iter().map(|x| x.1).sum();
             assert!((sum - 1.0).abs() < 1e-5);
             assert!(w.iter().all(|x| x.1 >= 0.0));
-            let inside = t
-                .tetrahedra
-                .iter()
-                .any(|v| t.barycentric(v, q.as_dvec3()).iter().all(|&b| b >= 0.0));
+            let inside = t.tetrahedra.iter().any(|v| {
+                barycentric(&t.points, v, q.as_dvec3())
+                    .iter()
+                    .all(|&b| b >= 0.0)
+            });
             if inside {
                 let got: f32 = w.iter().map(|&(i, x)| x * f(p[i as usize])).sum();
                 assert!((got - f(q)).abs() < 1e-3, "{got} vs {}", f(q));

@@ -192,7 +192,7 @@ pub fn hold(h: &HoldInput, probes: &[Vec3], pinned: usize) -> Held {
             }
         };
         let bar = h.input.progress.bar("refine: check round", 0);
-        let seen = check.seen_by_all(bvh, &check.samples, &live, 1, &bar);
+        let seen = check.seen_where_coverable(bvh, &live, &bar);
         bar.finish_and_clear();
         let matrix = CoverMatrix::new(check, bvh).with_need(|i, p| (h.need)(i, p).min(1));
         let mut count = matrix.counts_of_seen(&seen);
