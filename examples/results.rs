@@ -992,7 +992,7 @@ fn svo_section(md: &mut String, reports: &[Value]) {
     md.push_str(
         "*Dense*: what the paper's storage would take, an RGBA8 3D texture at the same \
          leaf size (Wang Table 2). *Fallback*: free cells no probe whose influence region \
-         overlaps them sees. *Unseen*: free cells no probe sees. *First sees*: share of \
+         overlaps them sees. *Unseen*: free cells none of their 64 nearest probes sees. *First sees*: share of \
          10 000 random free points whose first listed probe is unoccluded from them.\n\n",
     );
     let mut t = Table::new(&[

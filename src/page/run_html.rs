@@ -445,7 +445,7 @@ fn svo_table(h: &mut String, r: &RunFigures) {
         row(
             "without a visible probe",
             num(s.leaves_without_visible_probe),
-            "free cells no probe sees (on open scenes mostly above the roof)",
+            "free cells none of their 64 nearest probes sees (on open scenes mostly above the roof)",
         ),
         row(
             "distinct lists",

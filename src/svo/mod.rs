@@ -64,7 +64,8 @@ pub struct Svo {
     pub probe_count: u32,
     /// Most indices a leaf lists.
     pub max_probes: u32,
-    /// Leaves (at leaf size) that no probe sees; they list the nearest probe.
+    /// Leaves (at leaf size) that none of their 64 nearest probes sees
+    /// ([`crate::svo::rank`]); they list the nearest probe.
     pub leaves_without_visible_probe: u32,
     /// The run's provenance ([`crate::provenance`]), written in the header;
     /// zero until the job that writes the tree sets it.
@@ -266,7 +267,8 @@ pub struct SvoReport {
     pub bytes: u64,
     /// A dense RGBA8 3D texture at the same leaf size, as the paper stores it.
     pub dense_bytes: u64,
-    /// Leaf-size cells holding free space that no probe sees.
+    /// Leaf-size cells holding free space that none of their 64 nearest
+    /// probes sees.
     pub leaves_without_visible_probe: u64,
     /// Leaf edge.
     pub leaf_size: f32,

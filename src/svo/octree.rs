@@ -54,7 +54,7 @@ pub struct Tally {
     /// Of those, leaves listing the nearest probe that sees them because no
     /// probe whose influence holds them does.
     pub fallback: u64,
-    /// Of those, leaves that no probe sees at all.
+    /// Of those, leaves that none of their 64 nearest probes sees.
     pub blind: u64,
 }
 
