@@ -129,12 +129,17 @@ pub mod rate {
     /// Irradiance and moment convolution terms (probes × irradiance texels
     /// × radiance texels) per core-second (Sponza: 8.4e8 in 2.0 s).
     pub const CONVOLUTION_TERMS: f64 = 1.0e8;
-    /// Refinement units, `N^1.5 × iterations × directions² × max(1,
-    /// min(texels, N × directions²) / 4216)` (Gibbs proposals grow in cost
-    /// with the probes around them and the texels their views reach), per
-    /// core-second (Cornell: 1 024 probes, 20 sweeps,
-    /// 32², 32.7 s).
-    pub const REFINE_UNITS: f64 = 5.0e6;
+    /// Rays of refinement's views per core-second, eight corners' and a
+    /// proposal's per probe step (a 1M-triangle tiled Sponza at half its
+    /// `Auto` voxel: 1 227 probes, 6 sweeps, 3 072 rays a step, 7.4 s on 2
+    /// threads).
+    pub const REFINE_RAYS: f64 = 7.5e5;
+    /// Atlas texel updates of refinement per core-second: a step's view
+    /// of `directions²` rays times the probes sharing each texel (the
+    /// Cornell box: `grid:16x16x1` and `grid:32x32x1`, 256 and 1 024
+    /// probes seeing all its 4 216 texels, 20 sweeps, 3.7 s and 32.7 s;
+    /// the difference is the sharing, 62 against 248 probes a texel).
+    pub const REFINE_TEXEL_UPDATES: f64 = 5.0e7;
     /// Fill-and-prune sample views, `coverage samples × (probes + 16)`,
     /// per core-second (Cornell: 1 M samples, 5 probes, 24 s; not halved,
     /// as the Gibbs term already over-estimates larger sets).

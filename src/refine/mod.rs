@@ -254,33 +254,53 @@ pub fn may_stand(sdf: &Sdf, domain: &Bounds, min_clearance: f32, p: Vec3) -> boo
 ///
 /// Refuses a refinement of `probes` probes over an atlas of `texels`
 /// texels and `samples` coverage samples whose estimate exceeds the work
-/// limit, before the first sweep: the Gibbs sweeps
-/// ([`crate::limits::rate::REFINE_UNITS`]) and the fill and prune, whose
-/// cover matrix views every sample from every probe and candidate
-/// ([`crate::limits::rate::REFINE_SAMPLE_VIEWS`]).
+/// limit, before the first sweep ([`refine_core_seconds`]).
 fn check_work(params: &RefineParams, probes: usize, texels: usize, samples: usize) -> Result<()> {
-    use crate::limits::rate;
-    // A proposal's cost grows with the texels its view lands on and the
-    // probes sharing them; no more texels than all the views' rays together
-    // can land on, however finely a scene of millions of small triangles
-    // cuts the atlas.
-    // Eight corners and one proposal per step, each a view.
-    let rays = (8.0 * (corner_directions(params) as f64).powi(2)
-        + (params.directions.0 as f64).powi(2))
-        / 9.0;
-    let touched = (texels as f64).min(probes as f64 * rays);
-    let units =
-        (probes as f64).powf(1.5) * params.iterations.0 as f64 * rays * (touched / 4216.0).max(1.0);
-    let views = samples as f64 * (probes as f64 + 16.0);
     crate::limits::check_work(
         "refine",
         &format!(
             "refining {probes} probes ({} sweeps, {}² directions, {texels} atlas texels, {samples} coverage samples)",
             params.iterations.0, params.directions.0
         ),
-        units / rate::REFINE_UNITS + views / rate::REFINE_SAMPLE_VIEWS,
+        refine_core_seconds(params, probes, texels, samples),
         1.0,
     )
+}
+
+/// Core-seconds a refinement of `probes` probes over `texels` atlas texels
+/// and `samples` coverage samples may take at most, by the rates of
+/// [`crate::limits::rate`]: every probe's step in every sweep traces the
+/// views of its eight corners and of its proposal
+/// ([`crate::limits::rate::REFINE_RAYS`]), and updates the texels its view
+/// lands on, each shared with the other probes that see it
+/// ([`crate::limits::rate::REFINE_TEXEL_UPDATES`]); then filling and
+/// pruning view every sample from every probe
+/// ([`crate::limits::rate::REFINE_SAMPLE_VIEWS`]).
+///
+/// The probes sharing a texel are what all views together land on
+/// (`probes × directions²`) over the texels they can reach (the atlas, or
+/// fewer): hundreds in a small room (the Cornell box, where every probe
+/// sees every wall), a few in a large scene, where each probe sees its own
+/// part. The estimate before grew as `probes^1.5` times the texels reached,
+/// the dense room's law applied to every scene: it put a 1M-triangle tiled
+/// Sponza at half the `Auto` voxel at 50 min, which refines in 17 s.
+pub(crate) fn refine_core_seconds(
+    params: &RefineParams,
+    probes: usize,
+    texels: usize,
+    samples: usize,
+) -> f64 {
+    use crate::limits::rate;
+    let n = probes as f64;
+    let d2 = (params.directions.0 as f64).powi(2);
+    let rays = 8.0 * (corner_directions(params) as f64).powi(2) + d2;
+    let reached = (texels as f64).min(n * d2).max(1.0);
+    let sharing = (n * d2 / reached).clamp(1.0, n.max(1.0));
+    let steps = n * params.iterations.0 as f64;
+    let views = samples as f64 * (n + 16.0);
+    steps * rays / rate::REFINE_RAYS
+        + steps * d2 * sharing / rate::REFINE_TEXEL_UPDATES
+        + views / rate::REFINE_SAMPLE_VIEWS
 }
 
 /// The artist `controls` ([`crate::placement::controls`]) hold throughout:
@@ -792,6 +812,28 @@ fn side_by_side(a: &RgbImage, b: &RgbImage) -> RgbImage {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The work estimate holds what refinement was measured to take, on
+    /// the dense room its sharing term comes from and on a large scene
+    /// its ray term comes from, and accepts the large scene on two
+    /// threads (the estimate before put it at 50 min).
+    #[test]
+    fn the_work_estimate_bounds_the_measured_runs_and_admits_large_scenes() {
+        let p = RefineParams::default();
+        // The Cornell box, grid:32x32x1: 1 024 probes seeing all of 4 216
+        // texels, 20 sweeps in 32.7 s on 2 threads (BENCHMARKS.md, "Limits").
+        let room = refine_core_seconds(&p, 1024, 4216, 40_000);
+        assert!(room >= 2.0 * 32.7, "{room}");
+        // Sponza tiled 4×4 at half its Auto voxel: 17 s of refinement on 2
+        // threads, 6 sweeps of 20 (BENCHMARKS.md, issue 47).
+        let tiled = refine_core_seconds(&p, 1227, 2_265_600, 54_501);
+        assert!(tiled >= 2.0 * 17.0 * 20.0 / 6.0, "{tiled}");
+        assert!(tiled <= 2.0 * crate::limits::WORK_LIMIT_SECONDS, "{tiled}");
+        // More probes cost more, and the most a config allows is refused.
+        assert!(refine_core_seconds(&p, 2454, 2_265_600, 54_501) > tiled);
+        let most = refine_core_seconds(&p, crate::limits::MAX_PROBES, 4216, 40_000);
+        assert!(most > 64.0 * crate::limits::WORK_LIMIT_SECONDS, "{most}");
+    }
     use crate::config::Count;
 
     /// Of the probes filling and pruning kept, only the added ones are
