@@ -698,6 +698,58 @@ mod tests {
         );
     }
 
+    /// A leaf none of whose candidates sees it lists the nearest probe
+    /// that does among its [`FALLBACK_SEARCH`] nearest, and is blind when
+    /// none of those does, however many probes farther off see it. The
+    /// leaf stands by the room's box; the nearest probes stand inside the
+    /// box (sealed), one more in the open room sees the leaf.
+    #[test]
+    fn a_fallback_searches_the_nearest_probes_only() {
+        let (scene, bvh, sdf) = crate::scene::testing::room_sdf(0.25, 1);
+        let origin = scene.bounds.min;
+        let cell = UVec3::new(10, 2, 6);
+        let centre = origin + (cell.as_vec3() + 0.5) * 0.25;
+        assert!(centre.x > 2.1 && centre.y < 1.0, "{centre}");
+        let influence_at = |p: Vec3| Influence {
+            position: p,
+            region: crate::scene::Bounds { min: p, max: p },
+            face_distance: [0.0; 6],
+            omega_bar: 1.0,
+        };
+        let sealed = |n: usize| -> Vec<Influence> {
+            (0..n)
+                .map(|k| {
+                    let u = Vec3::new((k % 5) as f32, ((k / 5) % 5) as f32, (k / 25) as f32);
+                    influence_at(Vec3::new(1.1, 0.1, 1.1) + u * 0.2)
+                })
+                .collect()
+        };
+        let open = Vec3::new(3.5, 3.5, 3.5);
+        for (hidden, origin_of) in [
+            (FALLBACK_SEARCH - 1, ListOrigin::Fallback),
+            (FALLBACK_SEARCH, ListOrigin::Blind),
+        ] {
+            let mut influence = sealed(hidden);
+            assert!(influence
+                .iter()
+                .all(|i| i.position.distance(centre) < open.distance(centre)));
+            influence.push(influence_at(open));
+            let ranker = LeafRanker {
+                bvh: &bvh,
+                sdf: &sdf,
+                influence: &influence,
+                origin,
+                leaf_size: 0.25,
+            };
+            let (list, how) = ranker.rank(cell, &[], &mut Scratch::default()).unwrap();
+            assert_eq!(how, origin_of, "{hidden} sealed probes");
+            match how {
+                ListOrigin::Fallback => assert_eq!(list.probes()[0], hidden as u32),
+                _ => assert!((list.probes()[0] as usize) < hidden),
+            }
+        }
+    }
+
     #[test]
     fn ties_order_by_index() {
         let a = ranked(&[(5, 1.0), (2, 1.0)]);
