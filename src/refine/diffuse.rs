@@ -342,8 +342,8 @@ impl Training {
         self.points_of(receivers, inside, mesh)
     }
 
-    /// [`Training::blend`] for `base`'s probes and one more at `p`, whose
-    /// SH ends `sh`: the new probe is inserted into a copy of `base`'s
+    /// [`Training::blend`] for `positions`: `base`'s probes and one more
+    /// at the end (its SH the last of `sh`). The new probe is inserted into a copy of `base`'s
     /// mesh (Bowyer–Watson replaces only the tetrahedra whose circumsphere
     /// holds it, filling that cavity with its star), and only the
     /// receivers in its star and those the hull extrapolated are blended
