@@ -22,10 +22,11 @@
 //! Candidates are visited in decreasing order of the bound Ω̄_k/d̄ (V ≤ 1),
 //! so the search stops as soon as no remaining candidate can enter the
 //! list. A leaf with no visible candidate falls back to the nearest probe,
-//! of its [`FALLBACK_SEARCH`] nearest, that sees any of its sample points, followed by those
-//! of the next 16 nearest probes that see it, by score (so that it still shares probes with
-//! its neighbours and collapses with them); a leaf no probe sees lists the
-//! nearest probe and is counted.
+//! of its [`FALLBACK_SEARCH`] nearest, that sees any of its sample points,
+//! followed by those of the next 16 nearest probes that see it, by score
+//! (so that it still shares probes with its neighbours and collapses with
+//! them); a leaf none of those probes sees lists the nearest probe and is
+//! counted.
 
 use super::influence::Influence;
 use crate::scene::raycast::{Blocker, SceneBvh};
