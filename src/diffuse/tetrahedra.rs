@@ -263,12 +263,13 @@ impl Incremental {
     /// the finite tetrahedra it made (its star, empty when `p` repeats a
     /// point or is not finite). Every other tetrahedron is unchanged.
     pub(crate) fn insert(&mut self, p: Vec3) -> Vec<[u32; 4]> {
+        let mesh = &mut self.mesh;
+        let q = mesh.points.len() as u32;
+        // Kept even when left out, so that indices stay the caller's.
+        mesh.points.push(p.as_dvec3());
         if !p.is_finite() {
             return Vec::new();
         }
-        let mesh = &mut self.mesh;
-        let q = mesh.points.len() as u32;
-        mesh.points.push(p.as_dvec3());
         let start = mesh.finite_start(self.last);
         let Some(first) = mesh.locate(start, q) else {
             return Vec::new();
