@@ -70,17 +70,29 @@ impl Progress {
 pub struct Stopwatch {
     laps: Vec<(String, f64)>,
     started: std::time::Instant,
+    /// When the last lap ([`Stopwatch::lap`]) ended, or the start.
+    last: std::time::Instant,
     log: bool,
 }
 
 impl Stopwatch {
     /// A stopwatch started now; `log` prints a line per finished stage.
     pub fn new(log: bool) -> Stopwatch {
+        let now = std::time::Instant::now();
         Stopwatch {
             laps: Vec::new(),
-            started: std::time::Instant::now(),
+            started: now,
+            last: now,
             log,
         }
+    }
+
+    /// Records stage `name` as the time since the last lap ended (or the
+    /// stopwatch started): the steps of one function, timed in turn.
+    pub fn lap(&mut self, name: &str) {
+        let now = std::time::Instant::now();
+        self.record(name, (now - self.last).as_secs_f64() * 1e3);
+        self.last = now;
     }
 
     /// Runs `f` as stage `name` and records its wall time.

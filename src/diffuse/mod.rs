@@ -273,6 +273,16 @@ impl ShLookup {
         ShLookup { sh, blend }
     }
 
+    /// The lookup over all the probes of an open mesh
+    /// ([`tetrahedra::Incremental`], the mesh [`ShLookup::new`] builds for
+    /// them when they span space), their SH `sh` in its point order.
+    pub(crate) fn over(mesh: &tetrahedra::Incremental, sh: &[ProbeSh]) -> ShLookup {
+        ShLookup {
+            sh: sh.to_vec(),
+            blend: Blend::Tetrahedra(mesh.snapshot()),
+        }
+    }
+
     /// Irradiance at `r`, total and indirect, clamped at zero (SH ringing).
     pub fn irradiance(&self, r: &Receiver) -> Irradiance {
         self.irradiance_inside(r).0
@@ -297,12 +307,6 @@ impl ShLookup {
             }
         };
         (blend_irradiance(&self.sh, &weights, r.n), inside)
-    }
-
-    /// Whether the blend is over tetrahedra (four or more probes that span
-    /// space), the blend [`tetrahedra::Incremental`] keeps open.
-    pub(crate) fn is_tetrahedral(&self) -> bool {
-        matches!(self.blend, Blend::Tetrahedra(_))
     }
 }
 

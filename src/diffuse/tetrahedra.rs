@@ -239,6 +239,11 @@ impl Incremental {
         Some(Incremental { mesh, last })
     }
 
+    /// The tetrahedralization as it stands, the mesh left open.
+    pub(crate) fn snapshot(&self) -> Tetrahedralization {
+        self.clone().finish()
+    }
+
     /// The tetrahedralization as it stands.
     fn finish(self) -> Tetrahedralization {
         let mesh = self.mesh;

@@ -132,12 +132,10 @@ pub fn insert(
     budget: usize,
 ) -> (ProbeSet, DiffuseReport, Stopwatch) {
     let mut steps = Stopwatch::new(false);
-    let mut lap = std::time::Instant::now();
     let (probes, report) = insert_steps(params, probes, input, renderer, min_clearance, budget, &mut || {
-        steps.record(STEPS[0], lap.elapsed().as_secs_f64() * 1e3);
-        lap = std::time::Instant::now();
+        steps.lap(STEPS[0])
     });
-    steps.record(STEPS[1], lap.elapsed().as_secs_f64() * 1e3);
+    steps.lap(STEPS[1]);
     (probes, report, steps)
 }
 
@@ -309,7 +307,6 @@ fn insert_steps(
 
 /// The training points' errors under one probe set, and what evaluating
 /// the set with one probe more needs from it.
-#[derive(Clone)]
 struct Blended {
     /// Each receiver's error.
     receivers: Vec<f64>,
@@ -327,7 +324,13 @@ impl Training {
     /// Each training point's error under the probes at `positions` with
     /// SH `sh`.
     fn blend(&self, positions: &[Vec3], sh: &[ProbeSh]) -> Blended {
-        let lookup = ShLookup::new(positions, sh, &vec![true; positions.len()]);
+        // The mesh `ShLookup::new` would build, kept open for candidates;
+        // none for sets that do not span space (blended as `new` blends them).
+        let mesh = tetrahedra::Incremental::new(positions);
+        let lookup = match &mesh {
+            Some(m) => ShLookup::over(m, sh),
+            None => ShLookup::new(positions, sh, &vec![true; positions.len()]),
+        };
         let (receivers, inside) = (0..self.receivers.len())
             .into_par_iter()
             .map(|k| {
@@ -335,10 +338,6 @@ impl Training {
                 (self.error(k, got), inside)
             })
             .unzip();
-        let mesh = lookup
-            .is_tetrahedral()
-            .then(|| tetrahedra::Incremental::new(positions))
-            .flatten();
         self.points_of(receivers, inside, mesh)
     }
 

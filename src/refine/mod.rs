@@ -323,11 +323,6 @@ pub fn refine(
     controls: &Controls,
 ) -> Result<Refined> {
     let mut steps = Stopwatch::new(false);
-    let mut lap = std::time::Instant::now();
-    let mut step = |name: &str| {
-        steps.record(name, lap.elapsed().as_secs_f64() * 1e3);
-        lap = std::time::Instant::now();
-    };
     let r = Resolved::new(params, &probes, input);
     let atlas = Atlas::new(input.scene, r.texel_size)?;
     check_work(
@@ -387,7 +382,7 @@ pub fn refine(
         },
     );
     let r_refined = AtlasState::new(params.fitness, &atlas, views_of(&refined)).r();
-    step(STEPS[0]);
+    steps.lap(STEPS[0]);
 
     // Fill holes and prune superfluous probes (§1 "fewest probes").
     let mut tiers = fill_candidates(params, &r, input, reference, controls);
@@ -423,7 +418,7 @@ pub fn refine(
         }
         fp = fill_and_prune(&tiers);
     }
-    step(STEPS[1]);
+    steps.lap(STEPS[1]);
     let rounds = hold(
         &holdout::HoldInput {
             input,
@@ -439,7 +434,7 @@ pub fn refine(
         (&refined, probes.fixed),
         &mut fp,
     );
-    step(STEPS[2]);
+    steps.lap(STEPS[2]);
     let final_probes = kept_probes(&probes, &refined, &fp);
     let final_positions: Vec<Vec3> = final_probes.iter().map(|p| p.position).collect();
     let final_state = AtlasState::new(params.fitness, &atlas, views_of(&final_positions));
@@ -460,7 +455,7 @@ pub fn refine(
     };
     let report = refine_report(params, &r, &matrix, &outcome);
     let atlas_image = atlas_panels(&atlas, &atlas_initial, &final_state);
-    step(STEPS[3]);
+    steps.lap(STEPS[3]);
     Ok(Refined {
         probes: ProbeSet {
             method: format!("{}+refine", probes.method),
