@@ -175,6 +175,8 @@ pub(crate) struct Incremental {
     mesh: Mesh,
     /// A tetrahedron the last insertion made, where the next walk starts.
     last: u32,
+    /// Whether the last insertion changed the hull ([`Incremental::hull_grew`]).
+    grew: bool,
 }
 
 impl Incremental {
@@ -236,7 +238,11 @@ impl Incremental {
             };
             last = mesh.insert(first, q);
         }
-        Some(Incremental { mesh, last })
+        Some(Incremental {
+            mesh,
+            last,
+            grew: false,
+        })
     }
 
     /// The tetrahedralization as it stands, the mesh left open.
@@ -270,6 +276,7 @@ impl Incremental {
     pub(crate) fn insert(&mut self, p: Vec3) -> Vec<[u32; 4]> {
         let mesh = &mut self.mesh;
         let q = mesh.points.len() as u32;
+        self.grew = false;
         // Kept even when left out, so that indices stay the caller's.
         mesh.points.push(p.as_dvec3());
         if !p.is_finite() {
@@ -281,11 +288,22 @@ impl Incremental {
         };
         let before = mesh.tets.len();
         self.last = mesh.insert(first, q);
+        // Outside the hull, the cavity takes tetrahedra of the point at
+        // infinity and the star has some of its own.
+        self.grew = mesh.tets[before..].iter().any(|v| v.contains(&INF));
         mesh.tets[before..]
             .iter()
             .filter(|v| !v.contains(&INF))
             .copied()
             .collect()
+    }
+
+    /// Whether the last [`Incremental::insert`] changed the hull: false
+    /// for a point inside it, whose cavity holds only finite tetrahedra,
+    /// so that the hull's triangles, and [`Incremental::hull`]'s list of
+    /// them, are as they were.
+    pub(crate) fn hull_grew(&self) -> bool {
+        self.grew
     }
 
     /// The blend's weights at `p` in the first of `tets` that holds it
@@ -860,6 +878,16 @@ mod tests {
         }
         // A repeated point makes nothing.
         assert!(open.insert(p[3]).is_empty());
+        assert!(!open.hull_grew());
+        // A point inside the hull leaves its list as it was; one outside
+        // changes it.
+        let hull = open.hull();
+        assert!(!open.insert(Vec3::splat(5.0)).is_empty());
+        assert!(!open.hull_grew());
+        assert_eq!(open.hull(), hull);
+        assert!(!open.insert(Vec3::splat(20.0)).is_empty());
+        assert!(open.hull_grew());
+        assert_ne!(open.hull(), hull);
     }
 
     #[test]
