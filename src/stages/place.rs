@@ -196,7 +196,12 @@ pub fn place(
         (probes, None)
     };
     report.fixed_probes = probes.fixed;
-    check_probes(config, prepared, probes.probes.len())?;
+    // Not the octree's bound (every influence holding every leaf), which
+    // refused, after refinement, sets whose octree bakes in a minute: the
+    // octree checks its work once the probes' influences are known
+    // ([`svo::bake`]).
+    check_count(probes.probes.len())?;
+    check_scoring(config, probes.probes.len())?;
     let positions = probes.positions();
     let ((coverage, holes), health) = timings.time("coverage", || {
         (
@@ -230,14 +235,10 @@ pub fn place(
 /// whose scoring would take longer than the work limit, before the stages
 /// that grow with it run (refinement and the SVO check their own work).
 pub(crate) fn check_probes(config: &Config, prepared: &Prepared, n: usize) -> Result<()> {
-    if n > limits::MAX_PROBES {
-        return Err(Error::User(format!(
-            "placement: {n} probes, over the limit of {} that the later stages finish in minutes; use a coarser placement",
-            limits::MAX_PROBES
-        )));
-    }
-    // The octree's estimate, before coverage runs (the SVO stage checks
-    // again); its leaf grid is the SDF's when `svo.leaf_size` is unset.
+    check_count(n)?;
+    // The octree's bound, before refinement and coverage run (the SVO
+    // stage checks again with its probes' influences); its leaf grid is
+    // the SDF's when `svo.leaf_size` is unset.
     let leaf = config
         .svo
         .leaf_size
@@ -245,6 +246,23 @@ pub(crate) fn check_probes(config: &Config, prepared: &Prepared, n: usize) -> Re
     if let Ok(dims) = crate::sdf::grid_dims(&prepared.domain, leaf) {
         svo::check_work(&config.svo, dims, n)?;
     }
+    check_scoring(config, n)
+}
+
+/// Refuses more than [`limits::MAX_PROBES`] probes.
+fn check_count(n: usize) -> Result<()> {
+    if n > limits::MAX_PROBES {
+        return Err(Error::User(format!(
+            "placement: {n} probes, over the limit of {} that the later stages finish in minutes; use a coarser placement",
+            limits::MAX_PROBES
+        )));
+    }
+    Ok(())
+}
+
+/// Refuses a probe set whose coverage scoring would take longer than the
+/// work limit.
+fn check_scoring(config: &Config, n: usize) -> Result<()> {
     limits::check_work(
         "coverage.samples",
         &format!(
