@@ -1396,7 +1396,7 @@ mod tests {
         let random: Vec<Vec3> = (0..800).map(|i| 3.0 * cube_point(hash2(4, i))).collect();
         for all in [&lattice, &doubled, &random, &lattice[..9].to_vec()] {
             let every: Vec<usize> = (0..all.len()).collect();
-            let some: Vec<usize> = (0..all.len()).filter(|&k| hash2(7, k as u64) % 3 != 0).collect();
+            let some: Vec<usize> = (0..all.len()).filter(|&k| !hash2(7, k as u64).is_multiple_of(3)).collect();
             let mut tried = std::collections::BTreeSet::new();
             for (n, &(i, j)) in scan(all, &every, &tried).iter().enumerate() {
                 if n % 4 == 0 {
