@@ -1312,6 +1312,17 @@ mod tests {
     use crate::config::{Count, CoverageParams, Degrees};
     use crate::scene::testing::room_sdf;
 
+    /// The points of a cubic lattice of `side`³ points `spacing` apart,
+    /// x fastest: whole shells of points at equal distances.
+    fn lattice_points(side: usize, spacing: f32) -> Vec<Vec3> {
+        (0..side * side * side)
+            .map(|i| {
+                Vec3::new((i % side) as f32, (i / side % side) as f32, (i / (side * side)) as f32)
+                    * spacing
+            })
+            .collect()
+    }
+
     /// The k-d tree's `k` nearest points are the full scan's, ties
     /// included: on a lattice (many points at exactly equal distances from
     /// lattice and mid-lattice queries), with duplicated points, far from
@@ -1330,9 +1341,7 @@ mod tests {
             all.sort_by_key(|&(_, i)| i);
             all
         };
-        let lattice: Vec<Vec3> = (0..1000)
-            .map(|i| Vec3::new((i % 10) as f32, (i / 10 % 10) as f32, (i / 100) as f32) * 0.25)
-            .collect();
+        let lattice = lattice_points(10, 0.25);
         let mut doubled = lattice.clone();
         doubled.extend(lattice.iter().step_by(3));
         let random: Vec<Vec3> = (0..3000).map(|i| 4.0 * cube_point(hash2(9, i))).collect();
@@ -1387,9 +1396,7 @@ mod tests {
             }
             pairs
         };
-        let lattice: Vec<Vec3> = (0..343)
-            .map(|i| Vec3::new((i % 7) as f32, (i / 7 % 7) as f32, (i / 49) as f32) * 0.5)
-            .collect();
+        let lattice = lattice_points(7, 0.5);
         let mut doubled = lattice.clone();
         doubled.extend(lattice.iter().step_by(2));
         doubled.extend(lattice.iter().step_by(5));
