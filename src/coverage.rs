@@ -847,6 +847,8 @@ impl CoverageReference {
     ) -> Vec<bool> {
         let at: Vec<usize> = (0..self.samples.len()).filter(|&i| self.coverable[i]).collect();
         let judged: Vec<SurfaceSample> = at.iter().map(|&i| self.samples[i]).collect();
+        // The bar counts the samples judged.
+        bar.set_length(judged.len() as u64);
         let mut seen = vec![false; self.samples.len()];
         for (&i, s) in at.iter().zip(self.seen_by_all(bvh, &judged, viewers, 1, bar)) {
             seen[i] = s;
