@@ -11,7 +11,9 @@
 //! The integrals are sums over a source map of side min(n, 64): radiance,
 //! r and r² are first averaged over 2×2 blocks, weighted by texel solid
 //! angle (exact, since octahedral footprints nest), so the convolution costs
-//! m² × 64² per probe however large the radiance map is. Rays that escape
+//! m² × 64² per probe however large the radiance map is. Its weights (the
+//! cosine and the cosine power of every pair of texels) are the same for
+//! every probe and computed once per bake (`Kernel`). Rays that escape
 //! count as `max_distance` (the domain's diagonal) in the moments.
 
 use super::maps::to_half;
@@ -30,55 +32,143 @@ pub struct Irradiance {
     pub moments: Vec<[f32; 2]>,
 }
 
-/// One probe's irradiance and moment maps.
-type ProbeMaps = (Vec<[f32; 3]>, Vec<[f32; 2]>);
+/// Bytes of kernel entries ([`Kernel`]) built at once: the normals are
+/// convolved in chunks whose kernels fit, so a 256² irradiance map costs
+/// no more memory than the default 32².
+const KERNEL_BYTES: usize = 32 << 20;
 
-/// A probe's maps averaged down to side `side`: solid angle, direction of
-/// the footprint's centre, radiance, mean r and mean r².
+/// Solid angle of each texel of the `side`×`side` source map: the sum of
+/// the `n`×`n` map's texel solid angles `omega` over its footprint, in the
+/// map's row order (so every probe's sums, and this one, agree to the bit).
+fn source_weights(n: u32, side: u32, omega: &[f32]) -> Vec<f32> {
+    let f = n / side;
+    let mut weight = vec![0.0f32; (side * side) as usize];
+    for y in 0..n {
+        for x in 0..n {
+            weight[((y / f) * side + x / f) as usize] += omega[(y * n + x) as usize];
+        }
+    }
+    weight
+}
+
+/// A probe's maps averaged down to side `side` with the solid angles
+/// `weight` ([`source_weights`]): per source texel, its radiance, mean r
+/// and mean r², side by side for the convolution's reads.
 struct Footprint {
-    weight: Vec<f32>,
-    dir: Vec<Vec3>,
-    radiance: Vec<Vec3>,
-    r: Vec<f32>,
-    r2: Vec<f32>,
+    texels: Vec<(Vec3, f32, f32)>,
 }
 
 fn downsample(
     n: u32,
     side: u32,
     omega: &[f32],
+    weight: &[f32],
     radiance: &[[f32; 3]],
     distance: &[f32],
     cap: f32,
 ) -> Footprint {
     let f = n / side;
     let len = (side * side) as usize;
-    let mut s = Footprint {
-        weight: vec![0.0; len],
-        dir: octahedral::texel_directions(side),
-        radiance: vec![Vec3::ZERO; len],
-        r: vec![0.0; len],
-        r2: vec![0.0; len],
-    };
+    let mut texels = vec![(Vec3::ZERO, 0.0f32, 0.0f32); len];
     for y in 0..n {
         for x in 0..n {
             let i = (y * n + x) as usize;
-            let j = ((y / f) * side + x / f) as usize;
+            let t = &mut texels[((y / f) * side + x / f) as usize];
             let w = omega[i];
             let r = distance[i].min(cap);
-            s.weight[j] += w;
-            s.radiance[j] += Vec3::from(radiance[i]) * w;
-            s.r[j] += r * w;
-            s.r2[j] += r * r * w;
+            t.0 += Vec3::from(radiance[i]) * w;
+            t.1 += r * w;
+            t.2 += r * r * w;
         }
     }
-    for j in 0..len {
-        let w = s.weight[j];
-        s.radiance[j] /= w;
-        s.r[j] /= w;
-        s.r2[j] /= w;
+    for (t, &w) in texels.iter_mut().zip(weight) {
+        t.0 /= w;
+        t.1 /= w;
+        t.2 /= w;
     }
-    s
+    Footprint { texels }
+}
+
+/// One source texel's part in an irradiance texel's sums: its index, its
+/// cosine-weighted solid angle c·ω and its lobe weight c^k·ω.
+#[derive(Clone, Copy)]
+struct Term {
+    j: u32,
+    cosine: f32,
+    lobe: f32,
+}
+
+/// The convolution's weights for a run of irradiance texels. They depend
+/// on the two maps' sides and the lobe exponent alone, never on a probe,
+/// so they are computed once per bake instead of once per probe (the
+/// cosine power dominated the convolution's time). Each texel keeps the
+/// source texels in its upper hemisphere (c > 0), in source order, and the
+/// sum of their lobe weights, the moments' normalizer.
+struct Kernel {
+    /// `terms[starts[t]..starts[t + 1]]` are texel t's terms.
+    starts: Vec<usize>,
+    terms: Vec<Term>,
+    lobe_sums: Vec<f32>,
+}
+
+impl Kernel {
+    fn new(normals: &[Vec3], dirs: &[Vec3], weight: &[f32], exponent: f32) -> Kernel {
+        let rows: Vec<(Vec<Term>, f32)> = normals
+            .par_iter()
+            .map(|nrm| {
+                let mut terms = Vec::new();
+                let mut wsum = 0.0f32;
+                for (j, (d, &w)) in dirs.iter().zip(weight).enumerate() {
+                    let c = nrm.dot(*d);
+                    if c <= 0.0 {
+                        continue;
+                    }
+                    let lobe = c.powf(exponent) * w;
+                    wsum += lobe;
+                    terms.push(Term {
+                        j: j as u32,
+                        cosine: c * w,
+                        lobe,
+                    });
+                }
+                (terms, wsum)
+            })
+            .collect();
+        let mut k = Kernel {
+            starts: Vec::with_capacity(rows.len() + 1),
+            terms: Vec::with_capacity(rows.iter().map(|r| r.0.len()).sum()),
+            lobe_sums: Vec::with_capacity(rows.len()),
+        };
+        k.starts.push(0);
+        for (terms, wsum) in rows {
+            k.terms.extend(terms);
+            k.starts.push(k.terms.len());
+            k.lobe_sums.push(wsum);
+        }
+        k
+    }
+
+    /// Irradiance texel `t`'s E and moments from the footprint `src` (a
+    /// lobe without weight reads as `cap`, as an escape).
+    fn texel(&self, t: usize, src: &Footprint, cap: f32) -> ([f32; 3], [f32; 2]) {
+        let (mut sum, mut m1, mut m2) = (Vec3::ZERO, 0.0f32, 0.0f32);
+        for term in &self.terms[self.starts[t]..self.starts[t + 1]] {
+            let (radiance, r, r2) = src.texels[term.j as usize];
+            sum += radiance * term.cosine;
+            m1 += r * term.lobe;
+            m2 += r2 * term.lobe;
+        }
+        let wsum = self.lobe_sums[t];
+        let (a, b) = if wsum > 0.0 {
+            (m1 / wsum, m2 / wsum)
+        } else {
+            (cap, cap * cap)
+        };
+        (
+            [to_half(sum.x), to_half(sum.y), to_half(sum.z)],
+            [to_half(a), to_half(b)],
+        )
+    }
 }
 
 /// Convolves every probe's `n`×`n` radiance and distance maps into `m`×`m`
@@ -87,7 +177,8 @@ fn downsample(
 /// Contract: `radiance` and `distance` hold `probes × n²` entries; `n` and
 /// `m` are powers of two; `exponent` > 0; `cap` > 0 replaces infinite
 /// distances. A constant radiance L gives E = πL everywhere; a constant
-/// distance r gives moments (r, r²).
+/// distance r gives moments (r, r²). Deterministic whatever the thread
+/// count.
 pub fn convolve(
     n: u32,
     m: u32,
@@ -96,49 +187,47 @@ pub fn convolve(
     exponent: f32,
     cap: f32,
 ) -> Irradiance {
+    convolve_in_chunks(n, m, radiance, distance, exponent, cap, KERNEL_BYTES)
+}
+
+/// [`convolve`] building at most `kernel_bytes` of kernel at once.
+fn convolve_in_chunks(
+    n: u32,
+    m: u32,
+    radiance: &[[f32; 3]],
+    distance: &[f32],
+    exponent: f32,
+    cap: f32,
+    kernel_bytes: usize,
+) -> Irradiance {
     let texels = (n * n) as usize;
     let side = n.min(SOURCE_SIDE);
     let omega = octahedral::texel_solid_angles(n);
+    let weight = source_weights(n, side, &omega);
+    let dirs = octahedral::texel_directions(side);
     let normals = octahedral::texel_directions(m);
-    let per_probe: Vec<ProbeMaps> = radiance
-        .par_chunks(texels)
-        .zip(distance.par_chunks(texels))
-        .map(|(rad, dist)| {
-            let src = downsample(n, side, &omega, rad, dist, cap);
-            let mut e = Vec::with_capacity(normals.len());
-            let mut mo = Vec::with_capacity(normals.len());
-            for nrm in &normals {
-                let (mut sum, mut wsum, mut m1, mut m2) = (Vec3::ZERO, 0.0f32, 0.0f32, 0.0f32);
-                for j in 0..src.dir.len() {
-                    let c = nrm.dot(src.dir[j]);
-                    if c <= 0.0 {
-                        continue;
-                    }
-                    let w = src.weight[j];
-                    sum += src.radiance[j] * (c * w);
-                    let lobe = c.powf(exponent) * w;
-                    wsum += lobe;
-                    m1 += src.r[j] * lobe;
-                    m2 += src.r2[j] * lobe;
-                }
-                e.push([to_half(sum.x), to_half(sum.y), to_half(sum.z)]);
-                let (a, b) = if wsum > 0.0 {
-                    (m1 / wsum, m2 / wsum)
-                } else {
-                    (cap, cap * cap)
-                };
-                mo.push([to_half(a), to_half(b)]);
-            }
-            (e, mo)
-        })
-        .collect();
+    let probes = radiance.len() / texels;
+    let per_map = normals.len();
     let mut out = Irradiance {
-        irradiance: Vec::with_capacity(per_probe.len() * normals.len()),
-        moments: Vec::with_capacity(per_probe.len() * normals.len()),
+        irradiance: vec![[0.0; 3]; probes * per_map],
+        moments: vec![[0.0; 2]; probes * per_map],
     };
-    for (e, mo) in per_probe {
-        out.irradiance.extend(e);
-        out.moments.extend(mo);
+    // About half the source texels face each normal.
+    let per_normal = (dirs.len() / 2 + 1) * std::mem::size_of::<Term>();
+    let chunk = (kernel_bytes / per_normal).clamp(1, per_map);
+    for first in (0..per_map).step_by(chunk) {
+        let run = first..(first + chunk).min(per_map);
+        let kernel = Kernel::new(&normals[run.clone()], &dirs, &weight, exponent);
+        out.irradiance
+            .par_chunks_mut(per_map)
+            .zip(out.moments.par_chunks_mut(per_map))
+            .zip(radiance.par_chunks(texels).zip(distance.par_chunks(texels)))
+            .for_each(|((e, mo), (rad, dist))| {
+                let src = downsample(n, side, &omega, &weight, rad, dist, cap);
+                for (t, i) in run.clone().enumerate() {
+                    (e[i], mo[i]) = kernel.texel(t, &src, cap);
+                }
+            });
     }
     out
 }
@@ -222,6 +311,67 @@ mod tests {
                 mo[1] + 1e-3 >= mo[0] * mo[0] * 0.999,
                 "variance must be non-negative: {mo:?}"
             );
+        }
+    }
+
+    /// The sums as written in McGuire §5.2, each probe and texel on its
+    /// own: the kernel, shared by all probes and built in chunks, must give
+    /// the same bits.
+    #[test]
+    fn the_shared_kernel_gives_each_probes_own_sums() {
+        let (n, m, k, cap) = (32u32, 8u32, 50.0f32, 40.0f32);
+        let texels = (n * n) as usize;
+        let h = |i: usize, s: u64| crate::sampling::unit_f32(crate::sampling::hash2(s, i as u64));
+        let radiance: Vec<[f32; 3]> = (0..3 * texels)
+            .map(|i| [h(i, 1) * 5.0, h(i, 2), h(i, 3) * 0.1])
+            .collect();
+        let distance: Vec<f32> = (0..3 * texels)
+            .map(|i| match h(i, 4) {
+                u if u < 0.1 => f32::INFINITY,
+                u => 0.5 + 30.0 * u,
+            })
+            .collect();
+        let omega = octahedral::texel_solid_angles(n);
+        let side = n.min(SOURCE_SIDE);
+        let weight = source_weights(n, side, &omega);
+        let dirs = octahedral::texel_directions(side);
+        let mut want = Irradiance {
+            irradiance: Vec::new(),
+            moments: Vec::new(),
+        };
+        for p in 0..3 {
+            let range = p * texels..(p + 1) * texels;
+            let src = downsample(
+                n,
+                side,
+                &omega,
+                &weight,
+                &radiance[range.clone()],
+                &distance[range],
+                cap,
+            );
+            for nrm in octahedral::texel_directions(m) {
+                let (mut e, mut w, mut m1, mut m2) = (Vec3::ZERO, 0.0f32, 0.0f32, 0.0f32);
+                for (j, d) in dirs.iter().enumerate() {
+                    let c = nrm.dot(*d);
+                    if c > 0.0 {
+                        let (l, r, r2) = src.texels[j];
+                        e += l * (c * weight[j]);
+                        let lobe = c.powf(k) * weight[j];
+                        w += lobe;
+                        m1 += r * lobe;
+                        m2 += r2 * lobe;
+                    }
+                }
+                want.irradiance
+                    .push([to_half(e.x), to_half(e.y), to_half(e.z)]);
+                want.moments.push([to_half(m1 / w), to_half(m2 / w)]);
+            }
+        }
+        for bytes in [usize::MAX, 1, 5 * std::mem::size_of::<Term>() * texels] {
+            let got = convolve_in_chunks(n, m, &radiance, &distance, k, cap, bytes);
+            assert_eq!(got.irradiance, want.irradiance, "{bytes} bytes of kernel");
+            assert_eq!(got.moments, want.moments, "{bytes} bytes of kernel");
         }
     }
 
