@@ -63,6 +63,7 @@ use crate::stages::validate::{self, Blocks, Tracer, ValidationView};
 use crate::stages::{self, Placed, Prepared};
 use crate::svo::Svo;
 use crate::trace::{single::March, Lattice};
+use glam::Vec3;
 use std::collections::BTreeMap;
 
 /// Pixel size of each of the two placement views in the report.
@@ -194,6 +195,7 @@ pub fn compare(options: &RunOptions) -> Result<Outcome> {
         rows: Vec::new(),
         figures: Vec::new(),
         sets: Vec::new(),
+        measured: Vec::new(),
     };
     // Ours placed first: the rivals are sized to their count, and every
     // bake of the comparison is planned (and fitted to the work limit)
@@ -678,6 +680,21 @@ struct Bench<'a> {
     figures: Vec<PlacementFigures>,
     /// Every placement's probes for the 3D view, in row order.
     sets: Vec<view3d::ProbeSet>,
+    /// What each placement measured on Wang's tracer, for a later
+    /// placement with the same probes and octree.
+    measured: Vec<Measured>,
+}
+
+/// A placement's measurements on Wang's tracer ([`TRACER_HIZ`]), which
+/// depend on its probes and octree alone: a placement that repeats both
+/// (a relocated grid where no probe needed moving) reuses them instead of
+/// baking and rendering the same field again.
+struct Measured {
+    positions: Vec<Vec3>,
+    svo: Svo,
+    probe_bytes: u64,
+    diffuse: Option<stages::diffuse::DiffuseMeasure>,
+    rendered: Vec<Rendered>,
 }
 
 impl Bench<'_> {
@@ -887,7 +904,10 @@ impl Bench<'_> {
 
     /// Coverage, SVO, bake and the render from every view of a placement:
     /// one row on Wang's tracer, and for a grid a second on McGuire's.
-    /// `figures`: whether the page shows its renders and error maps.
+    /// `figures`: whether the page shows its renders and error maps. A
+    /// placement whose probes and octree an earlier one had (not a grid,
+    /// which is also traced on McGuire's) takes that one's measurements
+    /// ([`Measured`]).
     fn measure(
         &mut self,
         name: &str,
@@ -917,46 +937,6 @@ impl Bench<'_> {
         // The place stage refuses an empty probe set, so every candidate
         // has probes and their SVO.
         let svo = candidate.svo;
-        let field = match candidate.field {
-            Some(f) => f,
-            None => {
-                stages::bake::check_with(&self.config, positions.len(), Work::Maps)
-                    .map_err(|e| e.in_config(&self.config_path, &self.config_text))?;
-                stages::bake(&self.config, self.prepared, &positions, &self.progress).field
-            }
-        };
-        // Every placement on Wang et al. 2019's Hi-Z march and SVO
-        // selection; grids also as engines trace them today (McGuire et
-        // al. 2017: bi-level march, the cell's eight probes).
-        let lattice = match family {
-            Family::Grid => Lattice::from_positions(&field.positions),
-            _ => None,
-        };
-        let mut tracers = vec![(TRACER_HIZ, SelectionKind::Svo, March::HiZ)];
-        if lattice.is_some() {
-            tracers.push((TRACER_BILEVEL, SelectionKind::Grid, March::BiLevel));
-        }
-        let diffuse = self.diffuse.map(|bench| {
-            stages::diffuse::measure(
-                &self.config,
-                self.prepared,
-                bench,
-                &positions,
-                &free,
-                &field,
-                &svo,
-                lattice.as_ref(),
-            )
-        });
-        let (probe_bytes, svo_bytes) = (field.bytes() as u64, svo.bytes());
-        let (tracer, why) = Tracer::new(self.context, &field, Some(&svo), lattice.as_ref());
-        if let Some(e) = why {
-            self.warnings
-                .push(format!("compare: {name}: {e}; traced on the CPU twin"));
-        }
-        if !tracer.on_gpu() {
-            self.gpu_used = false;
-        }
         // Placement alone: the same for both tracers.
         let distances: Vec<f64> = self
             .views
@@ -965,8 +945,44 @@ impl Bench<'_> {
             .collect();
         let shading_probe_distance =
             (!distances.is_empty()).then(|| distances.iter().sum::<f64>() / distances.len() as f64);
-        for (tracer_name, kind, march) in tracers {
-            let rendered = self.render(name, &tracer, kind, march, figures)?;
+        let earlier = self.measured.iter().find(|m| {
+            family != Family::Grid
+                && m.positions == positions
+                && m.svo == svo
+                && (!figures
+                    || m.rendered
+                        .iter()
+                        .take(FIGURE_VIEWS)
+                        .all(|r| r.figures.is_some()))
+        });
+        let (probe_bytes, diffuse, traced) = match earlier {
+            Some(m) => (
+                m.probe_bytes,
+                m.diffuse.clone(),
+                vec![(TRACER_HIZ, SelectionKind::Svo, m.rendered.clone())],
+            ),
+            None => {
+                let (probe_bytes, diffuse, traced) = self.bake_and_render(
+                    name,
+                    family,
+                    &candidate.field,
+                    &positions,
+                    &free,
+                    &svo,
+                    figures,
+                )?;
+                self.measured.push(Measured {
+                    positions: positions.clone(),
+                    svo: svo.clone(),
+                    probe_bytes,
+                    diffuse: diffuse.clone(),
+                    rendered: traced[0].2.clone(),
+                });
+                (probe_bytes, diffuse, traced)
+            }
+        };
+        let svo_bytes = svo.bytes();
+        for (tracer_name, kind, rendered) in traced {
             let cameras: Vec<CameraRow> = rendered.iter().map(|r| r.metrics.clone()).collect();
             self.rows.push(PlacementRow {
                 name: name.to_string(),
@@ -1017,6 +1033,75 @@ impl Bench<'_> {
         Ok(())
     }
 
+    /// [`Bench::measure`]'s work that depends on the probes and octree
+    /// alone: the bake (unless `field` was reused), the diffuse
+    /// evaluation, and the renders from every view on each tracer the
+    /// `family` is measured on, Wang's first; with the field's bytes.
+    #[allow(clippy::too_many_arguments)]
+    fn bake_and_render(
+        &mut self,
+        name: &str,
+        family: Family,
+        field: &Option<LightField>,
+        positions: &[Vec3],
+        free: &[bool],
+        svo: &Svo,
+        figures: bool,
+    ) -> Result<(u64, Option<stages::diffuse::DiffuseMeasure>, Traced)> {
+        let baked;
+        let field = match field {
+            Some(f) => f,
+            None => {
+                stages::bake::check_with(&self.config, positions.len(), Work::Maps)
+                    .map_err(|e| e.in_config(&self.config_path, &self.config_text))?;
+                baked = stages::bake(&self.config, self.prepared, positions, &self.progress).field;
+                &baked
+            }
+        };
+        // Every placement on Wang et al. 2019's Hi-Z march and SVO
+        // selection; grids also as engines trace them today (McGuire et
+        // al. 2017: bi-level march, the cell's eight probes).
+        let lattice = match family {
+            Family::Grid => Lattice::from_positions(&field.positions),
+            _ => None,
+        };
+        let mut tracers = vec![(TRACER_HIZ, SelectionKind::Svo, March::HiZ)];
+        if lattice.is_some() {
+            tracers.push((TRACER_BILEVEL, SelectionKind::Grid, March::BiLevel));
+        }
+        let diffuse = self.diffuse.map(|bench| {
+            stages::diffuse::measure(
+                &self.config,
+                self.prepared,
+                bench,
+                positions,
+                free,
+                field,
+                svo,
+                lattice.as_ref(),
+            )
+        });
+        let (tracer, why) = Tracer::new(self.context, field, Some(svo), lattice.as_ref());
+        if let Some(e) = why {
+            self.warnings
+                .push(format!("compare: {name}: {e}; traced on the CPU twin"));
+        }
+        if !tracer.on_gpu() {
+            self.gpu_used = false;
+        }
+        let traced = tracers
+            .into_iter()
+            .map(|(tracer_name, kind, march)| {
+                Ok((
+                    tracer_name,
+                    kind,
+                    self.render(name, &tracer, kind, march, figures)?,
+                ))
+            })
+            .collect::<Result<Traced>>()?;
+        Ok((field.bytes() as u64, diffuse, traced))
+    }
+
     /// The renders through `tracer` from every view, with `kind` selection
     /// and `march`: their figures and blocks, and, for the first
     /// [`FIGURE_VIEWS`] views when `figures`, their PNGs (render, MSE heat
@@ -1058,7 +1143,11 @@ impl Bench<'_> {
     }
 }
 
+/// A placement's renders on each tracer: its name, selection and renders.
+type Traced = Vec<(&'static str, SelectionKind, Vec<Rendered>)>;
+
 /// One placement's render from one view, measured.
+#[derive(Clone)]
 struct Rendered {
     metrics: CameraRow,
     blocks: Blocks,
