@@ -453,6 +453,8 @@ pub struct VariantFigures {
     pub selection: Option<String>,
     /// Surfel fetches per ray.
     pub surfel_fetches_per_ray: Option<Num>,
+    /// Pyramid fetches per ray in 32-ray lock step.
+    pub warp_fetches_per_ray: Option<Num>,
     /// Probe switches per ray.
     pub probe_switches_per_ray: Option<Num>,
     /// Rays left unresolved.
@@ -463,6 +465,10 @@ pub struct VariantFigures {
     pub misses: Option<Num>,
     /// GPU time, ms (only on a GPU).
     pub gpu_ms: Option<Num>,
+    /// The glossy trace's part of it.
+    pub gpu_trace_ms: Option<Num>,
+    /// The irradiance gather's part of it.
+    pub gpu_gather_ms: Option<Num>,
     /// Every other field: the compare metrics' figures by key
     /// ([`crate::stages::validate::METRICS`]).
     #[serde(flatten)]

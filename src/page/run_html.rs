@@ -580,6 +580,7 @@ fn render_table(h: &mut String, r: &RunFigures) {
             }));
             row.extend([
                 num(v.surfel_fetches_per_ray),
+                num(v.warp_fetches_per_ray),
                 num(v.probe_switches_per_ray),
                 format!(
                     "{} / {} / {}",
@@ -595,6 +596,7 @@ fn render_table(h: &mut String, r: &RunFigures) {
     heads.extend(METRICS.iter().map(|m| m.label));
     heads.extend([
         "surfel fetches / ray",
+        "texel fetches / ray in 32-ray warps",
         "probe switches / ray",
         "unresolved / hits / misses",
     ]);
@@ -740,11 +742,14 @@ fn timings(h: &mut String, r: &RunFigures) {
     add("render.", render.and_then(|x| x.timings_ms.as_ref()));
     if let Some(variants) = render.and_then(|x| x.variants.as_ref()) {
         for (name, v) in &variants.0 {
-            if v.gpu_ms.is_some() {
-                rows.push(vec![
-                    escape(&format!("render.{name}.gpu_ms")),
-                    num(v.gpu_ms),
-                ]);
+            for (key, ms) in [
+                ("gpu_ms", v.gpu_ms),
+                ("gpu_trace_ms", v.gpu_trace_ms),
+                ("gpu_gather_ms", v.gpu_gather_ms),
+            ] {
+                if ms.is_some() {
+                    rows.push(vec![escape(&format!("render.{name}.{key}")), num(ms)]);
+                }
             }
         }
     }

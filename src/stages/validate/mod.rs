@@ -276,10 +276,19 @@ pub struct Metrics {
     /// GPU time of the trace and the gather in milliseconds (timestamps);
     /// `null` on the CPU twin or without timestamp queries.
     pub gpu_ms: Option<f64>,
+    /// The glossy trace's part of `gpu_ms`: where the marches differ.
+    pub gpu_trace_ms: Option<f64>,
+    /// The irradiance gather's part of `gpu_ms`, the same for both
+    /// marches on one selection.
+    pub gpu_gather_ms: Option<f64>,
     /// Mean RGB of the glossy indirect image, to set beside the reference's.
     pub glossy_indirect_mean: [f64; 3],
     /// Texels the surfel tests read per glossy ray.
     pub surfel_fetches_per_ray: f64,
+    /// Pyramid texel fetches per glossy ray as a GPU runs the march in
+    /// lock step ([`work::warp_fetches_per_ray`]): each 32-ray warp, in
+    /// dispatch order, takes as many steps as its longest ray.
+    pub warp_fetches_per_ray: f64,
     /// Probes consulted after the first, per glossy ray.
     pub probe_switches_per_ray: f64,
     /// Glossy rays no probe could resolve.
@@ -401,10 +410,13 @@ pub fn validate(view: &ValidationView, irradiance: &Answers, glossy: &Answers) -
     let metrics = Metrics {
         figures,
         gpu_ms: glossy.1.zip(irradiance.1).map(|(a, b)| a + b),
+        gpu_trace_ms: glossy.1,
+        gpu_gather_ms: irradiance.1,
         glossy_indirect_mean: mean_of(&image.glossy_indirect),
         surfel_fetches_per_ray: (crate::trace::single::SURFEL_TEST_FETCHES as u64
             * sum(|r| r.surfels)) as f64
             / rays,
+        warp_fetches_per_ray: work::warp_fetches_per_ray(records, work::WARP),
         probe_switches_per_ray: sum(|r| r.probes.saturating_sub(1)) as f64 / rays,
         unresolved_rays: count(kind::UNKNOWN) + count(kind::NO_PROBE),
         hits: count(kind::HIT),
