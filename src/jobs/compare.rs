@@ -695,6 +695,8 @@ struct Measured {
     probe_bytes: u64,
     diffuse: Option<stages::diffuse::DiffuseMeasure>,
     rendered: Vec<Rendered>,
+    /// Why it was traced on the CPU twin, when the GPU was refused.
+    why_cpu: Option<String>,
 }
 
 impl Bench<'_> {
@@ -955,14 +957,26 @@ impl Bench<'_> {
                         .take(FIGURE_VIEWS)
                         .all(|r| r.figures.is_some()))
         });
-        let (probe_bytes, diffuse, traced) = match earlier {
-            Some(m) => (
-                m.probe_bytes,
-                m.diffuse.clone(),
-                vec![(TRACER_HIZ, SelectionKind::Svo, m.rendered.clone())],
-            ),
+        let (probe_bytes, diffuse, traced, why_cpu) = match earlier {
+            Some(m) => {
+                // Figures only where this placement's row shows them.
+                let rendered = m
+                    .rendered
+                    .iter()
+                    .map(|r| Rendered {
+                        figures: r.figures.clone().filter(|_| figures),
+                        ..r.clone()
+                    })
+                    .collect();
+                (
+                    m.probe_bytes,
+                    m.diffuse.clone(),
+                    vec![(TRACER_HIZ, SelectionKind::Svo, rendered)],
+                    m.why_cpu.clone(),
+                )
+            }
             None => {
-                let (probe_bytes, diffuse, traced) = self.bake_and_render(
+                let (probe_bytes, diffuse, traced, why_cpu) = self.bake_and_render(
                     name,
                     family,
                     &candidate.field,
@@ -977,10 +991,15 @@ impl Bench<'_> {
                     probe_bytes,
                     diffuse: diffuse.clone(),
                     rendered: traced[0].2.clone(),
+                    why_cpu: why_cpu.clone(),
                 });
-                (probe_bytes, diffuse, traced)
+                (probe_bytes, diffuse, traced, why_cpu)
             }
         };
+        if let Some(e) = why_cpu {
+            self.warnings
+                .push(format!("compare: {name}: {e}; traced on the CPU twin"));
+        }
         let svo_bytes = svo.bytes();
         for (tracer_name, kind, rendered) in traced {
             let cameras: Vec<CameraRow> = rendered.iter().map(|r| r.metrics.clone()).collect();
@@ -1036,7 +1055,8 @@ impl Bench<'_> {
     /// [`Bench::measure`]'s work that depends on the probes and octree
     /// alone: the bake (unless `field` was reused), the diffuse
     /// evaluation, and the renders from every view on each tracer the
-    /// `family` is measured on, Wang's first; with the field's bytes.
+    /// `family` is measured on, Wang's first; with the field's bytes, and
+    /// why the GPU was refused where the CPU twin traced.
     #[allow(clippy::too_many_arguments)]
     fn bake_and_render(
         &mut self,
@@ -1047,7 +1067,12 @@ impl Bench<'_> {
         free: &[bool],
         svo: &Svo,
         figures: bool,
-    ) -> Result<(u64, Option<stages::diffuse::DiffuseMeasure>, Traced)> {
+    ) -> Result<(
+        u64,
+        Option<stages::diffuse::DiffuseMeasure>,
+        Traced,
+        Option<String>,
+    )> {
         let baked;
         let field = match field {
             Some(f) => f,
@@ -1082,10 +1107,6 @@ impl Bench<'_> {
             )
         });
         let (tracer, why) = Tracer::new(self.context, field, Some(svo), lattice.as_ref());
-        if let Some(e) = why {
-            self.warnings
-                .push(format!("compare: {name}: {e}; traced on the CPU twin"));
-        }
         if !tracer.on_gpu() {
             self.gpu_used = false;
         }
@@ -1099,7 +1120,7 @@ impl Bench<'_> {
                 ))
             })
             .collect::<Result<Traced>>()?;
-        Ok((field.bytes() as u64, diffuse, traced))
+        Ok((field.bytes() as u64, diffuse, traced, why))
     }
 
     /// The renders through `tracer` from every view, with `kind` selection
