@@ -108,7 +108,7 @@ impl<'c> ProbeTracer<'c> {
                 return Err(format!("GPU set-up failed: {e}"));
             }
         }
-        Ok(ProbeTracer {
+        let tracer = ProbeTracer {
             ctx,
             base: base_params(field, probes, svo, lattice),
             has_svo: svo.is_some(),
@@ -121,7 +121,30 @@ impl<'c> ProbeTracer<'c> {
             records: io.records,
             readback: io.readback,
             timestamps,
-        })
+        };
+        tracer.warm_up(field.positions.first().copied().unwrap_or_default())?;
+        Ok(tracer)
+    }
+
+    /// Runs one short query through each kernel, untimed: a driver may
+    /// finish a pipeline on its first dispatch (lavapipe took some 20 ms),
+    /// which would otherwise fall on whichever variant is timed first and
+    /// make it look slower.
+    fn warm_up(&self, at: glam::Vec3) -> Result<(), String> {
+        let query = Query {
+            origin: at.into(),
+            t_max: 1e-3,
+            dir: [1.0, 0.0, 0.0],
+            pad: 0.0,
+        };
+        let selection = match (self.has_svo, self.has_grid) {
+            (true, _) => SelectionKind::Svo,
+            (false, true) => SelectionKind::Grid,
+            (false, false) => return Ok(()),
+        };
+        self.trace_rays(&[query], March::HiZ, selection)?;
+        self.gather_irradiance(&[query], selection)?;
+        Ok(())
     }
 
     /// Traces every ray of `queries` (kernel `trace_rays`).

@@ -51,6 +51,23 @@ fn renders_both_variants(config: &str) {
             "{config} {name}: {v}"
         );
         assert!(f(&v["texel_fetches_per_ray"]) > 0.0);
+        // A warp pays for its longest ray: never less than the mean.
+        assert!(
+            f(&v["warp_fetches_per_ray"]) >= f(&v["texel_fetches_per_ray"]),
+            "{config} {name}: {v}"
+        );
+        // On a GPU the timestamps time the trace and the gather apart.
+        if x["adapter"] != "cpu twin" {
+            let (all, trace, gather) = (
+                f(&v["gpu_ms"]),
+                f(&v["gpu_trace_ms"]),
+                f(&v["gpu_gather_ms"]),
+            );
+            assert!(
+                trace > 0.0 && gather > 0.0 && (trace + gather - all).abs() <= 1e-9 * all,
+                "{config} {name}: {all} ms = {trace} + {gather}"
+            );
+        }
         for file in [
             format!("render_{name}.png"),
             format!("render_{name}-glossy.png"),
@@ -80,6 +97,10 @@ fn renders_both_variants(config: &str) {
         }
     }
     let (b, z) = (&x["variants"]["bilevel"], &x["variants"]["hiz"]);
+    // Variants that select alike share one gather, and report it alike.
+    if b["selection"] == z["selection"] {
+        assert_eq!(b["gpu_gather_ms"], z["gpu_gather_ms"], "{config}");
+    }
     let (fb, fz) = (
         f(&b["texel_fetches_per_ray"]),
         f(&z["texel_fetches_per_ray"]),
