@@ -187,49 +187,66 @@ pub fn convolve(
     exponent: f32,
     cap: f32,
 ) -> Irradiance {
-    convolve_in_chunks(n, m, radiance, distance, exponent, cap, KERNEL_BYTES)
+    let sides = Convolution {
+        n,
+        m,
+        exponent,
+        cap,
+        kernel_bytes: KERNEL_BYTES,
+    };
+    sides.run(radiance, distance)
 }
 
-/// [`convolve`] building at most `kernel_bytes` of kernel at once.
-fn convolve_in_chunks(
+/// [`convolve`]'s sides, lobe and cap, and the most bytes of kernel it
+/// builds at once.
+struct Convolution {
     n: u32,
     m: u32,
-    radiance: &[[f32; 3]],
-    distance: &[f32],
     exponent: f32,
     cap: f32,
     kernel_bytes: usize,
-) -> Irradiance {
-    let texels = (n * n) as usize;
-    let side = n.min(SOURCE_SIDE);
-    let omega = octahedral::texel_solid_angles(n);
-    let weight = source_weights(n, side, &omega);
-    let dirs = octahedral::texel_directions(side);
-    let normals = octahedral::texel_directions(m);
-    let probes = radiance.len() / texels;
-    let per_map = normals.len();
-    let mut out = Irradiance {
-        irradiance: vec![[0.0; 3]; probes * per_map],
-        moments: vec![[0.0; 2]; probes * per_map],
-    };
-    // About half the source texels face each normal.
-    let per_normal = (dirs.len() / 2 + 1) * std::mem::size_of::<Term>();
-    let chunk = (kernel_bytes / per_normal).clamp(1, per_map);
-    for first in (0..per_map).step_by(chunk) {
-        let run = first..(first + chunk).min(per_map);
-        let kernel = Kernel::new(&normals[run.clone()], &dirs, &weight, exponent);
-        out.irradiance
-            .par_chunks_mut(per_map)
-            .zip(out.moments.par_chunks_mut(per_map))
-            .zip(radiance.par_chunks(texels).zip(distance.par_chunks(texels)))
-            .for_each(|((e, mo), (rad, dist))| {
-                let src = downsample(n, side, &omega, &weight, rad, dist, cap);
-                for (t, i) in run.clone().enumerate() {
-                    (e[i], mo[i]) = kernel.texel(t, &src, cap);
-                }
-            });
+}
+
+impl Convolution {
+    fn run(&self, radiance: &[[f32; 3]], distance: &[f32]) -> Irradiance {
+        let Convolution {
+            n,
+            m,
+            exponent,
+            cap,
+            kernel_bytes,
+        } = *self;
+        let texels = (n * n) as usize;
+        let side = n.min(SOURCE_SIDE);
+        let omega = octahedral::texel_solid_angles(n);
+        let weight = source_weights(n, side, &omega);
+        let dirs = octahedral::texel_directions(side);
+        let normals = octahedral::texel_directions(m);
+        let probes = radiance.len() / texels;
+        let per_map = normals.len();
+        let mut out = Irradiance {
+            irradiance: vec![[0.0; 3]; probes * per_map],
+            moments: vec![[0.0; 2]; probes * per_map],
+        };
+        // About half the source texels face each normal.
+        let per_normal = (dirs.len() / 2 + 1) * std::mem::size_of::<Term>();
+        let chunk = (kernel_bytes / per_normal).clamp(1, per_map);
+        for first in (0..per_map).step_by(chunk) {
+            let run = first..(first + chunk).min(per_map);
+            let kernel = Kernel::new(&normals[run.clone()], &dirs, &weight, exponent);
+            out.irradiance
+                .par_chunks_mut(per_map)
+                .zip(out.moments.par_chunks_mut(per_map))
+                .zip(radiance.par_chunks(texels).zip(distance.par_chunks(texels)))
+                .for_each(|((e, mo), (rad, dist))| {
+                    let src = downsample(n, side, &omega, &weight, rad, dist, cap);
+                    for (t, i) in run.clone().enumerate() {
+                        (e[i], mo[i]) = kernel.texel(t, &src, cap);
+                    }
+                });
+        }
+        out
     }
-    out
 }
 
 /// Chebyshev's upper bound on the chance that a point at distance `r` from
@@ -369,7 +386,14 @@ mod tests {
             }
         }
         for bytes in [usize::MAX, 1, 5 * std::mem::size_of::<Term>() * texels] {
-            let got = convolve_in_chunks(n, m, &radiance, &distance, k, cap, bytes);
+            let sides = Convolution {
+                n,
+                m,
+                exponent: k,
+                cap,
+                kernel_bytes: bytes,
+            };
+            let got = sides.run(&radiance, &distance);
             assert_eq!(got.irradiance, want.irradiance, "{bytes} bytes of kernel");
             assert_eq!(got.moments, want.moments, "{bytes} bytes of kernel");
         }
