@@ -39,7 +39,7 @@ impl ViewMetric for TexelFetchesPerRay {
     }
 }
 
-/// Lanes of a GPU warp: NVIDIA's 32 (AMD's wave64 runs two of them).
+/// Lanes of a GPU warp: NVIDIA's 32 (AMD's waves are 32 or 64 wide).
 pub const WARP: usize = 32;
 
 /// Pyramid texel fetches per ray as a SIMT GPU pays for them: the rays in
