@@ -685,18 +685,67 @@ struct Bench<'a> {
     measured: Vec<Measured>,
 }
 
-/// A placement's measurements on Wang's tracer ([`TRACER_HIZ`]), which
-/// depend on its probes and octree alone: a placement that repeats both
-/// (a relocated grid where no probe needed moving) reuses them instead of
-/// baking and rendering the same field again.
-struct Measured {
-    positions: Vec<Vec3>,
-    svo: Svo,
+/// What [`Bench::bake_and_render`] measures of a placement: it depends on
+/// the probes and octree alone.
+#[derive(Clone)]
+struct Measurement {
+    /// The light field's bytes.
     probe_bytes: u64,
     diffuse: Option<stages::diffuse::DiffuseMeasure>,
-    rendered: Vec<Rendered>,
-    /// Why it was traced on the CPU twin, when the GPU was refused.
+    /// The renders on each tracer, Wang's first.
+    traced: Traced,
+    /// Why the CPU twin traced, when the GPU was refused.
     why_cpu: Option<String>,
+}
+
+/// A placement's [`Measurement`] on Wang's tracer ([`TRACER_HIZ`]) with
+/// what it depends on: a placement that repeats both its probes and its
+/// octree (a relocated grid where no probe needed moving) reuses it
+/// instead of baking and rendering the same field again.
+struct Measured {
+    positions: Vec<Vec3>,
+    /// The octree's bytes ([`Svo::to_bytes`]).
+    svo: Vec<u8>,
+    measurement: Measurement,
+}
+
+impl Measured {
+    /// `measurement` of the placement with `positions` and `svo`, kept to
+    /// Wang's tracer.
+    fn new(positions: &[Vec3], svo: &Svo, measurement: &Measurement) -> Measured {
+        let mut measurement = measurement.clone();
+        measurement.traced.truncate(1);
+        Measured {
+            positions: positions.to_vec(),
+            svo: svo.to_bytes(),
+            measurement,
+        }
+    }
+
+    /// Whether it serves a placement of `family` with `positions` and the
+    /// octree of bytes `svo`, whose row shows its figures when `figures`:
+    /// not a grid (also traced on McGuire's tracer), the same probes and
+    /// octree, and the figures where the row needs them.
+    fn serves(&self, family: Family, positions: &[Vec3], svo: &[u8], figures: bool) -> bool {
+        let rendered = &self.measurement.traced[0].2;
+        family != Family::Grid
+            && self.positions == positions
+            && self.svo == svo
+            && (!figures
+                || rendered
+                    .iter()
+                    .take(FIGURE_VIEWS)
+                    .all(|r| r.figures.is_some()))
+    }
+
+    /// Its measurement for a row that shows figures when `figures`.
+    fn reused(&self, figures: bool) -> Measurement {
+        let mut m = self.measurement.clone();
+        for r in &mut m.traced[0].2 {
+            r.figures = r.figures.take().filter(|_| figures);
+        }
+        m
+    }
 }
 
 impl Bench<'_> {
@@ -947,36 +996,20 @@ impl Bench<'_> {
             .collect();
         let shading_probe_distance =
             (!distances.is_empty()).then(|| distances.iter().sum::<f64>() / distances.len() as f64);
-        let earlier = self.measured.iter().find(|m| {
-            family != Family::Grid
-                && m.positions == positions
-                && m.svo == svo
-                && (!figures
-                    || m.rendered
-                        .iter()
-                        .take(FIGURE_VIEWS)
-                        .all(|r| r.figures.is_some()))
-        });
-        let (probe_bytes, diffuse, traced, why_cpu) = match earlier {
-            Some(m) => {
-                // Figures only where this placement's row shows them.
-                let rendered = m
-                    .rendered
-                    .iter()
-                    .map(|r| Rendered {
-                        figures: r.figures.clone().filter(|_| figures),
-                        ..r.clone()
-                    })
-                    .collect();
-                (
-                    m.probe_bytes,
-                    m.diffuse.clone(),
-                    vec![(TRACER_HIZ, SelectionKind::Svo, rendered)],
-                    m.why_cpu.clone(),
-                )
-            }
+        let octree = svo.to_bytes();
+        let earlier = self
+            .measured
+            .iter()
+            .find(|m| m.serves(family, &positions, &octree, figures));
+        let Measurement {
+            probe_bytes,
+            diffuse,
+            traced,
+            why_cpu,
+        } = match earlier {
+            Some(m) => m.reused(figures),
             None => {
-                let (probe_bytes, diffuse, traced, why_cpu) = self.bake_and_render(
+                let m = self.bake_and_render(
                     name,
                     family,
                     &candidate.field,
@@ -985,15 +1018,8 @@ impl Bench<'_> {
                     &svo,
                     figures,
                 )?;
-                self.measured.push(Measured {
-                    positions: positions.clone(),
-                    svo: svo.clone(),
-                    probe_bytes,
-                    diffuse: diffuse.clone(),
-                    rendered: traced[0].2.clone(),
-                    why_cpu: why_cpu.clone(),
-                });
-                (probe_bytes, diffuse, traced, why_cpu)
+                self.measured.push(Measured::new(&positions, &svo, &m));
+                m
             }
         };
         if let Some(e) = why_cpu {
@@ -1055,8 +1081,7 @@ impl Bench<'_> {
     /// [`Bench::measure`]'s work that depends on the probes and octree
     /// alone: the bake (unless `field` was reused), the diffuse
     /// evaluation, and the renders from every view on each tracer the
-    /// `family` is measured on, Wang's first; with the field's bytes, and
-    /// why the GPU was refused where the CPU twin traced.
+    /// `family` is measured on, Wang's first.
     #[allow(clippy::too_many_arguments)]
     fn bake_and_render(
         &mut self,
@@ -1067,12 +1092,7 @@ impl Bench<'_> {
         free: &[bool],
         svo: &Svo,
         figures: bool,
-    ) -> Result<(
-        u64,
-        Option<stages::diffuse::DiffuseMeasure>,
-        Traced,
-        Option<String>,
-    )> {
+    ) -> Result<Measurement> {
         let baked;
         let field = match field {
             Some(f) => f,
@@ -1120,7 +1140,12 @@ impl Bench<'_> {
                 ))
             })
             .collect::<Result<Traced>>()?;
-        Ok((field.bytes() as u64, diffuse, traced, why))
+        Ok(Measurement {
+            probe_bytes: field.bytes() as u64,
+            diffuse,
+            traced,
+            why_cpu: why,
+        })
     }
 
     /// The renders through `tracer` from every view, with `kind` selection
@@ -1260,6 +1285,62 @@ fn png(pixels: &[[f32; 3]], view: &ValidationView, what: &str) -> Result<Vec<u8>
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A view's render with (or without) its page figures.
+    fn rendered(figures: bool) -> Rendered {
+        Rendered {
+            metrics: validate::Metrics {
+                figures: Default::default(),
+                gpu_ms: None,
+                gpu_trace_ms: None,
+                gpu_gather_ms: None,
+                glossy_indirect_mean: [0.0; 3],
+                surfel_fetches_per_ray: 0.0,
+                warp_fetches_per_ray: 0.0,
+                probe_switches_per_ray: 0.0,
+                unresolved_rays: 0,
+                hits: 0,
+                misses: 0,
+            },
+            blocks: Blocks::default(),
+            figures: figures.then(|| [vec![1], vec![2], vec![3]]),
+        }
+    }
+
+    #[test]
+    fn a_measurement_serves_only_the_same_probes_and_octree_off_the_grid() {
+        let positions = [Vec3::ZERO, Vec3::ONE];
+        let measured = |figures: bool| Measured {
+            positions: positions.to_vec(),
+            svo: vec![1, 2, 3],
+            measurement: Measurement {
+                probe_bytes: 9,
+                diffuse: None,
+                traced: vec![(TRACER_HIZ, SelectionKind::Svo, vec![rendered(figures)])],
+                why_cpu: Some("too many probes".into()),
+            },
+        };
+        let (with, without) = (measured(true), measured(false));
+        let relocated = Family::Competitor("relocated");
+        assert!(with.serves(relocated, &positions, &[1, 2, 3], true));
+        assert!(with.serves(relocated, &positions, &[1, 2, 3], false));
+        // A grid is traced on McGuire's tracer too, which is not kept.
+        assert!(!with.serves(Family::Grid, &positions, &[1, 2, 3], false));
+        // Other probes, another octree, or figures it lacks.
+        assert!(!with.serves(relocated, &positions[..1], &[1, 2, 3], false));
+        assert!(!with.serves(relocated, &[Vec3::ZERO, Vec3::X], &[1, 2, 3], false));
+        assert!(!with.serves(relocated, &positions, &[1, 2, 4], false));
+        assert!(!without.serves(relocated, &positions, &[1, 2, 3], true));
+        assert!(without.serves(relocated, &positions, &[1, 2, 3], false));
+        // The row shows figures only where it asks for them.
+        let shown = |m: &Measurement| m.traced[0].2[0].figures.is_some();
+        assert!(shown(&with.reused(true)) && !shown(&with.reused(false)));
+        let m = with.reused(false);
+        assert_eq!(
+            (m.probe_bytes, m.why_cpu.as_deref()),
+            (9, Some("too many probes"))
+        );
+    }
     #[test]
     fn bake_settings_are_lowered_alike_until_every_bake_fits_or_refused() {
         let mut config =
