@@ -755,7 +755,7 @@ impl CoverageReference {
     /// incidence limit: the part of [`CoverageReference::sees`] that casts
     /// nothing.
     #[inline]
-    fn faces(&self, viewer: Vec3, sample: &SurfaceSample) -> bool {
+    pub(crate) fn faces(&self, viewer: Vec3, sample: &SurfaceSample) -> bool {
         let to_viewer = viewer - sample.position;
         let len = to_viewer.length();
         len > self.eps && sample.normal.dot(to_viewer) >= self.min_cos * len
@@ -956,6 +956,24 @@ pub fn probe_health_of(free: &[bool], sdf: &Sdf, domain: &Bounds, probes: &[Vec3
         }
     }
     h
+}
+
+/// A reference over the given `samples`, every one coverable, at the
+/// default incidence limit: for tests that count views of known samples.
+#[cfg(test)]
+pub(crate) fn reference_of(samples: Vec<SurfaceSample>) -> CoverageReference {
+    let params = CoverageParams::default();
+    CoverageReference {
+        coverable: vec![true; samples.len()],
+        samples,
+        reference_points: 0,
+        references: Vec::new(),
+        params,
+        reach: None,
+        need: 1,
+        min_cos: params.max_incidence_deg.0.to_radians().cos(),
+        eps: 1e-4,
+    }
 }
 
 /// A room of 0.25-unit voxels with its coverage reference (4000 samples,

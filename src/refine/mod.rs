@@ -252,30 +252,22 @@ pub fn may_stand(sdf: &Sdf, domain: &Bounds, min_clearance: f32, p: Vec3) -> boo
 /// coverage measure's `reference`: sweeps of Gibbs sampling over the atlas
 /// fitness, then filling and pruning against the coverage measure.
 ///
-/// Refuses a refinement of `probes` probes over an atlas of `texels`
-/// texels and `samples` coverage samples whose estimate exceeds the work
-/// limit, before the first sweep ([`refine_core_seconds`]).
-fn check_work(params: &RefineParams, probes: usize, texels: usize, samples: usize) -> Result<()> {
-    crate::limits::check_work(
-        "refine",
-        &format!(
-            "refining {probes} probes ({} sweeps, {}² directions, {texels} atlas texels, {samples} coverage samples)",
-            params.iterations.0, params.directions.0
-        ),
-        refine_core_seconds(params, probes, texels, samples),
-        1.0,
-    )
+/// Refuses sweeps that would exceed the work limit, before the first
+/// ([`sweep_core_seconds`]), and filling and pruning that would, once the
+/// sweeps have moved the probes ([`fill_core_seconds`]): each step is
+/// judged when what it costs can be counted, as the SDF, the coverage
+/// reference and the SVO are before theirs.
+fn check_work(step: &str, what: String, core_seconds: f64) -> Result<()> {
+    crate::limits::check_work(step, &what, core_seconds, 1.0)
 }
 
-/// Core-seconds a refinement of `probes` probes over `texels` atlas texels
-/// and `samples` coverage samples may take at most, by the rates of
+/// Core-seconds the Gibbs sweeps over `probes` probes and an atlas of
+/// `texels` texels may take at most, by the rates of
 /// [`crate::limits::rate`]: every probe's step in every sweep traces the
 /// views of its eight corners and of its proposal
 /// ([`crate::limits::rate::REFINE_RAYS`]), and updates the texels its view
 /// lands on, each shared with the other probes that see it
-/// ([`crate::limits::rate::REFINE_TEXEL_UPDATES`]); then filling and
-/// pruning view every sample from every probe
-/// ([`crate::limits::rate::REFINE_SAMPLE_VIEWS`]).
+/// ([`crate::limits::rate::REFINE_TEXEL_UPDATES`]).
 ///
 /// The probes sharing a texel are what all views together land on
 /// (`probes × directions²`) over the texels they can reach (the atlas, or
@@ -284,12 +276,7 @@ fn check_work(params: &RefineParams, probes: usize, texels: usize, samples: usiz
 /// part. The estimate before grew as `probes^1.5` times the texels reached,
 /// the dense room's law applied to every scene: it put a 1M-triangle tiled
 /// Sponza at half the `Auto` voxel at 50 min, which refines in 17 s.
-pub(crate) fn refine_core_seconds(
-    params: &RefineParams,
-    probes: usize,
-    texels: usize,
-    samples: usize,
-) -> f64 {
+pub(crate) fn sweep_core_seconds(params: &RefineParams, probes: usize, texels: usize) -> f64 {
     use crate::limits::rate;
     let n = probes as f64;
     let d2 = (params.directions.0 as f64).powi(2);
@@ -297,10 +284,61 @@ pub(crate) fn refine_core_seconds(
     let reached = (texels as f64).min(n * d2).max(1.0);
     let sharing = (n * d2 / reached).clamp(1.0, n.max(1.0));
     let steps = n * params.iterations.0 as f64;
-    let views = samples as f64 * (n + 16.0);
-    steps * rays / rate::REFINE_RAYS
-        + steps * d2 * sharing / rate::REFINE_TEXEL_UPDATES
-        + views / rate::REFINE_SAMPLE_VIEWS
+    steps * rays / rate::REFINE_RAYS + steps * d2 * sharing / rate::REFINE_TEXEL_UPDATES
+}
+
+/// Core-seconds filling and pruning `probes` probes against `samples`
+/// coverage samples may take: every sample is judged from every probe and
+/// from the candidates near it, but only the pairs that face each other
+/// cast a segment, so the views count as the share of them that do
+/// (`facing`, counted by [`facing_share`];
+/// [`crate::limits::rate::REFINE_FACING_VIEWS`]). In the Cornell box most
+/// pairs face (85%); in a tiled or furnished interior a third do. Counting
+/// every pair at the Cornell box's rate put the 4M-triangle tiled Sponza's
+/// filling at 6 min; it took 14 s.
+///
+/// The probes filling adds are not counted: how many a scene needs is
+/// known only once it has filled. Filling grows a block world's set from
+/// 69 probes to 329 (BENCHMARKS.md, issue 47), and its estimate falls
+/// short there; the check rounds after it, which grow sets most, are
+/// judged on the filled set ([`rounds_core_seconds`]).
+pub(crate) fn fill_core_seconds(probes: usize, samples: usize, facing: f64) -> f64 {
+    samples as f64 * (probes as f64 + 16.0) * facing / crate::limits::rate::REFINE_FACING_VIEWS
+}
+
+/// Core-seconds the check rounds ([`holdout::hold`]) may take on the
+/// `probes` probes filling kept: at most [`crate::coverage::MAX_CHECK_ROUNDS`]
+/// rounds, each judging about `samples` fresh samples from every probe as
+/// filling does ([`fill_core_seconds`]), and filling again. Their fresh
+/// samples' judgement against the reference points is the coverage
+/// measure's, bounded with it ([`crate::coverage::check_work`]).
+pub(crate) fn rounds_core_seconds(probes: usize, samples: usize, facing: f64) -> f64 {
+    crate::coverage::MAX_CHECK_ROUNDS as f64 * fill_core_seconds(probes, samples, facing)
+}
+
+/// Coverable samples [`facing_share`] counts on.
+const PILOT_SAMPLES: usize = 64;
+
+/// Of the pairs of a coverable sample and one of `probes`, the share that
+/// face each other ([`CoverageReference::faces`]: the pairs a coverage test
+/// casts a segment for), counted on [`PILOT_SAMPLES`] coverable samples
+/// spread evenly over `reference`'s: 64 × 4 471 pairs on the 4M-triangle
+/// tiled Sponza. 1 when there is nothing to count.
+pub(crate) fn facing_share(reference: &CoverageReference, probes: &[Vec3]) -> f64 {
+    let coverable: Vec<usize> = (0..reference.samples.len())
+        .filter(|&i| reference.coverable[i])
+        .collect();
+    let k = PILOT_SAMPLES.min(coverable.len());
+    if k == 0 || probes.is_empty() {
+        return 1.0;
+    }
+    let facing: usize = (0..k)
+        .map(|j| {
+            let sample = &reference.samples[coverable[j * coverable.len() / k]];
+            probes.iter().filter(|&&p| reference.faces(p, sample)).count()
+        })
+        .sum();
+    facing as f64 / (k * probes.len()) as f64
 }
 
 /// The artist `controls` ([`crate::placement::controls`]) hold throughout:
@@ -326,10 +364,15 @@ pub fn refine(
     let r = Resolved::new(params, &probes, input);
     let atlas = Atlas::new(input.scene, r.texel_size)?;
     check_work(
-        params,
-        probes.probes.len(),
-        atlas.len(),
-        reference.samples.len(),
+        "refine",
+        format!(
+            "sweeping {} probes ({} sweeps, {}² directions, {} atlas texels)",
+            probes.probes.len(),
+            params.iterations.0,
+            params.directions.0,
+            atlas.len()
+        ),
+        sweep_core_seconds(params, probes.probes.len(), atlas.len()),
     )?;
     let min_cos = reference.min_cos();
     let viewer_of = |directions: u32| {
@@ -385,6 +428,17 @@ pub fn refine(
     steps.lap(STEPS[0]);
 
     // Fill holes and prune superfluous probes (§1 "fewest probes").
+    let facing = facing_share(reference, &refined);
+    check_work(
+        "refine",
+        format!(
+            "filling and pruning {} probes against {} coverage samples ({:.0}% of pairs facing)",
+            refined.len(),
+            reference.samples.len(),
+            100.0 * facing
+        ),
+        fill_core_seconds(refined.len(), reference.samples.len(), facing),
+    )?;
     let mut tiers = fill_candidates(params, &r, input, reference, controls);
     let rules = Rules {
         pinned: probes.fixed,
@@ -433,7 +487,7 @@ pub fn refine(
         &matrix,
         (&refined, probes.fixed),
         &mut fp,
-    );
+    )?;
     steps.lap(STEPS[2]);
     let final_probes = kept_probes(&probes, &refined, &fp);
     let final_positions: Vec<Vec3> = final_probes.iter().map(|p| p.position).collect();
@@ -518,13 +572,14 @@ fn sweep(
 /// `fp`: the dropped probes out of `kept`, the added ones appended to
 /// `added` and `kept`, their training columns (by `matrix`) computed, and
 /// `covered_final` counted again. Returns the rounds and how many probes
-/// were dropped.
+/// were dropped; refuses rounds whose estimate exceeds the work limit
+/// ([`rounds_core_seconds`]).
 fn hold(
     h: &holdout::HoldInput,
     matrix: &CoverMatrix,
     (refined, pinned): (&[Vec3], usize),
     fp: &mut FillPrune,
-) -> (Vec<holdout::CheckRound>, usize) {
+) -> Result<(Vec<holdout::CheckRound>, usize)> {
     let all = |k: usize| {
         if k < refined.len() {
             refined[k]
@@ -534,9 +589,23 @@ fn hold(
     };
     let positions: Vec<Vec3> = fp.kept.iter().map(|&k| all(k)).collect();
     let fixed = fp.kept.iter().filter(|&&k| k < pinned).count();
+    if h.fill {
+        let samples = h.training.samples.len();
+        let facing = facing_share(h.training, &positions);
+        check_work(
+            "refine",
+            format!(
+                "checking {} probes on up to {} rounds of {samples} fresh coverage samples ({:.0}% of pairs facing)",
+                positions.len(),
+                crate::coverage::MAX_CHECK_ROUNDS,
+                100.0 * facing
+            ),
+            rounds_core_seconds(positions.len(), samples, facing),
+        )?;
+    }
     let held = holdout::hold(h, &positions, fixed);
     if held.dropped.is_empty() && held.added.is_empty() {
-        return (held.rounds, 0);
+        return Ok((held.rounds, 0));
     }
     let keep: Vec<bool> = (0..positions.len())
         .map(|k| !held.dropped.contains(&k))
@@ -565,7 +634,7 @@ fn hold(
         }
     }
     fp.covered_final = matrix.satisfied(&count);
-    (held.rounds, held.dropped.len())
+    Ok((held.rounds, held.dropped.len()))
 }
 
 /// The probes filling and pruning kept: the input probes at their `refined`
@@ -808,26 +877,71 @@ fn side_by_side(a: &RgbImage, b: &RgbImage) -> RgbImage {
 mod tests {
     use super::*;
 
-    /// The work estimate holds what refinement was measured to take, on
-    /// the dense room its sharing term comes from and on a large scene
-    /// its ray term comes from, and accepts the large scene on two
-    /// threads (the estimate before put it at 50 min).
+    /// The sweeps' estimate holds what they were measured to take, on the
+    /// dense room its sharing term comes from and on a large scene its ray
+    /// term comes from, and accepts the large scene on two threads (the
+    /// estimate before put it at 50 min).
     #[test]
-    fn the_work_estimate_bounds_the_measured_runs_and_admits_large_scenes() {
+    fn the_sweeps_estimate_bounds_the_measured_runs_and_admits_large_scenes() {
         let p = RefineParams::default();
         // The Cornell box, grid:32x32x1: 1 024 probes seeing all of 4 216
         // texels, 20 sweeps in 32.7 s on 2 threads (BENCHMARKS.md, "Limits").
-        let room = refine_core_seconds(&p, 1024, 4216, 40_000);
+        let room = sweep_core_seconds(&p, 1024, 4216);
         assert!(room >= 2.0 * 32.7, "{room}");
-        // Sponza tiled 4×4 at half its Auto voxel: 17 s of refinement on 2
+        // Sponza tiled 4×4 at half its Auto voxel: 7.0 s of sweeps on 2
         // threads, 6 sweeps of 20 (BENCHMARKS.md, issue 47).
-        let tiled = refine_core_seconds(&p, 1227, 2_265_600, 54_501);
-        assert!(tiled >= 2.0 * 17.0 * 20.0 / 6.0, "{tiled}");
+        let tiled = sweep_core_seconds(&p, 1227, 2_265_600);
+        assert!(tiled >= 2.0 * 7.0 * 20.0 / 6.0, "{tiled}");
         assert!(tiled <= 2.0 * crate::limits::WORK_LIMIT_SECONDS, "{tiled}");
         // More probes cost more, and the most a config allows is refused.
-        assert!(refine_core_seconds(&p, 2454, 2_265_600, 54_501) > tiled);
-        let most = refine_core_seconds(&p, crate::limits::MAX_PROBES, 4216, 40_000);
+        assert!(sweep_core_seconds(&p, 2454, 2_265_600) > tiled);
+        let most = sweep_core_seconds(&p, crate::limits::MAX_PROBES, 4216);
         assert!(most > 64.0 * crate::limits::WORK_LIMIT_SECONDS, "{most}");
+    }
+
+    /// Filling's and the check rounds' estimates count the pairs that
+    /// face: they hold the runs their rate comes from, admit the
+    /// 4M-triangle tiled Sponza (a third of its pairs facing) that counting
+    /// every pair refused, and still refuse the most probes a config allows.
+    #[test]
+    fn the_fill_and_rounds_estimates_count_facing_pairs() {
+        let limit = 2.0 * crate::limits::WORK_LIMIT_SECONDS;
+        // Cornell: 1 038 817 samples, 10 probes, 85% of the pairs facing;
+        // filling took 3.9 s on 2 threads (BENCHMARKS.md, issue 47).
+        assert!(fill_core_seconds(10, 1_038_817, 0.85) >= 2.0 * 3.9);
+        // Sponza tiled 8×8 at Auto: 4 471 probes, 71 389 samples, 36% of
+        // the pairs facing; filling took 14 s on 2 threads.
+        let tiled = fill_core_seconds(4471, 71_389, 0.36);
+        assert!(tiled >= 2.0 * 14.0, "{tiled}");
+        assert!(tiled <= limit / 4.0, "{tiled}");
+        assert_eq!(fill_core_seconds(4471, 71_389, 0.0), 0.0);
+        assert!(fill_core_seconds(4471, 71_389, 1.0) > fill_core_seconds(4471, 71_389, 0.5));
+        // Its check rounds: about 780 probes after filling, 13.6 s; the 2M
+        // voxel world's: about 750 probes, 77 697 samples, 47% facing, 32 s.
+        assert!(rounds_core_seconds(780, 71_389, 0.36) >= 2.0 * 13.6);
+        assert!(rounds_core_seconds(750, 77_697, 0.47) >= 2.0 * 32.0);
+        assert!(rounds_core_seconds(750, 77_697, 0.47) <= limit);
+        let most = crate::limits::MAX_PROBES;
+        assert!(fill_core_seconds(most, 71_389, 0.36) > limit);
+        assert!(rounds_core_seconds(most, 71_389, 0.36) > 8.0 * limit);
+    }
+
+    /// The pilot counts the pairs that face: a sample on a floor faces a
+    /// probe above it and not one below, and the share is of all pairs.
+    #[test]
+    fn the_pilot_counts_the_pairs_that_face() {
+        use crate::coverage::SurfaceSample;
+        let sample = |x: f32| SurfaceSample {
+            position: Vec3::new(x, 0.0, 0.0),
+            normal: Vec3::Y,
+        };
+        let reference = crate::coverage::reference_of((0..10).map(|i| sample(i as f32)).collect());
+        let above = Vec3::new(4.5, 5.0, 0.0);
+        let below = Vec3::new(4.5, -5.0, 0.0);
+        assert_eq!(facing_share(&reference, &[above]), 1.0);
+        assert_eq!(facing_share(&reference, &[below]), 0.0);
+        assert_eq!(facing_share(&reference, &[above, below, below, below]), 0.25);
+        assert_eq!(facing_share(&reference, &[]), 1.0);
     }
     use crate::config::Count;
 

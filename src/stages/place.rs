@@ -8,7 +8,7 @@ use crate::coverage::{self, Coverage, CoverageReference, ProbeHealth, Stream};
 use crate::error::{Error, Result};
 use crate::limits;
 use crate::placement::controls::{Controls, ControlsReport};
-use crate::placement::{self, ProbeSet};
+use crate::placement::{self, PlacementInput, ProbeSet};
 use crate::progress::{Progress, Stopwatch};
 use crate::refine::{self, RefineReport};
 use crate::svo::{self, Svo, SvoReport};
@@ -139,7 +139,12 @@ pub fn place(
             probes.method
         )));
     }
-    check_probes(config, prepared, probes.probes.len())?;
+    check_placed(
+        config,
+        prepared,
+        probes.probes.len(),
+        Some((&input, &probes.positions())),
+    )?;
     let (probes, refined) = if refine_it {
         let placed = probes.probes.len();
         let out = timings.try_time("refine", || {
@@ -235,6 +240,18 @@ pub fn place(
 /// whose scoring would take longer than the work limit, before the stages
 /// that grow with it run (refinement and the SVO check their own work).
 pub(crate) fn check_probes(config: &Config, prepared: &Prepared, n: usize) -> Result<()> {
+    check_placed(config, prepared, n, None)
+}
+
+/// [`check_probes`] for `n` probes, at `placed.1` when they are placed
+/// (over `placed.0`): the octree's bound is then counted by their
+/// influences where it exceeds the limit ([`svo::check_placed_work`]).
+fn check_placed(
+    config: &Config,
+    prepared: &Prepared,
+    n: usize,
+    placed: Option<(&PlacementInput, &[Vec3])>,
+) -> Result<()> {
     check_count(n)?;
     // The octree's bound, before refinement and coverage run (the SVO
     // stage checks again with its probes' influences); its leaf grid is
@@ -244,7 +261,12 @@ pub(crate) fn check_probes(config: &Config, prepared: &Prepared, n: usize) -> Re
         .leaf_size
         .map_or(prepared.sdf.voxel_size, |s| s.0);
     if let Ok(dims) = crate::sdf::grid_dims(&prepared.domain, leaf) {
-        svo::check_work(&config.svo, dims, n)?;
+        match placed {
+            Some((input, positions)) => {
+                svo::check_placed_work(&config.svo, dims, leaf, input, positions)?
+            }
+            None => svo::check_work(&config.svo, dims, n)?,
+        }
     }
     check_scoring(config, n)
 }

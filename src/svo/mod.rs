@@ -306,6 +306,37 @@ pub(crate) fn check_work(params: &SvoParams, dims: glam::UVec3, probes: usize) -
     check_pairs(params, dims, probes, cells * probes as f64)
 }
 
+/// [`check_work`] for probes already placed, at `positions` over leaves
+/// of `leaf` from the domain's corner: the bound first, and only where it
+/// exceeds the limit the pairs their influences make
+/// ([`influence_pairs`]), as [`bake`] counts them. The bound over-counts
+/// wherever walls keep a probe's influence to its room: a 4M-triangle
+/// tiled Sponza at half its `Auto` voxel, 8.57M leaves × 3 317 probes, is
+/// 10 min by it, 21M pairs by the influences, and its whole `place` took
+/// 114 s (BENCHMARKS.md, issue 47). The influences' rays are checked
+/// before they are cast.
+pub(crate) fn check_placed_work(
+    params: &SvoParams,
+    dims: glam::UVec3,
+    leaf: f32,
+    input: &PlacementInput,
+    positions: &[Vec3],
+) -> Result<()> {
+    if check_work(params, dims, positions.len()).is_ok() {
+        return Ok(());
+    }
+    check_pairs(params, dims, positions.len(), 0.0)?;
+    let influence = influence::influences(
+        input.scene,
+        input.bvh,
+        input.domain,
+        positions,
+        params.directions.0,
+    );
+    let pairs = influence_pairs(&influence, input.domain.min, leaf, dims);
+    check_pairs(params, dims, positions.len(), pairs)
+}
+
 /// [`check_work`] with `pairs` leaf–influence pairs: the leaves each
 /// probe's influence box overlaps, summed over the probes
 /// ([`influence_pairs`]), which a leaf's ranking visits at most.
@@ -529,6 +560,41 @@ mod tests {
         progress: &'a Progress,
     ) -> PlacementInput<'a> {
         crate::scene::testing::input_over(scene, bvh, sdf, 3, progress)
+    }
+
+    /// Placed probes whose influences stay in a small closed box pass the
+    /// check that the bound (every influence holding every leaf) refuses:
+    /// 2 000 probes in the room's 1 m box, over 200³ leaves, on one thread.
+    #[test]
+    fn placed_probes_are_checked_by_their_influences_where_the_bound_refuses() {
+        assert_eq!(
+            crate::limits::work_limit_seconds(),
+            crate::limits::WORK_LIMIT_SECONDS,
+            "run without PROBEPLACE_WORK_LIMIT"
+        );
+        let (scene, bvh, sdf, _) = room();
+        let progress = Progress::hidden();
+        let input = input(&scene, &bvh, &sdf, &progress);
+        let params = SvoParams {
+            directions: crate::config::Count(8),
+            ..SvoParams::default()
+        };
+        let dims = UVec3::splat(200);
+        let leaf = input.domain.size().max_element() / 200.0;
+        let inside: Vec<Vec3> = (0..2000)
+            .map(|k| Vec3::new(1.2 + 0.0003 * k as f32, 0.5, 1.5))
+            .collect();
+        let open: Vec<Vec3> = (0..2000)
+            .map(|k| Vec3::new(3.0, 2.0 + 0.0005 * k as f32, 3.0))
+            .collect();
+        let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
+        one.install(|| {
+            assert!(check_work(&params, dims, inside.len()).is_err());
+            check_placed_work(&params, dims, leaf, &input, &inside).unwrap();
+            // In the open room every influence holds most leaves: refused.
+            let err = check_placed_work(&params, dims, leaf, &input, &open).unwrap_err();
+            assert!(err.to_string().contains("leaves in their influence regions"), "{err}");
+        });
     }
 
     fn bake_room(params: &SvoParams) -> (BakedSvo, Scene, SceneBvh, Sdf, ProbeSet) {
