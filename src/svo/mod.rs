@@ -587,13 +587,20 @@ mod tests {
         let open: Vec<Vec3> = (0..2000)
             .map(|k| Vec3::new(3.0, 2.0 + 0.0005 * k as f32, 3.0))
             .collect();
-        let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
+        let one = rayon::ThreadPoolBuilder::new()
+            .num_threads(1)
+            .build()
+            .unwrap();
         one.install(|| {
             assert!(check_work(&params, dims, inside.len()).is_err());
             check_placed_work(&params, dims, leaf, &input, &inside).unwrap();
             // In the open room every influence holds most leaves: refused.
             let err = check_placed_work(&params, dims, leaf, &input, &open).unwrap_err();
-            assert!(err.to_string().contains("leaves in their influence regions"), "{err}");
+            assert!(
+                err.to_string()
+                    .contains("leaves in their influence regions"),
+                "{err}"
+            );
         });
     }
 
