@@ -424,6 +424,11 @@ pub fn refine(
             )
         },
     );
+    // The sweeps' state (per atlas texel: its viewers and their
+    // qualities, over 400 MB on a 4M-triangle scene) goes before any other
+    // is built: with it alive the set's fitness, filling and the final
+    // state each held two (BENCHMARKS.md, issue 47: peak memory).
+    drop(state);
     let r_refined = AtlasState::new(params.fitness, &atlas, views_of(&refined)).r();
     steps.lap(STEPS[0]);
 
