@@ -252,11 +252,14 @@ pub fn may_stand(sdf: &Sdf, domain: &Bounds, min_clearance: f32, p: Vec3) -> boo
 /// coverage measure's `reference`: sweeps of Gibbs sampling over the atlas
 /// fitness, then filling and pruning against the coverage measure.
 ///
-/// Refuses sweeps that would exceed the work limit, before the first
-/// ([`sweep_core_seconds`]), and filling and pruning that would, once the
-/// sweeps have moved the probes ([`fill_core_seconds`]): each step is
-/// judged when what it costs can be counted, as the SDF, the coverage
-/// reference and the SVO are before theirs.
+/// Refuses a step of refinement whose estimate exceeds the work limit:
+/// the sweeps before the first ([`sweep_core_seconds`]), filling and
+/// pruning once the sweeps have moved the probes ([`fill_core_seconds`]),
+/// and the check rounds on the probes filling kept
+/// ([`rounds_core_seconds`]). Each step is judged when what it costs can
+/// be counted, as the SDF, the coverage reference and the SVO are before
+/// theirs; one estimate of the three made before the sweeps refused a
+/// 4M-triangle tiled Sponza (9 min) that refines in 47 s.
 fn check_work(step: &str, what: String, core_seconds: f64) -> Result<()> {
     crate::limits::check_work(step, &what, core_seconds, 1.0)
 }

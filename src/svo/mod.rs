@@ -312,8 +312,8 @@ pub(crate) fn check_work(params: &SvoParams, dims: glam::UVec3, probes: usize) -
 /// ([`influence_pairs`]), as [`bake`] counts them. The bound over-counts
 /// wherever walls keep a probe's influence to its room: a 4M-triangle
 /// tiled Sponza at half its `Auto` voxel, 8.57M leaves × 3 317 probes, is
-/// 10 min by it, 21M pairs by the influences, and its whole `place` took
-/// 114 s (BENCHMARKS.md, issue 47). The influences' rays are checked
+/// 10 min by it, 74 s by the 28M pairs of their influences, and its whole
+/// `place` took 114 s (BENCHMARKS.md, issue 47). The influences' rays are checked
 /// before they are cast.
 pub(crate) fn check_placed_work(
     params: &SvoParams,
