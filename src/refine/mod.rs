@@ -44,7 +44,7 @@ use crate::sampling::hash2;
 use crate::scene::Bounds;
 use crate::sdf::{Sdf, VoxelClass};
 use atlas::Atlas;
-use fitness::AtlasState;
+use fitness::{AtlasState, AtlasSummary};
 use gibbs::SweepStats;
 use glam::Vec3;
 use prune::{CoverMatrix, FillPrune, Rules};
@@ -428,11 +428,11 @@ pub fn refine(
         },
     );
     // The sweeps' state (per atlas texel: its viewers and their
-    // qualities, over 400 MB on a 4M-triangle scene) goes before any other
-    // is built: with it alive the set's fitness, filling and the final
-    // state each held two (BENCHMARKS.md, issue 47: peak memory).
+    // qualities, over 400 MB on a 4M-triangle scene) goes when they end:
+    // nothing after needs more than an [`AtlasSummary`], and alive it was
+    // most of refinement's peak (BENCHMARKS.md, issue 47: peak memory).
     drop(state);
-    let r_refined = AtlasState::new(params.fitness, &atlas, views_of(&refined)).r();
+    let r_refined = AtlasSummary::new(params.fitness, &atlas, &views_of(&refined)).r();
     steps.lap(STEPS[0]);
 
     // Fill holes and prune superfluous probes (§1 "fewest probes").
@@ -499,7 +499,7 @@ pub fn refine(
     steps.lap(STEPS[2]);
     let final_probes = kept_probes(&probes, &refined, &fp);
     let final_positions: Vec<Vec3> = final_probes.iter().map(|p| p.position).collect();
-    let final_state = AtlasState::new(params.fitness, &atlas, views_of(&final_positions));
+    let final_state = AtlasSummary::new(params.fitness, &atlas, &views_of(&final_positions));
 
     let outcome = RefineSteps {
         stats,
@@ -691,7 +691,7 @@ struct RefineSteps<'a> {
     /// Positions of the final probes.
     final_positions: &'a [Vec3],
     /// The atlas seen by the final probes.
-    final_state: &'a AtlasState<'a>,
+    final_state: &'a AtlasSummary,
     /// What filling and pruning did.
     fp: &'a FillPrune,
     /// Texels of the atlas.
@@ -749,11 +749,11 @@ fn refine_report(
 /// The visibility atlas before (left) and after (right), as in the paper's
 /// Fig. 5: texels some probe sees in green, the rest in red. `seen_before`
 /// says which texels the input probes see, `after` holds the final probes.
-fn atlas_panels(atlas: &Atlas, seen_before: &[bool], after: &AtlasState) -> RgbImage {
+fn atlas_panels(atlas: &Atlas, seen_before: &[bool], after: &AtlasSummary) -> RgbImage {
     let color = |seen: bool| if seen { SEEN } else { UNSEEN };
     let layout = atlas.layout(ATLAS_PANEL_PIXELS);
     let before = atlas.paint(&layout, |t| color(seen_before[t as usize]));
-    let after = atlas.paint(&layout, |t| color(after.best_quality(t as usize).is_some()));
+    let after = atlas.paint(&layout, |t| color(after.sees(t as usize)));
     side_by_side(&before, &after)
 }
 
