@@ -232,8 +232,8 @@ fn seen_share_of(atlas: &Atlas, seen: impl Fn(usize) -> bool) -> f64 {
 /// `R(P)` and the texels some probe sees, the figures of an
 /// [`AtlasState`] of the same views without the accumulators a sweep
 /// updates (per texel, the probes that see it and four running figures:
-/// over 400 MB, and a second or two to build, on a 9M-texel atlas).
-pub struct AtlasSummary {
+/// over 400 MB, and about half a second to build, on a 9M-texel atlas).
+pub(crate) struct AtlasSummary {
     r: f64,
     seen: Vec<bool>,
     seen_share: f64,
