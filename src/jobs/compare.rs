@@ -710,15 +710,18 @@ struct Measured {
 }
 
 impl Measured {
-    /// `measurement` of the placement with `positions` and `svo`, kept to
-    /// Wang's tracer.
-    fn new(positions: &[Vec3], svo: &Svo, measurement: &Measurement) -> Measured {
-        let mut measurement = measurement.clone();
-        measurement.traced.truncate(1);
+    /// `measurement` of the placement with `positions` and the octree of
+    /// bytes `svo` ([`Svo::to_bytes`]), kept to Wang's tracer.
+    fn new(positions: &[Vec3], svo: Vec<u8>, measurement: &Measurement) -> Measured {
         Measured {
             positions: positions.to_vec(),
-            svo: svo.to_bytes(),
-            measurement,
+            svo,
+            measurement: Measurement {
+                traced: measurement.traced[..1].to_vec(),
+                diffuse: measurement.diffuse.clone(),
+                why_cpu: measurement.why_cpu.clone(),
+                ..*measurement
+            },
         }
     }
 
@@ -1018,7 +1021,7 @@ impl Bench<'_> {
                     &svo,
                     figures,
                 )?;
-                self.measured.push(Measured::new(&positions, &svo, &m));
+                self.measured.push(Measured::new(&positions, octree, &m));
                 m
             }
         };

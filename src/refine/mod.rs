@@ -322,23 +322,20 @@ pub(crate) fn rounds_core_seconds(probes: usize, samples: usize, facing: f64) ->
 /// Coverable samples [`facing_share`] counts on.
 const PILOT_SAMPLES: usize = 64;
 
-/// Of the pairs of a coverable sample and one of `probes`, the share that
-/// face each other ([`CoverageReference::faces`]: the pairs a coverage test
-/// casts a segment for), counted on [`PILOT_SAMPLES`] coverable samples
-/// spread evenly over `reference`'s: 64 × 4 471 pairs on the 4M-triangle
-/// tiled Sponza. 1 when there is nothing to count.
-pub(crate) fn facing_share(reference: &CoverageReference, probes: &[Vec3]) -> f64 {
-    let coverable: Vec<usize> = (0..reference.samples.len())
-        .filter(|&i| reference.coverable[i])
-        .collect();
-    let k = PILOT_SAMPLES.min(coverable.len());
+/// Of the pairs of one of `matrix`'s coverable samples and one of
+/// `probes`, the share that face each other ([`CoverMatrix::faces_sample`]:
+/// the pairs a coverage test casts a segment for), counted on
+/// [`PILOT_SAMPLES`] samples spread evenly over them: 64 × 4 471 pairs on
+/// the 4M-triangle tiled Sponza. 1 when there is nothing to count.
+pub(crate) fn facing_share(matrix: &CoverMatrix, probes: &[Vec3]) -> f64 {
+    let k = PILOT_SAMPLES.min(matrix.len());
     if k == 0 || probes.is_empty() {
         return 1.0;
     }
     let facing: usize = (0..k)
         .map(|j| {
-            let sample = &reference.samples[coverable[j * coverable.len() / k]];
-            probes.iter().filter(|&&p| reference.faces(p, sample)).count()
+            let i = j * matrix.len() / k;
+            probes.iter().filter(|&&p| matrix.faces_sample(p, i)).count()
         })
         .sum();
     facing as f64 / (k * probes.len()) as f64
@@ -436,7 +433,7 @@ pub fn refine(
     steps.lap(STEPS[0]);
 
     // Fill holes and prune superfluous probes (§1 "fewest probes").
-    let facing = facing_share(reference, &refined);
+    let facing = facing_share(&matrix, &refined);
     check_work(
         "refine",
         format!(
@@ -599,7 +596,7 @@ fn hold(
     let fixed = fp.kept.iter().filter(|&&k| k < pinned).count();
     if h.fill {
         let samples = h.training.samples.len();
-        let facing = facing_share(h.training, &positions);
+        let facing = facing_share(matrix, &positions);
         check_work(
             "refine",
             format!(
@@ -944,12 +941,14 @@ mod tests {
             normal: Vec3::Y,
         };
         let reference = crate::coverage::reference_of((0..10).map(|i| sample(i as f32)).collect());
+        let (_, bvh, _) = crate::scene::testing::room_sdf(0.5, 1);
+        let matrix = CoverMatrix::new(&reference, &bvh);
         let above = Vec3::new(4.5, 5.0, 0.0);
         let below = Vec3::new(4.5, -5.0, 0.0);
-        assert_eq!(facing_share(&reference, &[above]), 1.0);
-        assert_eq!(facing_share(&reference, &[below]), 0.0);
-        assert_eq!(facing_share(&reference, &[above, below, below, below]), 0.25);
-        assert_eq!(facing_share(&reference, &[]), 1.0);
+        assert_eq!(facing_share(&matrix, &[above]), 1.0);
+        assert_eq!(facing_share(&matrix, &[below]), 0.0);
+        assert_eq!(facing_share(&matrix, &[above, below, below, below]), 0.25);
+        assert_eq!(facing_share(&matrix, &[]), 1.0);
     }
     use crate::config::Count;
 

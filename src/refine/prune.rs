@@ -1038,6 +1038,12 @@ impl<'r> CoverMatrix<'r> {
         self.need[i]
     }
 
+    /// Whether coverable sample `i` and `viewer` face each other
+    /// ([`CoverageReference::faces`]): whether seeing it casts a segment.
+    pub(super) fn faces_sample(&self, viewer: Vec3, i: usize) -> bool {
+        self.reference.faces(viewer, self.sample(i))
+    }
+
     /// Whether `viewer` sees coverable sample `i`.
     pub(super) fn sees_sample(&self, viewer: Vec3, i: usize) -> bool {
         self.reference.sees(self.bvh, viewer, self.sample(i))
