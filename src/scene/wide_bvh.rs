@@ -243,6 +243,28 @@ fn enter(node: &Node, ray: &BoxRay, tmax: f32) -> (u32, [f32; 4]) {
     (mask, entry)
 }
 
+/// The children of `node` in `mask` (at least one) with their `entry`
+/// distances, nearest first (an insertion sort of at most four), and how
+/// many they are.
+#[inline(always)]
+fn nearest_first(node: &Node, mask: u32, entry: &[f32; 4]) -> ([(ChildRef, f32); 4], usize) {
+    let mut hit = [(0, 0.0f32); 4];
+    let mut n = 0;
+    let mut m = mask;
+    while m != 0 {
+        let i = m.trailing_zeros() as usize;
+        m &= m - 1;
+        let mut j = n;
+        while j > 0 && hit[j - 1].1 > entry[i] {
+            hit[j] = hit[j - 1];
+            j -= 1;
+        }
+        hit[j] = (node.child[i], entry[i]);
+        n += 1;
+    }
+    (hit, n)
+}
+
 impl WideBvh {
     /// Builds the tree over `prims` (their boxes) with obvhs's PLOC and
     /// reinsertion parameters from `params`. Deterministic. Panics with
@@ -312,22 +334,7 @@ impl WideBvh {
                         cur = node.child[first];
                         continue 'visit;
                     }
-                    // The entered children by entry distance, nearest
-                    // first (insertion sort of at most four).
-                    let mut hit = [(0, 0.0f32); 4];
-                    let mut n = 0;
-                    let mut m = mask;
-                    while m != 0 {
-                        let i = m.trailing_zeros() as usize;
-                        m &= m - 1;
-                        let mut j = n;
-                        while j > 0 && hit[j - 1].1 > entry[i] {
-                            hit[j] = hit[j - 1];
-                            j -= 1;
-                        }
-                        hit[j] = (node.child[i], entry[i]);
-                        n += 1;
-                    }
+                    let (hit, n) = nearest_first(node, mask, &entry);
                     for &h in hit[1..n].iter().rev() {
                         stack[sp] = h;
                         sp += 1;
@@ -372,8 +379,14 @@ impl WideBvh {
     /// Whether `leaf` returns true for some leaf whose box the ray enters
     /// within `[tmin, tmax]`; it stops at the first. `touch` as in
     /// [`WideBvh::closest`].
+    ///
+    /// With `NEAREST_FIRST` the entered children are visited in order of
+    /// their entry distance, as [`WideBvh::closest`] visits them, so that
+    /// the leaf that answers is usually one near the ray's origin; without
+    /// it, in the node's order, which costs no sort. The answer is the
+    /// same either way when `leaf` answers by the leaf alone.
     #[inline]
-    pub fn any<T: Fn(Range<usize>), F: FnMut(Range<usize>) -> bool>(
+    pub fn any<const NEAREST_FIRST: bool, T: Fn(Range<usize>), F: FnMut(Range<usize>) -> bool>(
         &self,
         ray: &BoxRay,
         tmax: f32,
@@ -381,14 +394,14 @@ impl WideBvh {
         leaf: F,
     ) -> bool {
         if self.stack > STACK {
-            self.any_with(&mut vec![0; self.stack], ray, tmax, touch, leaf)
+            self.any_with::<NEAREST_FIRST, T, F>(&mut vec![0; self.stack], ray, tmax, touch, leaf)
         } else {
-            self.any_with(&mut [0; STACK], ray, tmax, touch, leaf)
+            self.any_with::<NEAREST_FIRST, T, F>(&mut [0; STACK], ray, tmax, touch, leaf)
         }
     }
 
     #[inline(always)]
-    fn any_with<T: Fn(Range<usize>), F: FnMut(Range<usize>) -> bool>(
+    fn any_with<const NEAREST_FIRST: bool, T: Fn(Range<usize>), F: FnMut(Range<usize>) -> bool>(
         &self,
         stack: &mut [ChildRef],
         ray: &BoxRay,
@@ -401,16 +414,30 @@ impl WideBvh {
         loop {
             if cur & LEAF_BIT == 0 {
                 let node = &self.nodes[cur as usize];
-                let (mut mask, _) = enter(node, ray, tmax);
+                let (mask, entry) = enter(node, ray, tmax);
                 if mask != 0 {
                     self.prefetch(node, mask, &touch);
-                    cur = node.child[mask.trailing_zeros() as usize];
-                    mask &= mask - 1;
-                    while mask != 0 {
-                        stack[sp] = node.child[mask.trailing_zeros() as usize];
-                        sp += 1;
-                        mask &= mask - 1;
+                    let first = mask.trailing_zeros() as usize;
+                    if mask & (mask - 1) == 0 {
+                        cur = node.child[first];
+                        continue;
                     }
+                    if !NEAREST_FIRST {
+                        let mut mask = mask & (mask - 1);
+                        cur = node.child[first];
+                        while mask != 0 {
+                            stack[sp] = node.child[mask.trailing_zeros() as usize];
+                            sp += 1;
+                            mask &= mask - 1;
+                        }
+                        continue;
+                    }
+                    let (hit, n) = nearest_first(node, mask, &entry);
+                    for &(child, _) in hit[1..n].iter().rev() {
+                        stack[sp] = child;
+                        sp += 1;
+                    }
+                    cur = hit[0].0;
                     continue;
                 }
             } else if cur != EMPTY && leaf(leaf_range(cur)) {
