@@ -796,7 +796,7 @@ impl CoverageReference {
                         for &v in near {
                             let v = v as usize;
                             tried[v] = true;
-                            if self.sees_between_near_first(bvh, viewers[v], s, &mut blocker, &mut memory[v]) {
+                            if self.sees_between::<true>(bvh, viewers[v], s, &mut blocker, &mut memory[v]) {
                                 found += 1;
                                 if found >= need {
                                     break;
@@ -807,7 +807,7 @@ impl CoverageReference {
                             'groups: for group in groups.facing(s, self.min_cos) {
                                 for &v in group {
                                     if !tried[v]
-                                        && self.sees_between_near_first(bvh, viewers[v], s, &mut blocker, &mut memory[v])
+                                        && self.sees_between::<true>(bvh, viewers[v], s, &mut blocker, &mut memory[v])
                                     {
                                         found += 1;
                                         if found >= need {
@@ -857,26 +857,12 @@ impl CoverageReference {
     }
 
     /// [`CoverageReference::sees_from`] with a second memory, `near_viewer`,
-    /// shared by segments to `viewer` ([`SceneBvh::occluded_between`]).
-    #[inline]
-    pub fn sees_between(
-        &self,
-        bvh: &SceneBvh,
-        viewer: Vec3,
-        sample: &SurfaceSample,
-        near_sample: &mut Blocker,
-        near_viewer: &mut Blocker,
-    ) -> bool {
-        self.faces(viewer, sample)
-            && !bvh.occluded_between(sample.position, viewer, self.eps, near_sample, near_viewer)
-    }
-
-    /// [`CoverageReference::sees_between`] by
-    /// [`SceneBvh::occluded_between_near_first`]: the same answer, found
-    /// sooner for a sample that many viewers try in vain, as
+    /// shared by segments to `viewer` ([`SceneBvh::occluded_between`]),
+    /// its traversal nearest first with `NEAR_FIRST`: the same answer,
+    /// found sooner for a sample that many viewers try in vain, as
     /// [`CoverageReference::seen_by_all`]'s uncoverable samples.
     #[inline]
-    pub(crate) fn sees_between_near_first(
+    pub fn sees_between<const NEAR_FIRST: bool>(
         &self,
         bvh: &SceneBvh,
         viewer: Vec3,
@@ -885,7 +871,7 @@ impl CoverageReference {
         near_viewer: &mut Blocker,
     ) -> bool {
         self.faces(viewer, sample)
-            && !bvh.occluded_between_near_first(sample.position, viewer, self.eps, near_sample, near_viewer)
+            && !bvh.occluded_between::<NEAR_FIRST>(sample.position, viewer, self.eps, near_sample, near_viewer)
     }
 
     /// Coverage of the probes at `probes` (module docs).

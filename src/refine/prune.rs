@@ -544,7 +544,7 @@ impl<'r> CoverMatrix<'r> {
                             for ((slot, &v), near) in
                                 bits.iter_mut().zip(run).zip(near_viewer.iter_mut())
                             {
-                                if self.reference.sees_between(
+                                if self.reference.sees_between::<false>(
                                     self.bvh,
                                     viewers[v],
                                     s,

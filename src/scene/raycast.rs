@@ -334,7 +334,7 @@ impl SceneBvh {
     /// other segments from `a` (or from points near it), and `near_b`,
     /// shared with other segments to `b`. Both are tried before the
     /// traversal; a blocker the traversal finds goes into both. The answer
-    /// is [`SceneBvh::occluded`]'s.
+    /// is [`SceneBvh::occluded`]'s, with `NEAR_FIRST` or without.
     ///
     /// Why two: in a matrix of samples against viewers (refinement's
     /// columns), a sample is hidden from one viewer by the wall it stands
@@ -342,36 +342,23 @@ impl SceneBvh {
     /// hide it from the next samples too. On Dabrovic Sponza the viewers'
     /// memories cut the columns' traversals of blocked segments from 2.65M
     /// to 1.69M.
-    #[inline]
-    pub fn occluded_between(
-        &self,
-        a: Vec3,
-        b: Vec3,
-        eps: f32,
-        near_a: &mut Blocker,
-        near_b: &mut Blocker,
-    ) -> bool {
-        self.segment_blocked_by::<false>(a.into(), b.into(), eps, near_a, Some(near_b))
-    }
-
-    /// [`SceneBvh::occluded_between`] (the same answer), its traversal
-    /// visiting nearer boxes first, so that the blocker it finds and
-    /// remembers is usually one near `a`.
     ///
-    /// Why: a sample that no viewer sees, on the wall of a cave in a block
-    /// world, is hidden by the walls around it. The unordered traversal
-    /// returns whichever blocking triangle it meets first, often one far
-    /// along the segment, in the rock or near the viewer, which hides none
-    /// of the sample's next segments; the walls near the sample hide most
-    /// of them. On the 200k-triangle block world of the benchmark set this
-    /// cut the traversals of blocked segments in coverage's builds from
-    /// 52.6M to 22.4M (temporary counters) and each build from 2.0 s to
-    /// 1.5 s (BENCHMARKS.md). Elsewhere (refinement's columns, the octree's
+    /// With `NEAR_FIRST` the traversal visits nearer boxes first, so that
+    /// the blocker it finds and remembers is usually one near `a`. Why: a
+    /// sample that no viewer sees, on the wall of a cave in a block world,
+    /// is hidden by the walls around it. The unordered traversal returns
+    /// whichever blocking triangle it meets first, often one far along the
+    /// segment, in the rock or near the viewer, which hides none of the
+    /// sample's next segments; the walls near the sample hide most of
+    /// them. On the 200k-triangle block world of the benchmark set this cut
+    /// the traversals of blocked segments in coverage's builds from 52.6M
+    /// to 22.4M (temporary counters) and each build from 2.0 s to 1.5 s
+    /// (BENCHMARKS.md). Elsewhere (refinement's columns, the octree's
     /// ranking) it measured no better, and everywhere 7–14% slower on
     /// Dabrovic Sponza, whose blocked segments the memories mostly answer:
     /// the sort is paid on every node that free segments cross.
     #[inline]
-    pub fn occluded_between_near_first(
+    pub fn occluded_between<const NEAR_FIRST: bool>(
         &self,
         a: Vec3,
         b: Vec3,
@@ -379,12 +366,12 @@ impl SceneBvh {
         near_a: &mut Blocker,
         near_b: &mut Blocker,
     ) -> bool {
-        self.segment_blocked_by::<true>(a.into(), b.into(), eps, near_a, Some(near_b))
+        self.segment_blocked_by::<NEAR_FIRST>(a.into(), b.into(), eps, near_a, Some(near_b))
     }
 
     /// [`SceneBvh::occluded_between`] on whole SIMD vectors, the second
     /// memory optional, the traversal nearest first or not
-    /// ([`SceneBvh::occluded_between_near_first`]).
+    /// (`NEAR_FIRST`, [`SceneBvh::occluded_between`]).
     fn segment_blocked_by<const NEAR_FIRST: bool>(
         &self,
         a: Vec3A,
@@ -1213,7 +1200,7 @@ mod tests {
             } else {
                 (&mut hi[0], &mut lo[cb])
             };
-            let answer = bvh.occluded_between(a, b, 1e-4, ma, mb);
+            let answer = bvh.occluded_between::<false>(a, b, 1e-4, ma, mb);
             assert_eq!(answer, bvh.occluded(a, b, 1e-4), "segment {i}: {a} to {b}");
             blocked += answer as usize;
             tried += 1;
@@ -1226,7 +1213,7 @@ mod tests {
         // segment is then stopped by either alone.
         let (bvh, seg) = lidded_points(1);
         let (mut ma, mut mb) = (Blocker::default(), Blocker::default());
-        assert!(bvh.occluded_between(seg[0].0, seg[0].1, 1e-4, &mut ma, &mut mb));
+        assert!(bvh.occluded_between::<false>(seg[0].0, seg[0].1, 1e-4, &mut ma, &mut mb));
         for m in [ma, mb] {
             let mut m2 = m;
             assert!(bvh.occluded_from(seg[0].0, seg[0].1, 1e-4, &mut m2));
@@ -1248,9 +1235,9 @@ mod tests {
             let (a, b) = (cube_point(hash2(h, 1)) * 1.2, cube_point(hash2(h, 2)) * 1.2);
             let c = (h % 4) as usize;
             let (ma, mb) = near.split_at_mut(2);
-            let ordered = bvh.occluded_between_near_first(a, b, 1e-4, &mut ma[c % 2], &mut mb[c / 2]);
+            let ordered = bvh.occluded_between::<true>(a, b, 1e-4, &mut ma[c % 2], &mut mb[c / 2]);
             let (fa, fb) = far.split_at_mut(2);
-            let plain = bvh.occluded_between(a, b, 1e-4, &mut fa[c % 2], &mut fb[c / 2]);
+            let plain = bvh.occluded_between::<false>(a, b, 1e-4, &mut fa[c % 2], &mut fb[c / 2]);
             assert_eq!(ordered, bvh.occluded(a, b, 1e-4), "segment {i}");
             assert_eq!(plain, ordered, "segment {i}");
             blocked += ordered as usize;
@@ -1278,7 +1265,7 @@ mod tests {
                 let xy = cube_point(hash2(53, k)).truncate() * 3.0;
                 let (a, b) = (xy.extend(from), xy.extend(to));
                 let (mut ma, mut mb) = (Blocker::default(), Blocker::default());
-                assert!(bvh.occluded_between_near_first(a, b, 1e-4, &mut ma, &mut mb));
+                assert!(bvh.occluded_between::<true>(a, b, 1e-4, &mut ma, &mut mb));
                 assert_eq!(ma.lanes, 1, "one triangle remembered");
                 let z = ma.block.triangle(0).vertex(0).z;
                 assert_eq!(z, nearest, "segment {k} from z = {from}");
