@@ -187,10 +187,9 @@ impl<'a> AtlasState<'a> {
     }
 }
 
-
 /// `R(P)` of probes with `views` (§3.3, eq. 2 as written, or saturating):
 /// what [`AtlasState::recompute`] sums, in the same order.
-fn fitness_of(kind: FitnessKind, atlas: &Atlas, views: &[ProbeView]) -> f64 {
+pub(super) fn fitness_of(kind: FitnessKind, atlas: &Atlas, views: &[ProbeView]) -> f64 {
     match kind {
         FitnessKind::AsWritten => views
             .iter()

@@ -426,10 +426,11 @@ pub fn refine(
     );
     // The sweeps' state (per atlas texel: its viewers and their
     // qualities, over 400 MB on a 4M-triangle scene) goes when they end:
-    // nothing after needs more than an [`AtlasSummary`], and alive it was
-    // most of refinement's peak (BENCHMARKS.md, issue 47: peak memory).
+    // nothing after needs more than the views' fitness and an
+    // [`AtlasSummary`], and alive it was most of refinement's peak
+    // (BENCHMARKS.md, issue 47: peak memory).
     drop(state);
-    let r_refined = AtlasSummary::new(params.fitness, &atlas, &views_of(&refined)).r();
+    let r_refined = fitness::fitness_of(params.fitness, &atlas, &views_of(&refined));
     steps.lap(STEPS[0]);
 
     // Fill holes and prune superfluous probes (§1 "fewest probes").
