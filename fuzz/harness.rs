@@ -33,6 +33,7 @@ pub const TARGETS: &[(&str, Target)] = &[
     ("lightfield", lightfield),
     ("probes", probes),
     ("obj", obj),
+    ("gltf", gltf),
 ];
 
 /// The RON config parser ([`probeplace::config::Config::parse`]) on any
@@ -274,6 +275,94 @@ pub fn obj(data: &[u8]) {
     }
 }
 
+/// The glTF reader ([`probeplace::scene::gltf::parse`]) on any bytes, as
+/// JSON or GLB; every external buffer it names reads the input itself.
+/// What it returns must name only materials it read (or none), with every
+/// material value in its clamped range, and only finite lights; the scene
+/// built from it must hold only finite, non-degenerate triangles.
+pub fn gltf(data: &[u8]) {
+    use probeplace::config::{Light, UpAxis};
+    use probeplace::scene::obj::{MAX_EMISSION, MAX_SHININESS};
+    use probeplace::scene::Scene;
+    use std::path::PathBuf;
+    let Ok(file) = probeplace::scene::gltf::parse(
+        data,
+        Path::new("fuzz.glb"),
+        1.0,
+        UpAxis::Y,
+        &mut |_uri: &str| Ok(data.to_vec()),
+    ) else {
+        return;
+    };
+    for (_, m) in &file.triangles {
+        assert!(
+            *m == u32::MAX || (*m as usize) < file.materials.len(),
+            "{m}"
+        );
+    }
+    for m in &file.materials {
+        let unit = |v: &f32| (0.0..=1.0).contains(v);
+        assert!(
+            m.diffuse.iter().all(unit) && m.specular.iter().all(unit),
+            "{m:?}"
+        );
+        assert!(
+            m.emission
+                .iter()
+                .all(|v| (0.0..=MAX_EMISSION as f32).contains(v)),
+            "{m:?}"
+        );
+        assert!((0.0..=MAX_SHININESS as f32).contains(&m.shininess), "{m:?}");
+    }
+    for l in &file.lights {
+        let finite = match l {
+            Light::Point {
+                position,
+                intensity,
+            } => {
+                position.0.iter().all(|v| v.is_finite())
+                    && intensity.0.iter().all(|v| v.is_finite() && *v >= 0.0)
+            }
+            Light::Spot {
+                position,
+                direction,
+                intensity,
+                cone_degrees,
+                edge_degrees,
+            } => {
+                position.0.iter().all(|v| v.is_finite())
+                    && direction.0.iter().all(|v| v.is_finite())
+                    && intensity.0.iter().all(|v| v.is_finite() && *v >= 0.0)
+                    && cone_degrees.0 > 0.0
+                    && cone_degrees.0 <= 90.0
+                    && edge_degrees.0 >= 0.0
+            }
+            Light::Directional {
+                direction,
+                irradiance,
+            } => {
+                direction.0.iter().all(|v| v.is_finite())
+                    && irradiance.0.iter().all(|v| v.is_finite() && *v >= 0.0)
+            }
+            Light::Sky { .. } => false,
+        };
+        assert!(finite, "{l:?}");
+    }
+    if let Ok(scene) =
+        Scene::from_world_triangles(PathBuf::from("fuzz.glb"), file.triangles, file.materials)
+    {
+        assert!(scene.triangles.iter().flatten().all(|v| v.is_finite()));
+        assert!(scene
+            .normals
+            .iter()
+            .all(|n| (n.length() - 1.0).abs() < 1e-3));
+        assert!(scene
+            .material_ids
+            .iter()
+            .all(|&m| (m as usize) < scene.materials.len()));
+    }
+}
+
 // ---------------------------------------------------------------------------
 // Seeds: small valid inputs made by the real writers. `cargo test --release
 // -- fuzz::write_seeds --ignored` writes them to `fuzz/seeds/TARGET/`.
@@ -291,7 +380,51 @@ pub fn generated_seeds() -> Vec<(&'static str, String, Vec<u8>)> {
     for (name, text) in probes_seeds() {
         seeds.push(("probes", name.to_string(), text.into_bytes()));
     }
+    for (name, bytes) in gltf_seeds() {
+        seeds.push(("gltf", name.to_string(), bytes));
+    }
     seeds
+}
+
+/// Small glTF files by the test kit's writer: a lit, instanced quad as a
+/// GLB, and quantized strips with a sparse accessor as a `.gltf` with its
+/// buffer in a data URI.
+fn gltf_seeds() -> Vec<(&'static str, Vec<u8>)> {
+    use probeplace::fixtures::gltf_writer::{Builder, Positions};
+    use serde_json::json;
+    let mut b = Builder::new();
+    let lamp = b.material("lamp", [0.5, 0.4, 0.3], 0.2, 0.6, [3.0, 2.0, 1.0]);
+    let pos = b.positions(
+        &[
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [1.0, 0.0, -1.0],
+            [0.0, 0.0, -1.0],
+        ],
+        Positions::Float,
+    );
+    let ix = b.indices(&[0, 1, 2, 0, 2, 3]);
+    let mesh = b.mesh("quad", &[(pos, Some(ix), 4, Some(lamp))]);
+    let spot = b.light(json!({"type": "spot", "intensity": 2.0, "spot": {"innerConeAngle": 0.2, "outerConeAngle": 0.5}}));
+    let a = b.node(json!({"mesh": mesh, "scale": [-1.0, 1.0, 1.0]}));
+    let c = b.node(json!({"mesh": mesh, "rotation": [0.0, std::f32::consts::FRAC_1_SQRT_2, 0.0, std::f32::consts::FRAC_1_SQRT_2], "extensions": {"KHR_lights_punctual": {"light": spot}}}));
+    let root = b.node(json!({"translation": [1.0, 2.0, 3.0], "children": [a, c]}));
+    b.scene(&[root]);
+    let glb = b.glb();
+    let mut q = Builder::new();
+    let pos = q.positions(
+        &[
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [0.0, 0.0, 1.0],
+            [1.0, 0.5, 1.0],
+        ],
+        Positions::NormalizedU16,
+    );
+    let mesh = q.mesh("strip", &[(pos, None, 5, None)]);
+    let n = q.node(json!({"mesh": mesh, "scale": [4.0, 4.0, 4.0]}));
+    q.scene(&[n]);
+    vec![("quad.glb", glb), ("strip.gltf", q.gltf(None))]
 }
 
 /// `svo.bin` of a tree given by its header fields and words, passed through

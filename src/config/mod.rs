@@ -86,6 +86,11 @@ pub struct Config {
     /// Lights besides the scene's emissive materials.
     #[serde(default)]
     pub lights: Vec<Light>,
+    /// Whether the scene file's own lights (glTF's `KHR_lights_punctual`)
+    /// light the scene besides `lights` (`Use`, the default), or `lights`
+    /// replace them (`Ignore`).
+    #[serde(default)]
+    pub scene_lights: SceneLights,
     /// Refinement, pruning and filling.
     #[serde(default)]
     pub refine: RefineParams,

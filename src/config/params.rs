@@ -510,6 +510,16 @@ pub enum Light {
     },
 }
 
+/// `scene_lights`: what becomes of the lights a scene file defines.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, serde::Serialize)]
+pub enum SceneLights {
+    /// The file's lights shine besides the config's `lights`.
+    #[default]
+    Use,
+    /// Only the config's `lights` (and emissive materials) shine.
+    Ignore,
+}
+
 fn spot_edge() -> NonNegative {
     NonNegative(5.0)
 }

@@ -140,6 +140,7 @@ pub(crate) fn bake_stage(
         bytes: field.bytes(),
         area_lights: baked.area_lights,
         config_lights: job.config.lights.len(),
+        scene_lights: prepared.scene.lights.len(),
         tracer,
         sh_rays: rays,
         sh_axis_error: crate::report::bake::sh_axis_error(&light),

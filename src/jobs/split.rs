@@ -125,6 +125,9 @@ pub fn split(options: &SplitOptions) -> Result<Outcome> {
     check_outside_tiles(&options.out, None)?;
     check_dir(&options.out)?;
     let at = |field: &str, why: &str| Error::User(format!("{field}: {why}")).in_config(path, &text);
+    if crate::scene::is_gltf(&config.scene) {
+        return Err(at("scene", "split streams OBJ scenes into tiles; this one is glTF: place it whole, or export it as OBJ to split it"));
+    }
     if !config.fixed_probes.is_empty() {
         return Err(at("fixed_probes", "split cannot share fixed probes among tiles yet; place the world on one machine, or remove them"));
     }

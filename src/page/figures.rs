@@ -381,6 +381,8 @@ pub struct BakeFigures {
     pub area_lights: Option<Num>,
     /// Config lights.
     pub config_lights: Option<Num>,
+    /// The scene file's lights (absent from older runs).
+    pub scene_lights: Option<Num>,
     /// The CPU tracer against exact casts.
     pub tracer: TracerFigures,
     /// The reference render, when the config has a camera.

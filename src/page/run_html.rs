@@ -501,8 +501,9 @@ fn bake_table(h: &mut String, r: &RunFigures) {
         row(
             "lights",
             format!(
-                "{} emissive triangles, {} config lights",
+                "{} emissive triangles, {} scene file lights, {} config lights",
                 num(b.area_lights),
+                num(b.scene_lights),
                 num(b.config_lights)
             ),
             "what lights the scene",

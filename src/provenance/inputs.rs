@@ -35,12 +35,16 @@ impl Provenance {
         files: &[PathBuf],
     ) -> Result<Provenance> {
         let mut scene = Fnv::default();
+        let gltf = crate::scene::is_gltf(&config.scene);
         for (i, file) in files.iter().enumerate() {
             let what = match i {
                 0 => "scene file",
                 _ if overrides.probes.as_ref() == Some(file) => "probe file",
+                _ if gltf => "glTF buffer",
                 _ => "material library",
             };
+            // Binary by nature: a probe file, and a glTF's files.
+            let binary = what == "probe file" || gltf;
             let (mut f, size) = crate::input::open(file, what, u64::MAX)?;
             scene.write(&size.to_le_bytes());
             let mut chunk = vec![0u8; 1 << 16];
@@ -54,7 +58,7 @@ impl Provenance {
                 let n = n.min((size - read) as usize);
                 // A binary scene is refused here, before hashing gigabytes
                 // of it, with the line the loader would name.
-                if let (false, Some(at)) = (what == "probe file", memchr::memchr(0, &chunk[..n])) {
+                if let (false, Some(at)) = (binary, memchr::memchr(0, &chunk[..n])) {
                     let line = crate::input::line_at(file, read + at as u64);
                     return Err(crate::input::not_text(
                         file,
@@ -92,11 +96,17 @@ pub fn config_hash(config: &Config) -> u64 {
     fnv1a(format!("{c:?}").as_bytes())
 }
 
-/// The files a run of `config` reads: the OBJ, the MTL libraries it names
-/// that exist (relative to the OBJ), and the probe file of `--probes`.
+/// The files a run of `config` reads: the scene file, the MTL libraries an
+/// OBJ names that exist (relative to the OBJ) or the buffers and images a
+/// glTF names ([`crate::scene::gltf::external_files`]), and the probe file
+/// of `--probes`.
 pub fn input_files(config: &Config, overrides: &Overrides) -> Vec<PathBuf> {
     let mut files = vec![config.scene.clone()];
-    files.extend(material_libraries(&config.scene));
+    if crate::scene::is_gltf(&config.scene) {
+        files.extend(crate::scene::gltf::external_files(&config.scene));
+    } else {
+        files.extend(material_libraries(&config.scene));
+    }
     files.extend(overrides.probes.iter().cloned());
     files
 }
@@ -161,6 +171,53 @@ mod tests {
             .map(|p| p.file_name().unwrap().to_string_lossy().into_owned())
             .collect();
         assert_eq!(names, ["b.mtl", "a.mtl", "c.mtl"]);
+    }
+
+    #[test]
+    fn a_gltf_reads_the_buffers_and_images_it_names_beside_it() {
+        let dir = tempfile::tempdir().unwrap();
+        for name in ["a b.bin", "tex.png"] {
+            std::fs::write(dir.path().join(name), b"\0\x01").unwrap();
+        }
+        let doc = r#"{"asset": {"version": "2.0"},
+            "buffers": [{"byteLength": 2, "uri": "a%20b.bin"}, {"byteLength": 1, "uri": "data:application/octet-stream;base64,AA=="},
+                        {"byteLength": 1, "uri": "missing.bin"}, {"byteLength": 1, "uri": "https://example.com/x.bin"}],
+            "images": [{"uri": "tex.png"}, {"uri": "a%20b.bin"}]}"#;
+        let gltf = dir.path().join("scene.gltf");
+        std::fs::write(&gltf, doc).unwrap();
+        let config = Config::parse(
+            &format!("(scene: {:?})", gltf.display().to_string()),
+            Path::new("x.ron"),
+        )
+        .unwrap();
+        let files = input_files(&config, &Overrides::default());
+        let names: Vec<String> = files
+            .iter()
+            .map(|p| p.file_name().unwrap().to_string_lossy().into_owned())
+            .collect();
+        assert_eq!(names, ["scene.gltf", "a b.bin", "tex.png"]);
+        // Binary files are hashed, not refused as text with a NUL byte.
+        let p = Provenance::of_files(
+            &config,
+            Path::new("x.ron"),
+            "",
+            &Overrides::default(),
+            &files,
+        )
+        .unwrap();
+        std::fs::write(dir.path().join("a b.bin"), b"\0\x02").unwrap();
+        let q = Provenance::of_files(
+            &config,
+            Path::new("x.ron"),
+            "",
+            &Overrides::default(),
+            &files,
+        )
+        .unwrap();
+        assert_ne!(
+            p.scene_hash, q.scene_hash,
+            "a changed buffer changes the scene's hash"
+        );
     }
 
     #[test]

@@ -155,9 +155,9 @@ pub struct LightSet {
 }
 
 impl LightSet {
-    /// Collects `scene`'s emissive triangles and the config's `lights`,
-    /// whose positions (world coordinates) it takes to the scene's local
-    /// ones. Several sky lights add up. Negative or non-finite `Ke`
+    /// Collects `scene`'s emissive triangles, the lights its file defines
+    /// ([`Scene::lights`]) and the config's `lights`, whose positions (world
+    /// coordinates) it takes to the scene's local ones. Several sky lights add up. Negative or non-finite `Ke`
     /// components count as 0; triangles of zero luminance are not lights.
     pub fn new(scene: &Scene, lights: &[Light]) -> LightSet {
         let diagonal = scene.bounds.size().length().max(1e-6);
@@ -215,7 +215,7 @@ impl LightSet {
             center: 0.5 * (scene.bounds.min + scene.bounds.max),
             diagonal,
         };
-        for light in lights {
+        for light in scene.lights.iter().chain(lights) {
             match *light {
                 Light::Point {
                     position,

@@ -27,6 +27,8 @@ pub struct BakeReport {
     pub area_lights: usize,
     /// Lights from the config.
     pub config_lights: usize,
+    /// Lights from the scene file (glTF's punctual lights) that shone.
+    pub scene_lights: usize,
     /// The CPU light-field tracer against exact ray casts, one random ray
     /// from each of 4096 random free points, probes chosen by the SVO.
     pub tracer: Agreement,

@@ -47,7 +47,8 @@ pub struct ProbesFile {
     pub seed: u64,
     /// Scene file as given in the config.
     pub scene: String,
-    /// How `position` relates to the OBJ file's coordinates.
+    /// How `position` relates to the scene file's coordinates (an OBJ's own, or
+    /// a glTF's root frame: metres, Y up, before `scale` and `up`).
     pub space: Space,
     /// The probes.
     pub probes: Vec<ProbeRecord>,
@@ -69,7 +70,7 @@ pub struct ProbeRecord {
     pub index: usize,
     /// World-space position (Y up, scaled).
     pub position: [f64; 3],
-    /// The same point in the OBJ file's own coordinates.
+    /// The same point in the scene file's own coordinates ([`Space`]).
     pub position_file: [f64; 3],
     /// Distance to the nearest surface (SDF value at the probe's voxel; negative inside solids).
     pub clearance: f32,

@@ -16,6 +16,7 @@
 //! missing MTL files, degenerate faces. Loading repairs what it can and says
 //! so in warnings; it refuses only files with no usable triangle.
 
+pub mod gltf;
 pub mod obj;
 pub mod raycast;
 pub mod watertight;
@@ -138,6 +139,11 @@ pub struct Scene {
     pub dropped_triangles: usize,
     /// Human-readable warnings raised while loading.
     pub warnings: Vec<String>,
+    /// Lights the file defines (glTF's `KHR_lights_punctual`), in world
+    /// coordinates like the config's: every renderer lights the scene with
+    /// them besides the config's `lights` ([`crate::render::lights::LightSet`]),
+    /// unless the config's `scene_lights` is `Ignore`. An OBJ has none.
+    pub lights: Vec<crate::config::Light>,
 }
 
 impl Scene {
@@ -234,6 +240,7 @@ impl Scene {
             bounds: Bounds::empty(),
             dropped_triangles: dropped,
             warnings: Vec::new(),
+            lights: Vec::new(),
         };
         scene.materials.push(Material::fallback());
         let fallback = (scene.materials.len() - 1) as u32;
@@ -396,6 +403,53 @@ pub fn load_obj(path: &Path, scale: f64, up: UpAxis) -> Result<Scene> {
     let mut scene = Scene::from_world(path.to_path_buf(), triangles.len(), triangle, materials)?;
     warnings.append(&mut scene.warnings);
     scene.warnings = warnings;
+    Ok(scene)
+}
+
+/// The scene format of `path`: glTF 2.0 for a `.gltf` or `.glb` name (any
+/// case) or a file that starts with GLB's magic bytes, OBJ otherwise.
+pub fn is_gltf(path: &Path) -> bool {
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
+    if matches!(ext.as_deref(), Some("gltf" | "glb")) {
+        return true;
+    }
+    let mut magic = [0u8; 4];
+    std::fs::File::open(path)
+        .and_then(|mut f| std::io::Read::read_exact(&mut f, &mut magic))
+        .is_ok_and(|_| &magic == b"glTF")
+}
+
+/// Loads the scene file at `path`, glTF 2.0 or OBJ ([`is_gltf`]):
+/// [`load_gltf`] or [`load_obj`].
+pub fn load(path: &Path, scale: f64, up: UpAxis) -> Result<Scene> {
+    if is_gltf(path) {
+        load_gltf(path, scale, up)
+    } else {
+        load_obj(path, scale, up)
+    }
+}
+
+/// Loads a glTF 2.0 file (`.gltf` with its buffers, or `.glb`): the
+/// triangles of the default scene's mesh instances, with their materials
+/// and the file's punctual lights ([`gltf::read`] says what is read and
+/// how). glTF is in metres with +Y up; `scale` and `up` still apply, as
+/// for an OBJ, after the node transforms. The scene is then built as
+/// [`load_obj`] builds one (origin, dropped triangles, warnings).
+pub fn load_gltf(path: &Path, scale: f64, up: UpAxis) -> Result<Scene> {
+    let gltf::GltfFile {
+        triangles,
+        materials,
+        lights,
+        mut warnings,
+    } = gltf::read(path, scale, up)?;
+    let n = triangles.len();
+    let mut scene = Scene::from_world(path.to_path_buf(), n, |i| triangles[i], materials)?;
+    warnings.append(&mut scene.warnings);
+    scene.warnings = warnings;
+    scene.lights = lights;
     Ok(scene)
 }
 

@@ -116,9 +116,12 @@ pub fn prepare(
     progress: &Progress,
 ) -> Result<Prepared> {
     let mut timings = progress.stopwatch();
-    let scene = timings.try_time("load", || {
-        scene::load_obj(&config.scene, config.scale.0, config.up)
+    let mut scene = timings.try_time("load", || {
+        scene::load(&config.scene, config.scale.0, config.up)
     })?;
+    if config.scene_lights == crate::config::SceneLights::Ignore {
+        scene.lights.clear();
+    }
     let in_config = |e: Error| e.in_config(config_path, config_text);
     let domain = resolve_domain(&config.domain, &scene).map_err(in_config)?;
     let bvh = timings.time("bvh", || SceneBvh::new(&scene));

@@ -103,6 +103,14 @@ fn seeds_are_accepted_and_committed() {
             "svo" => probeplace::svo::format::from_bytes(&bytes).is_ok(),
             "lightfield" => probeplace::lightfield::format::from_bytes(&bytes).is_ok(),
             "probes" => probeplace::placement::file::parse_world(&bytes, "s.json".as_ref()).is_ok(),
+            "gltf" => probeplace::scene::gltf::parse(
+                &bytes,
+                "s.glb".as_ref(),
+                1.0,
+                Default::default(),
+                &mut |_: &str| Err(probeplace::error::Error::User("no external file".into())),
+            )
+            .is_ok_and(|f| !f.triangles.is_empty()),
             other => panic!("a generated seed for {other}"),
         };
         assert!(ok, "seed {t}/{file} is refused");

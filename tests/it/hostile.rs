@@ -892,3 +892,182 @@ fn runs_into_one_directory_at_once_leave_one_whole_set() {
         .collect();
     assert!(left.is_empty(), "staging left: {left:?}");
 }
+
+// glTF 2.0 scenes (issue 48): each mistake named with the object at fault.
+
+/// A scratch directory holding `bad.glb` (or `bad.gltf`) and a config for it.
+fn refused_gltf(name: &str, bytes: &[u8]) -> String {
+    let s = Scratch::new();
+    std::fs::write(s.path(name), bytes).unwrap();
+    s.config_for("bad.ron", Path::new(name));
+    refused(&s, &["place", "bad.ron"])
+}
+
+fn gltf_room() -> probeplace::fixtures::gltf_writer::Builder {
+    let mut b = probeplace::fixtures::gltf_writer::Builder::new();
+    let mesh = crate::gltf::quad(&mut b, None);
+    let node = b.node(serde_json::json!({"mesh": mesh}));
+    b.scene(&[node]);
+    b
+}
+
+#[test]
+fn hostile_gltf_files_are_refused_in_one_line_naming_what_is_wrong() {
+    let good = gltf_room();
+    let doc = |edit: &dyn Fn(&mut serde_json::Value)| {
+        let mut d = good.document(None);
+        edit(&mut d);
+        d
+    };
+    let glb_of = |d: serde_json::Value| {
+        let mut json = serde_json::to_vec(&d).unwrap();
+        while !json.len().is_multiple_of(4) {
+            json.push(b' ');
+        }
+        let bin = good.bin();
+        let total = 12 + 8 + json.len() + 8 + bin.len();
+        let mut out = b"glTF".to_vec();
+        out.extend(2u32.to_le_bytes());
+        out.extend((total as u32).to_le_bytes());
+        out.extend((json.len() as u32).to_le_bytes());
+        out.extend(b"JSON");
+        out.extend(json);
+        out.extend((bin.len() as u32).to_le_bytes());
+        out.extend(b"BIN\0");
+        out.extend(bin);
+        out
+    };
+    let cases: Vec<(&str, Vec<u8>, &str)> = vec![
+        (
+            "truncated GLB",
+            good.glb()[..40].to_vec(),
+            "the file has 40",
+        ),
+        (
+            "GLB version 1",
+            {
+                let mut g = good.glb();
+                g[4] = 1;
+                g
+            },
+            "GLB version 1",
+        ),
+        (
+            "not JSON",
+            b"{\"asset\": [".to_vec(),
+            "not a glTF 2.0 document",
+        ),
+        (
+            "glTF 1.0",
+            glb_of(doc(&|d| d["asset"]["version"] = serde_json::json!("1.0"))),
+            "glTF version \"1.0\"",
+        ),
+        (
+            "Draco",
+            glb_of(doc(&|d| {
+                d["extensionsRequired"] = serde_json::json!(["KHR_draco_mesh_compression"])
+            })),
+            "compressed geometry",
+        ),
+        (
+            "accessor past its view",
+            glb_of(doc(&|d| {
+                d["accessors"][0]["count"] = serde_json::json!(1000)
+            })),
+            "accessor 0: 1000 elements",
+        ),
+        (
+            "view past its buffer",
+            glb_of(doc(&|d| {
+                d["bufferViews"][0]["byteLength"] = serde_json::json!(1 << 20)
+            })),
+            "buffer view 0",
+        ),
+        (
+            "missing accessor",
+            glb_of(doc(&|d| {
+                d["meshes"][0]["primitives"][0]["attributes"]["POSITION"] = serde_json::json!(77)
+            })),
+            "accessor 77 does not exist",
+        ),
+        (
+            "missing mesh",
+            glb_of(doc(&|d| d["nodes"][0]["mesh"] = serde_json::json!(9))),
+            "node 0: mesh 9 does not exist",
+        ),
+        (
+            "a cycle",
+            glb_of(doc(&|d| d["nodes"][0]["children"] = serde_json::json!([0]))),
+            "reached twice",
+        ),
+        (
+            "missing material",
+            glb_of(doc(&|d| {
+                d["meshes"][0]["primitives"][0]["material"] = serde_json::json!(3)
+            })),
+            "material 3 does not exist",
+        ),
+        (
+            "a URL buffer",
+            glb_of(doc(&|d| {
+                d["buffers"][0]["uri"] = serde_json::json!("https://example.com/a.bin")
+            })),
+            "reads no URL",
+        ),
+        (
+            "a missing buffer file",
+            glb_of(doc(&|d| {
+                d["buffers"][0]["uri"] = serde_json::json!("gone.bin")
+            })),
+            "gone.bin: glTF buffer not found",
+        ),
+        (
+            "bad base64",
+            glb_of(doc(&|d| {
+                d["buffers"][0]["uri"] =
+                    serde_json::json!("data:application/octet-stream;base64,!!")
+            })),
+            "base64",
+        ),
+        (
+            "short buffer",
+            glb_of(doc(&|d| {
+                d["buffers"][0]["byteLength"] = serde_json::json!(1 << 30)
+            })),
+            "fewer than its byteLength",
+        ),
+        (
+            "a zero rotation",
+            glb_of(doc(&|d| {
+                d["nodes"][0]["rotation"] = serde_json::json!([0, 0, 0, 0])
+            })),
+            "node 0: its transform is not finite",
+        ),
+        (
+            "a bad stride",
+            glb_of(doc(&|d| {
+                d["bufferViews"][0]["byteStride"] = serde_json::json!(4)
+            })),
+            "byteStride 4",
+        ),
+        (
+            "an index out of range",
+            {
+                let mut d = good.document(None);
+                d["accessors"][1]["componentType"] = serde_json::json!(5125);
+                let mut g = glb_of(d);
+                // The first index (at the start of the second view) set to 999.
+                let json_len = u32::from_le_bytes(g[12..16].try_into().unwrap()) as usize;
+                let at = 20 + json_len + 8 + 48;
+                g[at..at + 4].copy_from_slice(&999u32.to_le_bytes());
+                g
+            },
+            "names vertex 999",
+        ),
+    ];
+    for (what, bytes, needle) in cases {
+        let e = refused_gltf("bad.glb", &bytes);
+        assert!(e.contains("bad.glb"), "{what}: {e}");
+        assert!(e.contains(needle), "{what}: {e}");
+    }
+}

@@ -13,6 +13,7 @@ mod docs;
 mod export;
 mod fuzz;
 mod generality;
+mod gltf;
 mod gpu;
 mod hostile;
 mod jobs;

@@ -433,6 +433,25 @@ fn split_refuses_what_it_cannot_split() {
         err.contains(&format!(":{line}:")) && err.contains(": fixed_probes: split cannot share"),
         "{err}"
     );
+    // A glTF scene is not streamed into tiles: refused, naming the field.
+    let obj =
+        probeplace::scene::load(&plain.load().scene, 0.001, probeplace::config::UpAxis::Y).unwrap();
+    let glb = tmp.path().join("cornell.glb");
+    std::fs::write(
+        &glb,
+        probeplace::fixtures::gltf_writer::from_scene(&obj).glb(),
+    )
+    .unwrap();
+    let gltf = test_quality(
+        "configs/cornell.ron",
+        &[
+            ("scene", &format!("{:?}", glb.display().to_string())),
+            ("scale", "1.0"),
+        ],
+    );
+    let err = split_refusal(&gltf, &[], &tmp.path().join("g"));
+    assert!(err.contains(": scene: split streams OBJ scenes"), "{err}");
+    assert!(!tmp.path().join("g").exists());
     // A path that is not a directory is refused, naming it, and kept.
     let file = tmp.path().join("a-file");
     std::fs::write(&file, "x").unwrap();
