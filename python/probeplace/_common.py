@@ -64,6 +64,12 @@ class Provenance:
         return cls(_hex(value["config_hash"]), _hex(value["scene_hash"]), seed,
                    fnv1a64(tool.encode()))
 
+    def __repr__(self) -> str:
+        """The hashes in hex, as the JSON files write them."""
+        return (f"Provenance(config_hash={self.config_hash:016x}, "
+                f"scene_hash={self.scene_hash:016x}, seed={self.seed}, "
+                f"tool_hash={self.tool_hash:016x})")
+
     def to_bytes(self) -> bytes:
         """The 32 bytes the binary files carry."""
         return b"".join(

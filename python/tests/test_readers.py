@@ -250,3 +250,14 @@ def test_probes_read_both_forms_and_refuse_what_probeplace_refuses(tmp_path):
     missing = tmp_path / "nothing.json"
     with pytest.raises(pp.ProbeplaceError, match="probes.json not found"):
         pp.load_probes(missing)
+
+
+def test_provenance_shows_its_hashes_in_hex_as_the_json_writes_them():
+    p = pp.Provenance.from_json({
+        "tool": "probeplace 0.1.0", "config_hash": "00ab12cd34ef5678",
+        "scene_hash": "ffffffffffffffff", "seed": 7, "config_given": "a.ron",
+        "cwd": "/", "config_text": "()", "overrides": {"no_refine": False}})
+    text = repr(p)
+    assert "config_hash=00ab12cd34ef5678" in text
+    assert "scene_hash=ffffffffffffffff" in text
+    assert "seed=7" in text

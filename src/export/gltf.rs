@@ -7,7 +7,15 @@
 //! (`translation`, f64 as written in `probes.json`), drawing a shared
 //! marker mesh, an octahedron whose radius is 1% of the domain's diagonal,
 //! and carrying `extras`: `index`, `clearance`, `influence_box` and `fixed`
-//! ([`super::source::SourceProbe::influence`]). With the scene, node `scene`
+//! ([`super::source::SourceProbe::influence`]). `influence_box` is in the
+//! file's frame (glTF's, world coordinates), which importers do not
+//! convert: Blender turns a glTF's Y-up nodes to its Z-up but leaves custom
+//! properties as they are. So each probe with an influence box also has a
+//! child node `influence N` drawing the box's twelve edges (a shared
+//! `LINES` mesh of the cube [−1, 1]³), translated to the box's centre
+//! (relative to the probe) and scaled by its half extents: a node, which
+//! every importer (Blender, Unity's and Godot's glTF importers, three.js)
+//! carries into its own frame with the probe. With the scene, node `scene`
 //! holds its triangles, one primitive per material with the material's
 //! base colour (`Kd`, linear) and emission; its vertices are relative to
 //! the scene's own origin and the node is translated there, so large world
@@ -76,6 +84,26 @@ impl Builder {
     }
 }
 
+/// `LINES`: a primitive of line segments, two vertices each.
+const LINES: u32 = 1;
+
+/// The twelve edges of the cube [−1, 1]³ as line segments (24 vertices).
+fn cube_edges() -> Vec<[f32; 3]> {
+    let mut out = Vec::new();
+    for axis in 0..3 {
+        for (u, v) in [(-1.0, -1.0), (-1.0, 1.0), (1.0, -1.0), (1.0, 1.0)] {
+            let mut a = [0.0f32; 3];
+            a[(axis + 1) % 3] = u;
+            a[(axis + 2) % 3] = v;
+            let mut b = a;
+            a[axis] = -1.0;
+            b[axis] = 1.0;
+            out.extend([a, b]);
+        }
+    }
+    out
+}
+
 /// The marker octahedron of radius `r`: 8 flat faces, wound
 /// counter-clockwise seen from outside; positions and normals.
 fn octahedron(r: f32) -> (Vec<[f32; 3]>, Vec<[f32; 3]>) {
@@ -139,6 +167,7 @@ pub fn encode(source: &Source, scene: Option<&Scene>) -> Vec<u8> {
     let (positions, normals) = octahedron(radius);
     let marker_positions = b.vec3(&positions);
     let marker_normals = b.vec3(&normals);
+    let box_edges = b.vec3(&cube_edges());
     let mut materials = vec![json!({
         "name": "probe marker",
         "pbrMetallicRoughness": {
@@ -148,14 +177,22 @@ pub fn encode(source: &Source, scene: Option<&Scene>) -> Vec<u8> {
         },
         "emissiveFactor": [MARKER_COLOUR[0], MARKER_COLOUR[1], MARKER_COLOUR[2]],
     })];
-    let mut meshes = vec![json!({
-        "name": "probe marker",
-        "primitives": [{
-            "attributes": { "POSITION": marker_positions, "NORMAL": marker_normals },
-            "material": 0,
-        }],
-    })];
-    let probe_nodes: Vec<Value> = source
+    let mut meshes = vec![
+        json!({
+            "name": "probe marker",
+            "primitives": [{
+                "attributes": { "POSITION": marker_positions, "NORMAL": marker_normals },
+                "material": 0,
+            }],
+        }),
+        json!({
+            "name": "influence box",
+            "primitives": [{ "attributes": { "POSITION": box_edges }, "mode": LINES, "material": 0 }],
+        }),
+    ];
+    // Probe `i`'s node is `1 + i`; the influence boxes' nodes follow them.
+    let mut box_nodes: Vec<Value> = Vec::new();
+    let mut probe_nodes: Vec<Value> = source
         .probes
         .iter()
         .enumerate()
@@ -179,12 +216,29 @@ pub fn encode(source: &Source, scene: Option<&Scene>) -> Vec<u8> {
             node
         })
         .collect();
+    let first_box = 1 + probe_nodes.len();
+    for (i, p) in source.probes.iter().enumerate() {
+        if let Some(bx) = &p.influence {
+            let centre: Vec<f64> = (0..3)
+                .map(|a| 0.5 * (bx.min[a] + bx.max[a]) - p.position[a])
+                .collect();
+            let half: Vec<f64> = (0..3).map(|a| 0.5 * (bx.max[a] - bx.min[a])).collect();
+            probe_nodes[i]["children"] = json!([first_box + box_nodes.len()]);
+            box_nodes.push(json!({
+                "name": format!("influence {i}"),
+                "translation": centre,
+                "scale": half,
+                "mesh": 1,
+            }));
+        }
+    }
     let mut nodes = vec![json!({
         "name": "probes",
         "children": (1..=probe_nodes.len()).collect::<Vec<_>>(),
         "extras": { "method": source.method, "count": probe_nodes.len() },
     })];
     nodes.extend(probe_nodes);
+    nodes.extend(box_nodes);
     let mut roots = vec![0];
     if let Some(scene) = scene {
         let primitives = scene_primitives(scene, &mut b, &mut materials);

@@ -7,8 +7,10 @@
 //! Each probe node is named `probe N` after its index in `probes.json`
 //! and placed by an identity-basis `Transform3D` at its world position;
 //! Godot's frame is ours (right-handed, +Y up), so nothing is converted.
-//! Its index and clearance are kept as node metadata, the run's provenance
-//! as the root's. The scene has no resources, so the header has no
+//! Its index, clearance, `fixed` (a boolean, on every probe) and
+//! influence box ([`super::source::SourceProbe::influence`], an `AABB` of
+//! position and size in that same frame, on probes that have one) are kept
+//! as node metadata, the run's provenance as the root's. The scene has no resources, so the header has no
 //! `load_steps` (the format omits it then).
 
 use super::format::Format;
@@ -64,8 +66,18 @@ pub fn encode(source: &Source) -> String {
         if let Some(c) = probe.clearance {
             let _ = writeln!(out, "metadata/clearance = {}", real(c));
         }
-        if probe.fixed {
-            let _ = writeln!(out, "metadata/fixed = true");
+        let _ = writeln!(out, "metadata/fixed = {}", probe.fixed);
+        if let Some(b) = &probe.influence {
+            let _ = writeln!(
+                out,
+                "metadata/influence_box = AABB({}, {}, {}, {}, {}, {})",
+                real(b.min[0]),
+                real(b.min[1]),
+                real(b.min[2]),
+                real(b.max[0] - b.min[0]),
+                real(b.max[1] - b.min[1]),
+                real(b.max[2] - b.min[2])
+            );
         }
     }
     out

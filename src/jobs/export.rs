@@ -84,11 +84,13 @@ impl ExportOptions {
 ///
 /// Contract: on success the output directory holds every file of `dir`
 /// and the exports asked for (replacing earlier exports of the same
-/// names); `Outcome::report` lists them under `exports`. A directory that
-/// is not a `place`, `bake` or `render` output, whose files are not of one
-/// run, or whose scene or config changed since, a `ddgi` of a placement
-/// that is not an unrefined grid, and `--scene` without `glb` are user
-/// errors; on error nothing changes.
+/// names); `Outcome::report` lists them under `exports`. A format the run
+/// cannot give (a `ddgi` of a placement that is not an unrefined grid)
+/// among others that it can is left out, decided before anything is
+/// written, with a warning in `Outcome::report`'s `warnings`. A directory that is not a `place`, `bake` or
+/// `render` output, whose files are not of one run, or whose scene or
+/// config changed since, only formats it cannot give, and `--scene`
+/// without `glb` are user errors; on error nothing changes.
 pub fn export(options: &ExportOptions) -> Result<Outcome> {
     let exports = options.exports()?;
     let run = RunOptions {
@@ -127,16 +129,32 @@ pub fn export(options: &ExportOptions) -> Result<Outcome> {
             Some((file, why)) => Error::user_file(&dir.join(file), why),
             None => Error::user_file(&dir, m),
         })?;
-    // Before the scene is read: the cheap refusals first.
-    if let Some((e, why)) = exports
-        .iter()
-        .find_map(|&e| e.refuses(&source).map(|w| (e, w)))
-    {
-        return Err(refusal(&dir, e, &why));
+    // Before the scene is read, and before anything is written: the
+    // formats this run cannot give (a DDGI volume of a placement that is
+    // no grid). Alone they are refused; among others they are left out,
+    // each said in one warning line, and the others written.
+    let (exports, refused): (Vec<Export>, Vec<(Export, String)>) = {
+        let mut ok = Vec::new();
+        let mut no = Vec::new();
+        for &e in &exports {
+            match e.refuses(&source) {
+                Some(why) => no.push((e, why)),
+                None => ok.push(e),
+            }
+        }
+        (ok, no)
+    };
+    if exports.is_empty() {
+        let (e, why) = &refused[0];
+        return Err(refusal(&dir, *e, why));
     }
+    let warnings: Vec<String> = refused
+        .iter()
+        .map(|(e, why)| format!("--format {}: not written: {why}", e.entry().word))
+        .collect();
     let scene = match exports.iter().any(|e| e.entry().scene) {
         true => Some(job.watch.try_time("load", || {
-            crate::scene::load_obj(&job.config.scene, job.config.scale.0, job.config.up)
+            crate::scene::load(&job.config.scene, job.config.scale.0, job.config.up)
         })?),
         false => None,
     };
@@ -162,7 +180,7 @@ pub fn export(options: &ExportOptions) -> Result<Outcome> {
         out_dir: job.out_dir.clone(),
         report: json!({
             "exports": written.iter().map(|(n, _)| *n).collect::<Vec<_>>(),
-            "warnings": Value::Array(Vec::new()),
+            "warnings": warnings,
             "timings_ms": { "total": job.watch.elapsed_ms() },
         }),
         summary,

@@ -84,6 +84,11 @@ struct ReadBack {
     extras: Vec<Value>,
     /// Triangles of the mesh of the node named `scene` (0 without).
     scene_triangles: usize,
+    /// For each probe, the box its child node `influence N` draws (the
+    /// cube [−1, 1]³ scaled and moved by the child's transform and then by
+    /// the probe's), in the file's frame: what an importer that carries
+    /// nodes into its own frame places.
+    boxes: Vec<Option<([f64; 3], [f64; 3])>>,
 }
 
 /// The little-endian `u32` at `at` of `bytes`.
@@ -188,7 +193,9 @@ fn read_back(glb: &Path) -> ReadBack {
     let mut probes = Vec::new();
     let mut extras = Vec::new();
     let mut scene_triangles = 0;
-    for node in doc["nodes"].as_array().expect("nodes") {
+    let mut boxes = Vec::new();
+    let nodes = doc["nodes"].as_array().expect("nodes");
+    for node in nodes {
         let name = node["name"].as_str().unwrap_or("");
         if let Some(n) = name.strip_prefix("probe ") {
             assert_eq!(
@@ -206,6 +213,15 @@ fn read_back(glb: &Path) -> ReadBack {
             };
             probes.push(translation);
             extras.push(node.get("extras").expect("probe extras").clone());
+            let child = node.get("children").map(|c| &nodes[index(&c[0], "child")]);
+            boxes.push(child.map(|c| {
+                assert_eq!(c["name"], format!("influence {n}"), "{file}");
+                let v = |k: &str, a: usize| c[k][a].as_f64().unwrap();
+                let at = |a: usize| f64::from(translation[a]) + v("translation", a);
+                let lo = [0, 1, 2].map(|a| at(a) - v("scale", a));
+                let hi = [0, 1, 2].map(|a| at(a) + v("scale", a));
+                (lo, hi)
+            }));
         }
         if name == "scene" {
             let mesh = &doc["meshes"][index(&node["mesh"], "mesh")];
@@ -226,6 +242,7 @@ fn read_back(glb: &Path) -> ReadBack {
         probes,
         extras,
         scene_triangles,
+        boxes,
     }
 }
 
@@ -395,6 +412,15 @@ fn sponza_exports_pass_the_khronos_validator() {
             // Within the domain's leaves: the last leaf may reach past it.
             let domain = &report["domain"];
             let leaf = report["svo"]["leaf_size"].as_f64().unwrap();
+            // The child node draws the same box, where importers carry it.
+            let (blo, bhi) = back.boxes[i].expect("an influence node");
+            let tol = 1e-4 * (1.0 + hi.iter().map(|v| v.abs()).fold(0.0, f64::max));
+            for a in 0..3 {
+                assert!(
+                    (blo[a] - lo[a]).abs() < tol && (bhi[a] - hi[a]).abs() < tol,
+                    "probe {i}: {b} vs {blo:?} {bhi:?}"
+                );
+            }
             for a in 0..3 {
                 assert!(lo[a] < hi[a], "probe {i}: {b}");
                 assert!(
@@ -425,6 +451,39 @@ fn sponza_exports_pass_the_khronos_validator() {
         tscn, expected,
         "the .tscn writes probes.json's positions as they are"
     );
+    // Its metadata: `fixed` a boolean on every probe, and the influence
+    // box an AABB (position, size) in Godot's frame, which is the world's:
+    // the box the .glb's extras give.
+    let glb_extras = read_back(&bare_glb).extras;
+    let nodes = tscn_nodes(&std::fs::read_to_string(bare.join("probes.tscn")).unwrap());
+    let probes: Vec<&TscnNode> = nodes.iter().filter(|n| n.kind == "LightmapProbe").collect();
+    for (i, n) in probes.iter().enumerate() {
+        let meta = |k: &str| {
+            n.properties
+                .iter()
+                .find(|(key, _)| key == k)
+                .map(|(_, v)| v.as_str())
+        };
+        assert_eq!(meta("metadata/fixed"), Some("false"), "{}", n.name);
+        let aabb = meta("metadata/influence_box").expect("an influence box");
+        let v: Vec<f64> = aabb
+            .strip_prefix("AABB(")
+            .and_then(|s| s.strip_suffix(')'))
+            .unwrap()
+            .split(", ")
+            .map(|x| x.parse().unwrap())
+            .collect();
+        let b = &glb_extras[i]["influence_box"];
+        for a in 0..3 {
+            let (lo, hi) = (b["min"][a].as_f64().unwrap(), b["max"][a].as_f64().unwrap());
+            assert_eq!(v[a], lo, "{}", n.name);
+            assert!(
+                (v[3 + a] - (hi - lo)).abs() <= 1e-9 * (1.0 + hi.abs()),
+                "{}",
+                n.name
+            );
+        }
+    }
 
     let Some(script) = validator("sponza_exports_pass_the_khronos_validator") else {
         return;
@@ -951,4 +1010,38 @@ fn a_bake_hands_its_sh_to_the_exports() {
     ]);
     let unity = read_json(&out.path().join("probes.unity.json"));
     assert_eq!(unity["sh"], serde_json::json!([]));
+}
+
+/// The synopsis's four formats together on a run that is no grid: the
+/// three it can give are written, and the DDGI volume is left out with one
+/// warning line saying why (issue 48); alone, it is refused.
+#[test]
+fn a_multi_format_export_writes_what_it_can_and_names_what_it_cannot() {
+    let run = shared_job("place", "configs/cornell.ron", &["--no-refine"]);
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("out");
+    let o = probeplace(&[
+        "export",
+        run.dir.to_str().unwrap(),
+        "--format",
+        "glb,tscn,unity,ddgi",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{stderr}");
+    let warnings: Vec<&str> = stderr
+        .lines()
+        .filter(|l| l.starts_with("warning: "))
+        .collect();
+    assert_eq!(warnings.len(), 1, "{stderr}");
+    assert!(
+        warnings[0].starts_with("warning: --format ddgi: not written: a DDGI volume needs"),
+        "{stderr}"
+    );
+    for name in ["probes.glb", "probes.tscn", "probes.unity.json"] {
+        assert!(out.join(name).is_file(), "{name}");
+    }
+    assert!(!out.join("ddgi.json").exists());
+    assert_manifest_holds(&dir_files(&out));
 }
