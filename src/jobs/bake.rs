@@ -97,8 +97,13 @@ pub(crate) fn bake_stage(
     let config = &job.config;
     let positions = placement.probes.positions();
     // The reference was checked by `precheck`; the bake again, now that
-    // placement has fixed the probe count.
-    stages::bake::check(config, positions.len()).map_err(|e| job.config_error(e))?;
+    // placement has fixed the probe count, and both with the lights the
+    // scene file brought.
+    let lit = stages::bake::lit_by_scene(config, &prepared.scene);
+    stages::bake::check(&lit, positions.len()).map_err(|e| job.config_error(e))?;
+    if config.reference.camera.is_some() {
+        validate::check_reference(&lit, 1, 1.0).map_err(|e| job.config_error(e))?;
+    }
     let mut watch = job.progress.stopwatch();
     let baked = stages::bake(config, prepared, &positions, &job.progress);
     watch.absorb(&baked.timings);

@@ -127,6 +127,14 @@ pub fn compare(options: &RunOptions) -> Result<Outcome> {
     stages::diffuse::check(&job.config, 1000, COMPARE_WORK_FACTOR)
         .map_err(|e| job.config_error(e))?;
     let mut prepared = job.prepare()?;
+    // Again with the lights the scene file brought, which cast shadow rays
+    // as the config's do.
+    if !prepared.scene.lights.is_empty() {
+        let lit = stages::bake::lit_by_scene(&job.config, &prepared.scene);
+        validate::check_reference(&lit, cameras.len() + chosen, COMPARE_WORK_FACTOR)
+            .map_err(|e| job.config_error(e))?;
+        stages::diffuse::check(&lit, 1000, COMPARE_WORK_FACTOR).map_err(|e| job.config_error(e))?;
+    }
     if let Materials::AllGlossy(alpha) = job.config.compare.materials {
         crate::render::material::all_glossy(&mut prepared.scene.materials, alpha.0);
     }

@@ -39,6 +39,21 @@ pub struct Baked {
     pub timings: Stopwatch,
 }
 
+/// `config` as the work estimates must see a run of it on `scene`: with
+/// the lights the scene file defines (glTF's punctual lights,
+/// [`crate::scene::Scene::lights`]) among its `lights`, since each casts
+/// its shadow rays as a config light does ([`light_factor`]). The
+/// estimates made before the scene is loaded count the config's alone; the
+/// jobs check again with this once it is.
+pub(crate) fn lit_by_scene<'a>(config: &'a Config, scene: &crate::scene::Scene) -> std::borrow::Cow<'a, Config> {
+    if scene.lights.is_empty() {
+        return std::borrow::Cow::Borrowed(config);
+    }
+    let mut c = config.clone();
+    c.lights.splice(0..0, scene.lights.iter().cloned());
+    std::borrow::Cow::Owned(c)
+}
+
 /// How much more a path vertex costs than at the rate's calibration (one
 /// delta light besides the area and sky lights): every point, spot and
 /// directional light of the config casts a shadow ray from every vertex

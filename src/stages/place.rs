@@ -177,8 +177,9 @@ pub fn place(
         }
     };
     let (probes, diffuse) = if refine_it && config.refine.objective == Objective::Both {
-        let renderer = prepared.renderer(config);
         let budget = controls.max_probes.unwrap_or(limits::MAX_PROBES);
+        check_diffuse(config, &prepared.scene, probes.probes.len(), budget)?;
+        let renderer = prepared.renderer(config);
         // Probes for diffuse light stand as near surfaces as the coverage
         // measure's reference points (one voxel), or the user's pin.
         let min_clearance = config
@@ -280,6 +281,30 @@ fn check_count(n: usize) -> Result<()> {
         )));
     }
     Ok(())
+}
+
+/// Refuses a diffuse step ([`refine::diffuse`]) that would take longer than
+/// the work limit: its training points' path-traced references and free
+/// points' SH, and the SH of every probe it may hold (the placed ones and
+/// at most `growth` times as many more, within `budget`), `rays` paths
+/// each, of `1 + bake.bounces` vertices, each vertex casting a shadow ray
+/// to every point, spot and directional light, the config's and the scene
+/// file's ([`super::bake::lit_by_scene`]).
+fn check_diffuse(config: &Config, scene: &crate::scene::Scene, placed: usize, budget: usize) -> Result<()> {
+    let d = &config.refine.diffuse;
+    let most = (placed as f64 * (1.0 + d.growth.0 as f64)).min(budget.max(placed) as f64);
+    let points = (d.surface_points.0 + d.free_points.0) as f64;
+    let paths = (points + most) * d.rays.0 as f64;
+    let lit = super::bake::lit_by_scene(config, scene);
+    limits::check_work(
+        "refine.diffuse.rays",
+        &format!(
+            "the diffuse step ({} training points and up to {} probes at {} paths each, {} lights)",
+            points, most, d.rays.0, lit.lights.len()
+        ),
+        paths * (1.0 + config.bake.bounces.0 as f64) * super::bake::light_factor(&lit),
+        limits::rate::PATH_VERTICES,
+    )
 }
 
 /// Refuses a probe set whose coverage scoring would take longer than the

@@ -603,6 +603,12 @@ fn thousands_of_shadow_casting_lights_enter_the_bake_estimate() {
         e.contains("bake.samples") && e.contains("20000 lights"),
         "{e}"
     );
+    // `place` bakes nothing, but its diffuse step path-traces the light.
+    let e = refused(&s, &["place", "lights.ron"]);
+    assert!(
+        e.contains("refine.diffuse.rays") && e.contains("20000 lights"),
+        "{e}"
+    );
 }
 
 #[test]
@@ -1070,4 +1076,58 @@ fn hostile_gltf_files_are_refused_in_one_line_naming_what_is_wrong() {
         assert!(e.contains("bad.glb"), "{what}: {e}");
         assert!(e.contains(needle), "{what}: {e}");
     }
+}
+
+/// The lights a glTF file defines cast shadow rays as config lights do,
+/// so a file of twenty thousand of them is refused by the bake's estimate
+/// once the scene is read, as the config's are before.
+#[test]
+fn thousands_of_lights_in_a_gltf_enter_the_bake_estimate() {
+    let s = Scratch::new();
+    let room = probeplace::scene::load(&s.path("room.obj"), 1.0, Default::default()).unwrap();
+    let flat = probeplace::fixtures::gltf_writer::from_scene(&room);
+    let mut doc = flat.document(None);
+    let lamp = serde_json::json!({"type": "point", "intensity": 1.0});
+    doc["extensions"] = serde_json::json!({"KHR_lights_punctual": {"lights": [lamp]}});
+    let nodes = doc["nodes"].as_array_mut().unwrap();
+    let first = nodes.len();
+    for _ in 0..20_000 {
+        nodes.push(serde_json::json!({"translation": [1, 1, 1], "extensions": {"KHR_lights_punctual": {"light": 0}}}));
+    }
+    let roots: Vec<usize> = (0..first).chain(first..first + 20_000).collect();
+    doc["scenes"][0]["nodes"] = serde_json::json!(roots);
+    let mut json = serde_json::to_vec(&doc).unwrap();
+    while !json.len().is_multiple_of(4) {
+        json.push(b' ');
+    }
+    let bin = flat.bin();
+    let total = 12 + 8 + json.len() + 8 + bin.len();
+    let mut glb = b"glTF".to_vec();
+    glb.extend(2u32.to_le_bytes());
+    glb.extend((total as u32).to_le_bytes());
+    glb.extend((json.len() as u32).to_le_bytes());
+    glb.extend(b"JSON");
+    glb.extend(json);
+    glb.extend((bin.len() as u32).to_le_bytes());
+    glb.extend(b"BIN\0");
+    glb.extend(bin);
+    std::fs::write(s.path("lit.glb"), glb).unwrap();
+    s.config_for("lit.ron", Path::new("lit.glb"));
+    // The diffuse step, the first to light the scene, refuses first.
+    for job in ["place", "bake"] {
+        let e = refused(&s, &[job, "lit.ron", "--method", "grid:2x2x2"]);
+        assert!(
+            e.contains("refine.diffuse.rays") && e.contains("20000 lights"),
+            "{e}"
+        );
+    }
+    // Without it, the bake's estimate.
+    let e = refused(
+        &s,
+        &["bake", "lit.ron", "--method", "grid:2x2x2", "--no-refine"],
+    );
+    assert!(
+        e.contains("bake.samples") && e.contains("20000 lights"),
+        "{e}"
+    );
 }
