@@ -217,7 +217,7 @@ impl Rng {
 /// its clamped range (docs/config.md, "Scenes"); the scene built from it
 /// must hold only finite, non-degenerate triangles.
 pub fn obj(data: &[u8]) {
-    use probeplace::scene::obj::{parse, Library, MAX_EMISSION, MAX_SHININESS};
+    use probeplace::scene::obj::{parse, Library};
     use probeplace::scene::Scene;
     use std::path::PathBuf;
     let (obj, mtl) = match data.windows(6).position(|w| w == b"\n#mtl\n") {
@@ -242,20 +242,7 @@ pub fn obj(data: &[u8]) {
             "{m}"
         );
     }
-    for m in &file.materials {
-        let unit = |v: &f32| (0.0..=1.0).contains(v);
-        assert!(
-            m.diffuse.iter().all(unit) && m.specular.iter().all(unit),
-            "{m:?}"
-        );
-        assert!(
-            m.emission
-                .iter()
-                .all(|v| (0.0..=MAX_EMISSION as f32).contains(v)),
-            "{m:?}"
-        );
-        assert!((0.0..=MAX_SHININESS as f32).contains(&m.shininess), "{m:?}");
-    }
+    check_materials(&file.materials);
     let triangles = file
         .triangles
         .iter()
@@ -263,15 +250,7 @@ pub fn obj(data: &[u8]) {
     if let Ok(scene) =
         Scene::from_world_triangles(PathBuf::from("fuzz.obj"), triangles, file.materials)
     {
-        assert!(scene.triangles.iter().flatten().all(|v| v.is_finite()));
-        assert!(scene
-            .normals
-            .iter()
-            .all(|n| (n.length() - 1.0).abs() < 1e-3));
-        assert!(scene
-            .material_ids
-            .iter()
-            .all(|&m| (m as usize) < scene.materials.len()));
+        check_scene(&scene);
     }
 }
 
@@ -282,7 +261,6 @@ pub fn obj(data: &[u8]) {
 /// built from it must hold only finite, non-degenerate triangles.
 pub fn gltf(data: &[u8]) {
     use probeplace::config::{Light, UpAxis};
-    use probeplace::scene::obj::{MAX_EMISSION, MAX_SHININESS};
     use probeplace::scene::Scene;
     use std::path::PathBuf;
     let Ok(file) = probeplace::scene::gltf::parse(
@@ -300,20 +278,7 @@ pub fn gltf(data: &[u8]) {
             "{m}"
         );
     }
-    for m in &file.materials {
-        let unit = |v: &f32| (0.0..=1.0).contains(v);
-        assert!(
-            m.diffuse.iter().all(unit) && m.specular.iter().all(unit),
-            "{m:?}"
-        );
-        assert!(
-            m.emission
-                .iter()
-                .all(|v| (0.0..=MAX_EMISSION as f32).contains(v)),
-            "{m:?}"
-        );
-        assert!((0.0..=MAX_SHININESS as f32).contains(&m.shininess), "{m:?}");
-    }
+    check_materials(&file.materials);
     for l in &file.lights {
         let finite = match l {
             Light::Point {
@@ -351,15 +316,40 @@ pub fn gltf(data: &[u8]) {
     if let Ok(scene) =
         Scene::from_world_triangles(PathBuf::from("fuzz.glb"), file.triangles, file.materials)
     {
-        assert!(scene.triangles.iter().flatten().all(|v| v.is_finite()));
-        assert!(scene
-            .normals
-            .iter()
-            .all(|n| (n.length() - 1.0).abs() < 1e-3));
-        assert!(scene
-            .material_ids
-            .iter()
-            .all(|&m| (m as usize) < scene.materials.len()));
+        check_scene(&scene);
+    }
+}
+
+/// A scene built from a reader's output: finite triangles, unit normals,
+/// material ids in range.
+fn check_scene(scene: &probeplace::scene::Scene) {
+    assert!(scene.triangles.iter().flatten().all(|v| v.is_finite()));
+    assert!(scene
+        .normals
+        .iter()
+        .all(|n| (n.length() - 1.0).abs() < 1e-3));
+    assert!(scene
+        .material_ids
+        .iter()
+        .all(|&m| (m as usize) < scene.materials.len()));
+}
+
+/// Every material value within its clamped range (docs/config.md, "Scenes").
+fn check_materials(materials: &[probeplace::scene::Material]) {
+    use probeplace::scene::obj::{MAX_EMISSION, MAX_SHININESS};
+    for m in materials {
+        let unit = |v: &f32| (0.0..=1.0).contains(v);
+        assert!(
+            m.diffuse.iter().all(unit) && m.specular.iter().all(unit),
+            "{m:?}"
+        );
+        assert!(
+            m.emission
+                .iter()
+                .all(|v| (0.0..=MAX_EMISSION as f32).contains(v)),
+            "{m:?}"
+        );
+        assert!((0.0..=MAX_SHININESS as f32).contains(&m.shininess), "{m:?}");
     }
 }
 
@@ -394,17 +384,7 @@ fn gltf_seeds() -> Vec<(&'static str, Vec<u8>)> {
     use serde_json::json;
     let mut b = Builder::new();
     let lamp = b.material("lamp", [0.5, 0.4, 0.3], 0.2, 0.6, [3.0, 2.0, 1.0]);
-    let pos = b.positions(
-        &[
-            [0.0, 0.0, 0.0],
-            [1.0, 0.0, 0.0],
-            [1.0, 0.0, -1.0],
-            [0.0, 0.0, -1.0],
-        ],
-        Positions::Float,
-    );
-    let ix = b.indices(&[0, 1, 2, 0, 2, 3]);
-    let mesh = b.mesh("quad", &[(pos, Some(ix), 4, Some(lamp))]);
+    let mesh = b.unit_quad(Some(lamp));
     let spot = b.light(json!({"type": "spot", "intensity": 2.0, "spot": {"innerConeAngle": 0.2, "outerConeAngle": 0.5}}));
     let a = b.node(json!({"mesh": mesh, "scale": [-1.0, 1.0, 1.0]}));
     let c = b.node(json!({"mesh": mesh, "rotation": [0.0, std::f32::consts::FRAC_1_SQRT_2, 0.0, std::f32::consts::FRAC_1_SQRT_2], "extensions": {"KHR_lights_punctual": {"light": spot}}}));

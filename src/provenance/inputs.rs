@@ -197,27 +197,20 @@ mod tests {
             .collect();
         assert_eq!(names, ["scene.gltf", "a b.bin", "tex.png"]);
         // Binary files are hashed, not refused as text with a NUL byte.
-        let p = Provenance::of_files(
-            &config,
-            Path::new("x.ron"),
-            "",
-            &Overrides::default(),
-            &files,
-        )
-        .unwrap();
+        let hash = || {
+            Provenance::of_files(
+                &config,
+                Path::new("x.ron"),
+                "",
+                &Overrides::default(),
+                &files,
+            )
+            .unwrap()
+            .scene_hash
+        };
+        let before = hash();
         std::fs::write(dir.path().join("a b.bin"), b"\0\x02").unwrap();
-        let q = Provenance::of_files(
-            &config,
-            Path::new("x.ron"),
-            "",
-            &Overrides::default(),
-            &files,
-        )
-        .unwrap();
-        assert_ne!(
-            p.scene_hash, q.scene_hash,
-            "a changed buffer changes the scene's hash"
-        );
+        assert_ne!(before, hash(), "a changed buffer changes the scene's hash");
     }
 
     #[test]

@@ -10,21 +10,6 @@ use probeplace::fixtures::gltf_writer::{from_scene, Builder, Positions};
 use probeplace::scene::{self, Scene};
 use serde_json::json;
 
-/// A unit quad in the XZ plane facing +Y (two triangles, indexed).
-pub fn quad(b: &mut Builder, material: Option<usize>) -> usize {
-    let pos = b.positions(
-        &[
-            [0.0, 0.0, 0.0],
-            [1.0, 0.0, 0.0],
-            [1.0, 0.0, -1.0],
-            [0.0, 0.0, -1.0],
-        ],
-        Positions::Float,
-    );
-    let ix = b.indices(&[0, 1, 2, 0, 2, 3]);
-    b.mesh("quad", &[(pos, Some(ix), 4, material)])
-}
-
 fn world(s: &Scene, v: Vec3) -> DVec3 {
     s.to_world(v)
 }
@@ -78,7 +63,7 @@ fn glb_gltf_with_a_bin_and_a_data_uri_read_alike_and_match_the_obj() {
 #[test]
 fn nodes_compose_instance_and_mirror_without_turning_faces_around() {
     let mut b = Builder::new();
-    let mesh = quad(&mut b, None);
+    let mesh = b.unit_quad(None);
     let s = std::f32::consts::FRAC_1_SQRT_2;
     // Rotated 90° about +X: the quad's +Y normal turns to +Z.
     let turned = b.node(json!({"mesh": mesh, "rotation": [s, 0.0, 0.0, s]}));
@@ -234,7 +219,7 @@ fn strips_fans_points_quantized_and_sparse_accessors_unfold_as_specified() {
 fn punctual_lights_and_emissive_strength_become_the_scenes_lights() {
     let mut b = Builder::new();
     let lamp = b.material("lamp", [0.5; 3], 0.0, 1.0, [4.0, 2.0, 0.0]);
-    let mesh = quad(&mut b, Some(lamp));
+    let mesh = b.unit_quad(Some(lamp));
     let point = b.light(
         json!({"type": "point", "color": [1.0, 0.5, 0.25], "intensity": 8.0, "range": 10.0}),
     );

@@ -911,7 +911,7 @@ fn refused_gltf(name: &str, bytes: &[u8]) -> String {
 
 fn gltf_room() -> probeplace::fixtures::gltf_writer::Builder {
     let mut b = probeplace::fixtures::gltf_writer::Builder::new();
-    let mesh = crate::gltf::quad(&mut b, None);
+    let mesh = b.unit_quad(None);
     let node = b.node(serde_json::json!({"mesh": mesh}));
     b.scene(&[node]);
     b
@@ -925,24 +925,7 @@ fn hostile_gltf_files_are_refused_in_one_line_naming_what_is_wrong() {
         edit(&mut d);
         d
     };
-    let glb_of = |d: serde_json::Value| {
-        let mut json = serde_json::to_vec(&d).unwrap();
-        while !json.len().is_multiple_of(4) {
-            json.push(b' ');
-        }
-        let bin = good.bin();
-        let total = 12 + 8 + json.len() + 8 + bin.len();
-        let mut out = b"glTF".to_vec();
-        out.extend(2u32.to_le_bytes());
-        out.extend((total as u32).to_le_bytes());
-        out.extend((json.len() as u32).to_le_bytes());
-        out.extend(b"JSON");
-        out.extend(json);
-        out.extend((bin.len() as u32).to_le_bytes());
-        out.extend(b"BIN\0");
-        out.extend(bin);
-        out
-    };
+    let glb_of = |d: serde_json::Value| good.glb_of(&d);
     let cases: Vec<(&str, Vec<u8>, &str)> = vec![
         (
             "truncated GLB",
@@ -1096,21 +1079,7 @@ fn thousands_of_lights_in_a_gltf_enter_the_bake_estimate() {
     }
     let roots: Vec<usize> = (0..first).chain(first..first + 20_000).collect();
     doc["scenes"][0]["nodes"] = serde_json::json!(roots);
-    let mut json = serde_json::to_vec(&doc).unwrap();
-    while !json.len().is_multiple_of(4) {
-        json.push(b' ');
-    }
-    let bin = flat.bin();
-    let total = 12 + 8 + json.len() + 8 + bin.len();
-    let mut glb = b"glTF".to_vec();
-    glb.extend(2u32.to_le_bytes());
-    glb.extend((total as u32).to_le_bytes());
-    glb.extend((json.len() as u32).to_le_bytes());
-    glb.extend(b"JSON");
-    glb.extend(json);
-    glb.extend((bin.len() as u32).to_le_bytes());
-    glb.extend(b"BIN\0");
-    glb.extend(bin);
+    let glb = flat.glb_of(&doc);
     std::fs::write(s.path("lit.glb"), glb).unwrap();
     s.config_for("lit.ron", Path::new("lit.glb"));
     // The diffuse step, the first to light the scene, refuses first.
