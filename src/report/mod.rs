@@ -153,6 +153,11 @@ impl BoundsRecord {
 pub struct SceneRecord {
     /// Scene file as given in the config.
     pub path: String,
+    /// Its format: `obj` or `gltf` (a `.gltf` or `.glb`).
+    pub format: &'static str,
+    /// Lights the file defines that the run uses (glTF's punctual lights;
+    /// 0 for an OBJ, or with `scene_lights: Ignore`).
+    pub lights: usize,
     /// Usable triangles.
     pub triangles: usize,
     /// Faces dropped as degenerate or non-finite.

@@ -399,6 +399,9 @@ fn an_instanced_hierarchy_places_as_its_flattened_twin() {
         ));
     }
     let ((n, c, solid), (m, d, _)) = (counts[0], counts[1]);
+    let r = crate::common::read_json(&dir.path().join("hall-out/report.json"));
+    assert_eq!(r["scene"]["format"], "gltf");
+    assert_eq!(r["scene"]["lights"], 1);
     assert_eq!(solid, 0);
     assert!(c >= 0.99, "coverage {c}");
     assert!(
