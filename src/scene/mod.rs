@@ -407,7 +407,10 @@ pub fn load_obj(path: &Path, scale: f64, up: UpAxis) -> Result<Scene> {
 }
 
 /// The scene format of `path`: glTF 2.0 for a `.gltf` or `.glb` name (any
-/// case) or a file that starts with GLB's magic bytes, OBJ otherwise.
+/// case) or a regular file that starts with GLB's magic bytes, OBJ
+/// otherwise. The file is opened as [`crate::input::open`] opens it, so a
+/// FIFO or a device is never read (nor waited on): it is an "OBJ", whose
+/// reader then refuses it in words.
 pub fn is_gltf(path: &Path) -> bool {
     let ext = path
         .extension()
@@ -417,8 +420,10 @@ pub fn is_gltf(path: &Path) -> bool {
         return true;
     }
     let mut magic = [0u8; 4];
-    std::fs::File::open(path)
-        .and_then(|mut f| std::io::Read::read_exact(&mut f, &mut magic))
+    crate::input::open(path, "scene file", u64::MAX)
+        .and_then(|(mut f, _)| {
+            std::io::Read::read_exact(&mut f, &mut magic).map_err(|e| Error::io(path, e))
+        })
         .is_ok_and(|_| &magic == b"glTF")
 }
 
