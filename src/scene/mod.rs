@@ -143,7 +143,7 @@ pub struct Scene {
     /// coordinates like the config's: every renderer lights the scene with
     /// them besides the config's `lights` ([`crate::render::lights::LightSet`]),
     /// unless the config's `scene_lights` is `Ignore`. An OBJ has none.
-    pub lights: Vec<crate::config::Light>,
+    pub lights: Vec<crate::config::params::Light>,
 }
 
 impl Scene {
