@@ -64,6 +64,9 @@ pub const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_texture_transform",
 ];
 
+/// Materials named in the warning about clamped factors; the rest are counted.
+const LISTED: usize = 5;
+
 /// Largest JSON document read: 256 MiB, and at most a 128th of the memory
 /// budget, since the document model takes tens of bytes for each byte of
 /// a terse JSON (`{}` is a node).
@@ -160,12 +163,26 @@ pub fn parse(
         external,
     };
     let mut out = GltfFile::default();
-    out.materials = root
-        .materials
-        .iter()
-        .enumerate()
-        .map(|(i, m)| material_of(i, m, &mut out.warnings, path))
-        .collect();
+    let mut clamped = Vec::new();
+    for (i, m) in root.materials.iter().enumerate() {
+        let (material, was_clamped) = material_of(i, m);
+        if was_clamped {
+            clamped.push(named(i, m.name.as_deref()));
+        }
+        out.materials.push(material);
+    }
+    if !clamped.is_empty() {
+        let more = match clamped.len().saturating_sub(LISTED) {
+            0 => String::new(),
+            n => format!(" and {n} more"),
+        };
+        clamped.truncate(LISTED);
+        out.warnings.push(format!(
+            "{}: material(s) {}{more}: a factor out of range (or not finite) was clamped",
+            path.display(),
+            clamped.join(", ")
+        ));
+    }
     let textured = root
         .materials
         .iter()
@@ -193,7 +210,7 @@ pub fn parse(
     }
     if total > max_triangles() {
         return Err(fail(format!(
-            "{total} triangles with every instance, more than the {} one BVH holds; split the scene into tiles (`probeplace split`)",
+            "{total} triangles with every instance, more than the {} one BVH holds (`probeplace split` tiles OBJ scenes: export this one as OBJ to split it)",
             max_triangles()
         )));
     }
@@ -481,8 +498,8 @@ fn local_transform(node: &json::Node) -> Option<DMat4> {
 /// Appendix B) is stored as the Phong exponent `Ns = 2/α² − 2` the BSDF
 /// maps back to that `α`. Emission is `emissiveFactor` times
 /// `KHR_materials_emissive_strength`. Out-of-range values are clamped as
-/// MTL values are, with a warning.
-pub fn material_of(index: usize, m: &json::Material, warnings: &mut Vec<String>, path: &Path) -> Material {
+/// MTL values are; the flag says whether any was.
+pub fn material_of(index: usize, m: &json::Material) -> (Material, bool) {
     let name = m.name.clone().unwrap_or_else(|| format!("material {index}"));
     let mut clamped = false;
     let mut unit = |v: f32, default: f32| -> f64 {
@@ -515,26 +532,20 @@ pub fn material_of(index: usize, m: &json::Material, warnings: &mut Vec<String>,
             0.0
         }
     });
-    if clamped {
-        warnings.push(format!(
-            "{}: material {}: a factor out of range (or not finite) was clamped",
-            path.display(),
-            named(index, m.name.as_deref())
-        ));
-    }
     let alpha = roughness * roughness;
     let shininess = if alpha > 0.0 {
         (2.0 / (alpha * alpha) - 2.0).min(MAX_SHININESS)
     } else {
         MAX_SHININESS
     };
-    Material {
+    let material = Material {
         name,
         diffuse: base.map(|b| (b * (1.0 - metallic)) as f32),
         specular: base.map(|b| (0.04 * (1.0 - metallic) + b * metallic) as f32),
         shininess: shininess as f32,
         emission: emission.map(|e| e as f32),
-    }
+    };
+    (material, clamped)
 }
 
 /// A `KHR_lights_punctual` light at the node whose world transform is
@@ -1063,24 +1074,23 @@ mod tests {
             r#"{"pbrMetallicRoughness":{"baseColorFactor":[0.5,0.25,1,1],"metallicFactor":0,"roughnessFactor":1},"emissiveFactor":[1,0.5,0]}"#,
         )
         .unwrap();
-        let mut w = Vec::new();
-        let d = material_of(0, &m, &mut w, Path::new("t.gltf"));
+        let (d, clamped) = material_of(0, &m);
+        assert!(!clamped);
         assert_eq!(d.diffuse, [0.5, 0.25, 1.0]);
         assert_eq!(d.specular, [0.04; 3]);
         assert_eq!(crate::render::material::alpha_from_shininess(d.shininess), 1.0);
         assert_eq!(d.emission, [1.0, 0.5, 0.0]);
-        assert!(w.is_empty());
         m.pbr_metallic_roughness.metallic_factor.0 = 1.0;
         m.pbr_metallic_roughness.roughness_factor.0 = 0.5;
-        let metal = material_of(0, &m, &mut w, Path::new("t.gltf"));
+        let (metal, _) = material_of(0, &m);
         assert_eq!(metal.diffuse, [0.0; 3]);
         assert_eq!(metal.specular, [0.5, 0.25, 1.0]);
         let alpha = crate::render::material::alpha_from_shininess(metal.shininess);
         assert!((alpha - 0.25).abs() < 1e-6, "{alpha}");
         m.pbr_metallic_roughness.base_color_factor.0[0] = f32::NAN;
-        material_of(3, &m, &mut w, Path::new("t.gltf"));
-        assert_eq!(w.len(), 1, "{w:?}");
-        assert!(w[0].contains("t.gltf: material 3"), "{w:?}");
+        let (nan, clamped) = material_of(3, &m);
+        assert!(clamped);
+        assert_eq!(nan.specular[0], 1.0, "a non-finite base colour is glTF's default, 1");
     }
 
     #[test]

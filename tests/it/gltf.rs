@@ -413,3 +413,31 @@ fn an_instanced_hierarchy_places_as_its_flattened_twin() {
         "coverage {c} instanced, {d} flattened"
     );
 }
+
+#[test]
+fn clamped_material_factors_are_warned_once_naming_the_first_five() {
+    let mut b = Builder::new();
+    let mats: Vec<usize> = (0..7)
+        .map(|i| b.material(&format!("hot{i}"), [2.0, 0.5, 0.5], 0.0, 1.0, [0.0; 3]))
+        .collect();
+    let mesh = b.unit_quad(Some(mats[6]));
+    let node = b.node(json!({"mesh": mesh}));
+    b.scene(&[node]);
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("hot.glb");
+    std::fs::write(&path, b.glb()).unwrap();
+    let sc = scene::load(&path, 1.0, UpAxis::Y).unwrap();
+    let w: Vec<&String> = sc
+        .warnings
+        .iter()
+        .filter(|w| w.contains("clamped"))
+        .collect();
+    assert_eq!(w.len(), 1, "{:?}", sc.warnings);
+    assert!(
+        w[0].contains("0 (`hot0`)") && w[0].contains("4 (`hot4`)") && w[0].contains("and 2 more"),
+        "{}",
+        w[0]
+    );
+    assert!(!w[0].contains("hot5"), "{}", w[0]);
+    assert_eq!(sc.materials[6].diffuse, [1.0, 0.5, 0.5]);
+}
