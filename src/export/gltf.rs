@@ -317,7 +317,7 @@ fn scene_primitives(scene: &Scene, b: &mut Builder, materials: &mut Vec<Value>) 
 
 /// The GLB container: the 12-byte header, the JSON chunk padded with
 /// spaces and the binary chunk padded with zeros, each to 4 bytes.
-fn glb(json: &[u8], bin: &[u8]) -> Vec<u8> {
+pub(crate) fn glb(json: &[u8], bin: &[u8]) -> Vec<u8> {
     let pad = |n: usize| (4 - n % 4) % 4;
     let json_len = json.len() + pad(json.len());
     let bin_len = bin.len() + pad(bin.len());

@@ -303,11 +303,7 @@ fn assemble_report(job: &Job, prepared: &Prepared, placed: &Placed, svo: SvoRepo
             .and_then(|r| r.best_view_incidence_deg_final),
         scene: SceneRecord {
             path: config.scene.display().to_string(),
-            format: if crate::scene::is_gltf(&config.scene) {
-                "gltf"
-            } else {
-                "obj"
-            },
+            format: scene.format,
             lights: scene.lights.len(),
             triangles: scene.triangles.len(),
             dropped_triangles: scene.dropped_triangles,

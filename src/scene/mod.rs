@@ -144,6 +144,9 @@ pub struct Scene {
     /// them besides the config's `lights` ([`crate::render::lights::LightSet`]),
     /// unless the config's `scene_lights` is `Ignore`. An OBJ has none.
     pub lights: Vec<crate::config::params::Light>,
+    /// The file format it was read from: `"obj"` ([`load_obj`]), `"gltf"`
+    /// ([`load_gltf`]), or `"generated"` for triangles given in code.
+    pub format: &'static str,
 }
 
 impl Scene {
@@ -241,6 +244,7 @@ impl Scene {
             dropped_triangles: dropped,
             warnings: Vec::new(),
             lights: Vec::new(),
+            format: "generated",
         };
         scene.materials.push(Material::fallback());
         let fallback = (scene.materials.len() - 1) as u32;
@@ -403,6 +407,7 @@ pub fn load_obj(path: &Path, scale: f64, up: UpAxis) -> Result<Scene> {
     let mut scene = Scene::from_world(path.to_path_buf(), triangles.len(), triangle, materials)?;
     warnings.append(&mut scene.warnings);
     scene.warnings = warnings;
+    scene.format = "obj";
     Ok(scene)
 }
 
@@ -455,6 +460,7 @@ pub fn load_gltf(path: &Path, scale: f64, up: UpAxis) -> Result<Scene> {
     warnings.append(&mut scene.warnings);
     scene.warnings = warnings;
     scene.lights = lights;
+    scene.format = "gltf";
     Ok(scene)
 }
 
