@@ -279,6 +279,21 @@ pub fn gltf(data: &[u8]) {
         );
     }
     check_materials(&file.materials);
+    // Texture coordinates for every triangle or none; every map names a
+    // decoded texture, which samples finite colours anywhere.
+    assert!(file.texcoords.is_empty() || file.texcoords.len() == file.triangles.len());
+    for m in &file.materials {
+        for map in [m.diffuse_map, m.emission_map].into_iter().flatten() {
+            assert!((map.texture as usize) < file.textures.len(), "{map:?}");
+            for uv in [[0.5f32, 0.5], [-3.25, 7.5], [1e30, f32::NAN]] {
+                let c = map.sample(&file.textures, glam::Vec2::from(uv));
+                assert!(
+                    c.is_finite() && c.min_element() >= 0.0 && c.max_element() <= 1.0,
+                    "{c}"
+                );
+            }
+        }
+    }
     for l in &file.lights {
         let finite = match l {
             Light::Point {
@@ -404,7 +419,44 @@ fn gltf_seeds() -> Vec<(&'static str, Vec<u8>)> {
     let mesh = q.mesh("strip", &[(pos, None, 5, None)]);
     let n = q.node(json!({"mesh": mesh, "scale": [4.0, 4.0, 4.0]}));
     q.scene(&[n]);
-    vec![("quad.glb", glb), ("strip.gltf", q.gltf(None))]
+    // A textured quad: a PNG in the buffer, mirrored by its sampler and
+    // moved by KHR_texture_transform, for the image decoders.
+    let mut t = Builder::new();
+    let texels: Vec<u8> = (0..16u8)
+        .flat_map(|i| [i * 16, 255 - i * 16, 128])
+        .collect();
+    let image = t.image(
+        &probeplace::fixtures::gltf_writer::png_rgb(4, 4, &texels),
+        "image/png",
+    );
+    let sampler = t.sampler(json!({"wrapS": 33648, "wrapT": 33071}));
+    let texture = t.texture(image, Some(sampler));
+    let m = t.material("tiles", [1.0; 3], 0.0, 1.0, [1.0; 3]);
+    t.material_json(m)["pbrMetallicRoughness"]["baseColorTexture"] = json!({"index": texture,
+        "extensions": {"KHR_texture_transform": {"offset": [0.5, 0.0], "rotation": 0.3, "scale": [2.0, 2.0]}}});
+    t.material_json(m)["emissiveTexture"] = json!({"index": texture});
+    let pos = t.positions(
+        &[
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [1.0, 0.0, -1.0],
+            [0.0, 0.0, -1.0],
+        ],
+        Positions::Float,
+    );
+    let uv = t.texcoords(&[[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]);
+    let ix = t.indices(&[0, 1, 2, 0, 2, 3]);
+    let mesh = t.mesh_json(
+        "quad",
+        vec![json!({"attributes": {"POSITION": pos, "TEXCOORD_0": uv}, "indices": ix, "material": m})],
+    );
+    let n = t.node(json!({"mesh": mesh}));
+    t.scene(&[n]);
+    vec![
+        ("quad.glb", glb),
+        ("strip.gltf", q.gltf(None)),
+        ("textured.glb", t.glb()),
+    ]
 }
 
 /// `svo.bin` of a tree given by its header fields and words, passed through

@@ -215,7 +215,7 @@ impl Job {
             (None, None) => config.output.clone(),
         };
         let mut inputs = vec![config_path.clone()];
-        inputs.extend(files);
+        inputs.extend(files.into_iter().map(|f| f.path));
         commit::check_destination(&out_dir, &inputs)?;
         if let Some(e) = &earlier {
             commit::check_apart(&e.dir, &out_dir, label)?;

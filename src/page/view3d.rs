@@ -164,7 +164,7 @@ impl Mesh {
                 groups.push(Group {
                     start: indices.len() as u32,
                     count: 0,
-                    color: colour_of(&scene.materials[material as usize]),
+                    color: colour_of(scene, &scene.materials[material as usize]),
                 });
             }
             indices.extend(corners);
@@ -219,13 +219,19 @@ fn kept_triangles(scene: &Scene, budget: usize) -> Vec<usize> {
 }
 
 /// The colour a material is drawn in: its diffuse albedo, or for an
-/// emitter its emission scaled to a largest channel of 1.
-fn colour_of(m: &crate::scene::Material) -> [f32; 3] {
-    let e = m.emission.iter().copied().fold(0.0f32, f32::max);
+/// emitter its emission scaled to a largest channel of 1, each times the
+/// mean of its texture where it has one.
+fn colour_of(scene: &Scene, m: &crate::scene::Material) -> [f32; 3] {
+    let mean = |map: Option<crate::scene::texture::TextureMap>, c: [f32; 3]| match map {
+        Some(map) => (glam::Vec3::from(c) * scene.textures[map.texture as usize].mean()).to_array(),
+        None => c,
+    };
+    let emission = mean(m.emission_map, m.emission);
+    let e = emission.iter().copied().fold(0.0f32, f32::max);
     if e > 0.0 {
-        m.emission.map(|c| c / e)
+        emission.map(|c| c / e)
     } else {
-        m.diffuse
+        mean(m.diffuse_map, m.diffuse)
     }
 }
 

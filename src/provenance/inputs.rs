@@ -32,19 +32,14 @@ impl Provenance {
         config_path: &Path,
         config_text: &str,
         overrides: &Overrides,
-        files: &[PathBuf],
+        files: &[InputFile],
     ) -> Result<Provenance> {
         let mut scene = Fnv::default();
         let gltf = crate::scene::is_gltf(&config.scene);
-        for (i, file) in files.iter().enumerate() {
-            let what = match i {
-                0 => "scene file",
-                _ if overrides.probes.as_ref() == Some(file) => "probe file",
-                _ if gltf => "glTF buffer",
-                _ => "material library",
-            };
-            // Binary by nature: a probe file, and a glTF's files.
-            let binary = what == "probe file" || gltf;
+        for (i, InputFile { path: file, what }) in files.iter().enumerate() {
+            let what = *what;
+            // Text: an OBJ and its MTLs; binary by nature: the rest.
+            let binary = !matches!(what, "scene file" | "material library") || gltf;
             let (mut f, size) = crate::input::open(file, what, u64::MAX)?;
             scene.write(&size.to_le_bytes());
             let mut chunk = vec![0u8; 1 << 16];
@@ -96,19 +91,61 @@ pub fn config_hash(config: &Config) -> u64 {
     fnv1a(format!("{c:?}").as_bytes())
 }
 
+/// One file a run reads, and what it is to the run (in messages: "scene
+/// file", "material library", "texture", "glTF buffer", "probe file").
+#[derive(Debug, Clone, PartialEq)]
+pub struct InputFile {
+    /// Where it is.
+    pub path: PathBuf,
+    /// What it is.
+    pub what: &'static str,
+}
+
 /// The files a run of `config` reads: the scene file, the MTL libraries an
-/// OBJ names that exist (relative to the OBJ) or the buffers and images a
-/// glTF names ([`crate::scene::gltf::external_files`]), and the probe file
-/// of `--probes`.
-pub fn input_files(config: &Config, overrides: &Overrides) -> Vec<PathBuf> {
-    let mut files = vec![config.scene.clone()];
+/// OBJ names that exist (relative to the OBJ) and the textures they map
+/// ([`texture_files`]), or the buffers and images a glTF names
+/// ([`crate::scene::gltf::external_files`]), and the probe file of
+/// `--probes`.
+pub fn input_files(config: &Config, overrides: &Overrides) -> Vec<InputFile> {
+    let file = |what| move |path| InputFile { path, what };
+    let mut files = vec![file("scene file")(config.scene.clone())];
     if crate::scene::is_gltf(&config.scene) {
-        files.extend(crate::scene::gltf::external_files(&config.scene));
+        files.extend(
+            crate::scene::gltf::external_files(&config.scene)
+                .into_iter()
+                .map(file("glTF buffer")),
+        );
     } else {
-        files.extend(material_libraries(&config.scene));
+        let libraries = material_libraries(&config.scene);
+        let textures = texture_files(&libraries);
+        files.extend(libraries.into_iter().map(file("material library")));
+        files.extend(textures.into_iter().map(file("texture")));
     }
-    files.extend(overrides.probes.iter().cloned());
+    files.extend(overrides.probes.iter().cloned().map(file("probe file")));
     files
+}
+
+/// The image files the `map_Kd` and `map_Ke` statements of the MTL files
+/// `libraries` name that exist (relative to each MTL), each once. Best
+/// effort, as [`material_libraries`]: a library that cannot be read names
+/// none, and the loader says why.
+pub fn texture_files(libraries: &[PathBuf]) -> Vec<PathBuf> {
+    let mut out: Vec<PathBuf> = Vec::new();
+    for lib in libraries {
+        let Ok(bytes) =
+            crate::input::read(lib, "material library", crate::scene::obj::MAX_MTL_BYTES)
+        else {
+            continue;
+        };
+        let text = String::from_utf8_lossy(&bytes);
+        let (_, maps, _) = crate::scene::obj::parse_mtl(&text, lib);
+        for m in maps {
+            if m.file.is_file() && !out.contains(&m.file) {
+                out.push(m.file);
+            }
+        }
+    }
+    out
 }
 
 /// The `mtllib` files `obj` names that exist, relative to its directory.
@@ -174,6 +211,57 @@ mod tests {
     }
 
     #[test]
+    fn an_obj_reads_the_textures_its_libraries_map() {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(
+            dir.path().join("a.mtl"),
+            "newmtl m\nmap_Kd -s 2 2 tex.png\nmap_Ke gone.png\nnewmtl n\nmap_Kd tex.png\n",
+        )
+        .unwrap();
+        std::fs::write(dir.path().join("tex.png"), b"\x89PNG\0\x01").unwrap();
+        let obj = dir.path().join("scene.obj");
+        std::fs::write(&obj, "mtllib a.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+        let config = Config::parse(
+            &format!("(scene: {:?})", obj.display().to_string()),
+            Path::new("x.ron"),
+        )
+        .unwrap();
+        let files = input_files(&config, &Overrides::default());
+        let kinds: Vec<(String, &str)> = files
+            .iter()
+            .map(|f| {
+                (
+                    f.path.file_name().unwrap().to_string_lossy().into_owned(),
+                    f.what,
+                )
+            })
+            .collect();
+        assert_eq!(
+            kinds,
+            [
+                ("scene.obj".to_string(), "scene file"),
+                ("a.mtl".to_string(), "material library"),
+                ("tex.png".to_string(), "texture")
+            ]
+        );
+        // The image is hashed as binary, and a changed image changes the hash.
+        let hash = || {
+            Provenance::of_files(
+                &config,
+                Path::new("x.ron"),
+                "",
+                &Overrides::default(),
+                &files,
+            )
+            .unwrap()
+            .scene_hash
+        };
+        let before = hash();
+        std::fs::write(dir.path().join("tex.png"), b"\x89PNG\0\x02").unwrap();
+        assert_ne!(before, hash());
+    }
+
+    #[test]
     fn a_gltf_reads_the_buffers_and_images_it_names_beside_it() {
         let dir = tempfile::tempdir().unwrap();
         for name in ["a b.bin", "tex.png"] {
@@ -193,7 +281,7 @@ mod tests {
         let files = input_files(&config, &Overrides::default());
         let names: Vec<String> = files
             .iter()
-            .map(|p| p.file_name().unwrap().to_string_lossy().into_owned())
+            .map(|f| f.path.file_name().unwrap().to_string_lossy().into_owned())
             .collect();
         assert_eq!(names, ["scene.gltf", "a b.bin", "tex.png"]);
         // Binary files are hashed, not refused as text with a NUL byte.

@@ -44,6 +44,12 @@ pub struct Split {
     pub glossy_indirect: Vec3,
 }
 
+/// Emitted radiance from a material's (or a texel's) `Ke`: negative or
+/// non-finite components count as 0.
+fn emission_of(ke: [f32; 3]) -> Vec3 {
+    Vec3::from(ke.map(|v| if v.is_finite() { v.max(0.0) } else { 0.0 }))
+}
+
 /// Which lobe a bounce follows.
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Lobe {
@@ -64,6 +70,12 @@ pub struct Vertex {
     pub wo: Vec3,
     /// Index into the scene's materials (and [`Renderer::bsdfs`]).
     pub material: usize,
+    /// The BSDF here: the material's, its diffuse albedo times its colour
+    /// texture's texel where it has one ([`crate::scene::texture`]).
+    pub bsdf: Bsdf,
+    /// The emitted radiance here: `Ke`, times its emission texture's texel
+    /// where it has one.
+    pub emission: Vec3,
 }
 
 /// A path tracer over one scene (module docs).
@@ -86,16 +98,7 @@ impl<'a> Renderer<'a> {
         lights: &[Light],
         bounces: u32,
     ) -> Renderer<'a> {
-        let emission = scene
-            .materials
-            .iter()
-            .map(|m| {
-                Vec3::from(
-                    m.emission
-                        .map(|v| if v.is_finite() { v.max(0.0) } else { 0.0 }),
-                )
-            })
-            .collect();
+        let emission = scene.materials.iter().map(|m| emission_of(m.emission)).collect();
         Renderer {
             scene,
             bvh,
@@ -126,7 +129,8 @@ impl<'a> Renderer<'a> {
         &self.bsdfs
     }
 
-    /// Emission `Ke` of material `material` (both sides).
+    /// Emission `Ke` of material `material` (both sides), untextured: a
+    /// hit's own is [`Vertex::emission`].
     pub fn emission(&self, material: usize) -> Vec3 {
         self.emission[material]
     }
@@ -136,7 +140,7 @@ impl<'a> Renderer<'a> {
     /// analytically, leaving emissive surfaces and the sky to its probes.
     pub fn direct_delta(&self, v: &Vertex) -> Vec3 {
         self.lights
-            .direct_delta(self.bvh, v.p, v.n, v.wo, &self.bsdfs[v.material])
+            .direct_delta(self.bvh, v.p, v.n, v.wo, &v.bsdf)
     }
 
     /// One path sample of the radiance arriving at `origin` from direction
@@ -170,7 +174,7 @@ impl<'a> Renderer<'a> {
                 reflected += self.trace(self.spawn(&v), wi, weight, self.bounces, sampler);
             }
         }
-        (self.emission[v.material], reflected)
+        (v.emission, reflected)
     }
 
     /// One sample of a camera ray's radiance, split as Wang et al. 2019 §5.1
@@ -196,8 +200,8 @@ impl<'a> Renderer<'a> {
         };
         let (direct, area_glossy) =
             self.lights
-                .direct_split(self.bvh, v.p, v.n, v.wo, &self.bsdfs[v.material], sampler);
-        let mut full = self.emission[v.material] + direct;
+                .direct_split(self.bvh, v.p, v.n, v.wo, &v.bsdf, sampler);
+        let mut full = v.emission + direct;
         let mut glossy_indirect = area_glossy;
         if self.bounces > 0 {
             let start = self.spawn(&v);
@@ -251,11 +255,25 @@ impl<'a> Renderer<'a> {
         let hit = self.bvh.closest_hit(origin, dir, 0.0, f32::INFINITY)?;
         let tri = hit.triangle as usize;
         let wo = -dir;
+        let p = origin + dir * hit.t;
+        let material = self.scene.material_ids[tri] as usize;
+        let m = &self.scene.materials[material];
+        let (bsdf, emission) = if m.is_textured() {
+            let uv = self.scene.texcoord_at(tri, p);
+            (
+                Bsdf::from_colours(self.scene.diffuse_at(m, uv), m.specular, m.shininess),
+                emission_of(self.scene.emission_at(m, uv)),
+            )
+        } else {
+            (self.bsdfs[material], self.emission[material])
+        };
         Some(Vertex {
-            p: origin + dir * hit.t,
+            p,
             n: shading_normal(self.scene.normals[tri], wo),
             wo,
-            material: self.scene.material_ids[tri] as usize,
+            material,
+            bsdf,
+            emission,
         })
     }
 
@@ -266,7 +284,7 @@ impl<'a> Renderer<'a> {
 
     fn direct(&self, v: &Vertex, sampler: &mut Sampler) -> Vec3 {
         self.lights
-            .direct(self.bvh, v.p, v.n, v.wo, &self.bsdfs[v.material], sampler)
+            .direct(self.bvh, v.p, v.n, v.wo, &v.bsdf, sampler)
     }
 
     /// A bounce direction at `v` and the throughput factor it carries
@@ -274,7 +292,7 @@ impl<'a> Renderer<'a> {
     /// [`Lobe::Either`]). Draws three values from `sampler` whatever the
     /// outcome, so that later draws do not depend on which lobe was taken.
     fn sample_lobe(&self, v: &Vertex, lobe: Lobe, sampler: &mut Sampler) -> Option<(Vec3, Vec3)> {
-        let bsdf = &self.bsdfs[v.material];
+        let bsdf = &v.bsdf;
         let choice = sampler.next_f32();
         let u = sampler.next_2d();
         let (diffuse, scale) = match lobe {
@@ -312,6 +330,8 @@ mod tests {
             specular: [0.0; 3],
             shininess: 1.0,
             emission: [ke; 3],
+            diffuse_map: None,
+            emission_map: None,
         }
     }
 
@@ -482,12 +502,12 @@ mod tests {
                 nee += r.direct(&v, &mut Sampler::new(5, i)).as_dvec3();
             }
             let mut brute = Vec3::ZERO.as_dvec3();
-            let bsdf = &r.bsdfs[v.material];
+            let bsdf = &v.bsdf;
             let mut s = Sampler::new(6, 0);
             for _ in 0..n_brute {
                 let sample = bsdf.sample_diffuse(v.n, v.wo, s.next_2d()).unwrap();
                 if let Some(hit) = r.intersect(r.spawn(&v), sample.wi) {
-                    brute += (sample.weight * r.emission[hit.material]).as_dvec3();
+                    brute += (sample.weight * hit.emission).as_dvec3();
                 }
             }
             let (nee, brute) = (nee / n_nee as f64, brute / n_brute as f64);
@@ -557,6 +577,8 @@ mod tests {
             specular: [0.5; 3],
             shininess: 50.0,
             emission: [0.0; 3],
+            diffuse_map: None,
+            emission_map: None,
         };
         let scene = Scene::from_triangles(
             "t".into(),
@@ -577,9 +599,9 @@ mod tests {
                 .glossy_indirect
                 .x as f64;
             let mut s = Sampler::new(5, i);
-            if let Some(g) = r.bsdfs()[v.material].sample_glossy(v.n, v.wo, s.next_2d()) {
+            if let Some(g) = v.bsdf.sample_glossy(v.n, v.wo, s.next_2d()) {
                 if let Some(hit) = r.intersect(r.spawn(&v), g.wi) {
-                    lobe += (r.emission(hit.material) * g.weight).x as f64;
+                    lobe += (hit.emission * g.weight).x as f64;
                 }
             }
         }
@@ -601,6 +623,8 @@ mod tests {
             specular: [0.4; 3],
             shininess: 20.0,
             emission: [0.0; 3],
+            diffuse_map: None,
+            emission_map: None,
         };
         let tris = crate::scene::testing::room_with_box_triangles();
         let scene = Scene::from_triangles(

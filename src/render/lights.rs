@@ -40,8 +40,10 @@ use super::material::{cosine_hemisphere, Bsdf};
 use crate::config::Light;
 use crate::sampling::{point_in_triangle, sample_spherical_triangle, Sampler};
 use crate::scene::raycast::SceneBvh;
+use crate::scene::texture::{barycentric, interpolate, Texture, TextureMap};
 use crate::scene::Scene;
 use glam::{DVec3, Vec3};
+use std::sync::Arc;
 
 /// Relative luminance of linear RGB (Rec. 709 weights), the measure by which
 /// area lights share the samples.
@@ -54,7 +56,11 @@ pub fn luminance(c: Vec3) -> f32 {
 struct AreaLight {
     vertices: [Vec3; 3],
     normal: Vec3,
+    /// `Ke` (with an emission texture: its factor, which the texel scales).
     emission: Vec3,
+    /// Index into [`LightSet::maps`] of its emission texture, or
+    /// [`NO_MAP`].
+    map: u32,
     /// Density of a point on this triangle in area measure: the triangle's
     /// selection probability divided by its area.
     pdf_area: f32,
@@ -63,6 +69,18 @@ struct AreaLight {
     /// Its centroid, and the distance from there to its farthest corner.
     centre: Vec3,
     radius: f32,
+}
+
+/// [`AreaLight::map`] of an untextured emitter.
+const NO_MAP: u32 = u32::MAX;
+
+/// An emitter's emission texture: the map, its image, and the triangle's
+/// texture coordinates.
+#[derive(Debug, Clone)]
+struct EmissionMap {
+    map: TextureMap,
+    textures: [Arc<Texture>; 1],
+    texcoords: [glam::Vec2; 3],
 }
 
 /// Points farther than this many bounding radii from an emitter's centroid
@@ -143,6 +161,8 @@ struct DirectionalLight {
 #[derive(Debug, Clone)]
 pub struct LightSet {
     area: Vec<AreaLight>,
+    /// Emission textures of the textured emitters.
+    maps: Vec<EmissionMap>,
     /// Normalized prefix sums of the area lights' `area × luminance(Ke)`.
     cdf: Vec<f32>,
     points: Vec<PointLight>,
@@ -159,9 +179,17 @@ impl LightSet {
     /// ([`Scene::lights`]) and the config's `lights`, whose positions (world
     /// coordinates) it takes to the scene's local ones. Several sky lights add up. Negative or non-finite `Ke`
     /// components count as 0; triangles of zero luminance are not lights.
+    ///
+    /// A triangle with an emission texture emits `Ke ×` the texel at each
+    /// point: it is chosen by its area times the luminance of `Ke ×` the
+    /// texture's mean, and the texel at the sampled point scales what it
+    /// gives, which keeps the estimate unbiased (any selection weight that
+    /// is positive wherever the emission is will do; one near its mean
+    /// keeps the variance down).
     pub fn new(scene: &Scene, lights: &[Light]) -> LightSet {
         let diagonal = scene.bounds.size().length().max(1e-6);
         let mut area = Vec::new();
+        let mut maps = Vec::new();
         let mut weights = Vec::new();
         for (i, tri) in scene.triangles.iter().enumerate() {
             let m = &scene.materials[scene.material_ids[i] as usize];
@@ -169,14 +197,28 @@ impl LightSet {
                 m.emission
                     .map(|v| if v.is_finite() { v.max(0.0) } else { 0.0 }),
             );
+            let texture = m.emission_map.map(|map| (map, &scene.textures[map.texture as usize]));
+            let mean = texture.map_or(Vec3::ONE, |(_, t)| t.mean());
             let tri_area = 0.5 * (tri[1] - tri[0]).cross(tri[2] - tri[0]).length();
-            let weight = tri_area as f64 * luminance(emission) as f64;
+            let weight = tri_area as f64 * luminance(emission * mean) as f64;
             if weight > 0.0 && weight.is_finite() {
                 let centre = (tri[0] + tri[1] + tri[2]) / 3.0;
+                let map = match texture {
+                    Some((map, t)) => {
+                        maps.push(EmissionMap {
+                            map: TextureMap { texture: 0, ..map },
+                            textures: [t.clone()],
+                            texcoords: scene.texcoords.get(i).copied().unwrap_or_default(),
+                        });
+                        (maps.len() - 1) as u32
+                    }
+                    None => NO_MAP,
+                };
                 area.push(AreaLight {
                     vertices: *tri,
                     normal: scene.normals[i],
                     emission,
+                    map,
                     pdf_area: 0.0,
                     select: 0.0,
                     centre,
@@ -206,6 +248,7 @@ impl LightSet {
         }
         let mut set = LightSet {
             area,
+            maps,
             cdf,
             points: Vec::new(),
             spots: Vec::new(),
@@ -359,8 +402,15 @@ impl LightSet {
             };
             if k > 0.0 && k.is_finite() && !bvh.occluded(origin, y, eps) {
                 let f = bsdf.eval(n, wo, wi);
-                sum += light.emission * f.total() * k;
-                area_glossy += light.emission * f.glossy * k;
+                let emission = match self.maps.get(light.map as usize) {
+                    Some(m) => {
+                        let uv = interpolate(&m.texcoords, barycentric(&light.vertices, y));
+                        light.emission * m.map.sample(&m.textures, uv)
+                    }
+                    None => light.emission,
+                };
+                sum += emission * f.total() * k;
+                area_glossy += emission * f.glossy * k;
             }
         }
         if self.sky != Vec3::ZERO {
@@ -441,6 +491,8 @@ mod tests {
             specular: [0.0; 3],
             shininess: 1.0,
             emission: ke,
+            diffuse_map: None,
+            emission_map: None,
         }
     }
 

@@ -158,6 +158,12 @@ impl Bsdf {
     /// The BSDF of `material`: `Kd`, `Ks` clamped to [0, 1], the diffuse lobe
     /// scaled where `max Kd + max Ks > 1`, `α` from `Ns` (module docs).
     pub fn from_material(material: &Material) -> Bsdf {
+        Bsdf::from_colours(material.diffuse, material.specular, material.shininess)
+    }
+
+    /// [`Bsdf::from_material`] of a material's `Kd`, `Ks` and `Ns` given
+    /// apart: what a textured hit point uses, its `Kd` times the texel.
+    pub fn from_colours(diffuse: [f32; 3], specular: [f32; 3], shininess: f32) -> Bsdf {
         let clamp01 = |c: [f32; 3]| {
             Vec3::from(c.map(|v| {
                 if v.is_finite() {
@@ -167,8 +173,8 @@ impl Bsdf {
                 }
             }))
         };
-        let kd = clamp01(material.diffuse);
-        let ks = clamp01(material.specular);
+        let kd = clamp01(diffuse);
+        let ks = clamp01(specular);
         let (kd_max, ks_max) = (kd.max_element(), ks.max_element());
         let diffuse = if kd_max + ks_max > 1.0 {
             kd * ((1.0 - ks_max) / kd_max)
@@ -179,7 +185,7 @@ impl Bsdf {
         Bsdf {
             diffuse,
             specular: ks,
-            alpha: alpha_from_shininess(material.shininess),
+            alpha: alpha_from_shininess(shininess),
             diffuse_probability: if wd + wg > 0.0 { wd / (wd + wg) } else { 0.0 },
         }
     }
@@ -351,6 +357,8 @@ mod tests {
             specular: [ks; 3],
             shininess: ns,
             emission: [0.0; 3],
+            diffuse_map: None,
+            emission_map: None,
         }
     }
 
@@ -362,6 +370,8 @@ mod tests {
             specular: [ks; 3],
             shininess: ns,
             emission: [0.0; 3],
+            diffuse_map: None,
+            emission_map: None,
         };
         vec![
             m([0.486, 0.631, 0.663], 0.9, 40.0),

@@ -101,10 +101,10 @@ pub fn gbuffer(
                         };
                         return (sky, None, Vec::new());
                     };
-                    let bsdf = &renderer.bsdfs()[v.material];
+                    let bsdf = &v.bsdf;
                     let start = renderer.spawn(&v);
                     let pixel = Pixel {
-                        direct: renderer.emission(v.material) + renderer.direct_delta(&v),
+                        direct: v.emission + renderer.direct_delta(&v),
                         diffuse: bsdf.diffuse * std::f32::consts::FRAC_1_PI,
                         surface: true,
                     };

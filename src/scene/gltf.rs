@@ -47,7 +47,8 @@ use crate::error::{Error, Result};
 use crate::input;
 use crate::limits;
 use base64::Engine;
-use glam::{DMat3, DMat4, DQuat, DVec3};
+use super::texture::{self, Texture, TextureMap, Wrap};
+use glam::{DMat3, DMat4, DQuat, DVec3, Vec2};
 use gltf::json;
 use json::accessor::{ComponentType, Type};
 use json::mesh::{Mode, Semantic};
@@ -89,6 +90,11 @@ pub struct GltfFile {
     pub materials: Vec<Material>,
     /// Its punctual lights, one per node that holds one.
     pub lights: Vec<Light>,
+    /// Each triangle's texture coordinates, parallel to `triangles`; empty
+    /// when no material has a texture.
+    pub texcoords: Vec<[Vec2; 3]>,
+    /// The decoded images the materials' maps index.
+    pub textures: Vec<Arc<Texture>>,
     /// Warnings, each naming the file.
     pub warnings: Vec<String>,
 }
@@ -183,17 +189,7 @@ pub fn parse(
             clamped.join(", ")
         ));
     }
-    let textured = root
-        .materials
-        .iter()
-        .filter(|m| m.pbr_metallic_roughness.base_color_texture.is_some() || m.emissive_texture.is_some())
-        .count();
-    if textured > 0 {
-        out.warnings.push(format!(
-            "{}: {textured} material(s) have colour or emission textures, which probeplace does not read yet; their factors are used",
-            path.display()
-        ));
-    }
+    let sets = reader.textures(&mut out)?;
     let (instances, light_nodes) = hierarchy(&root, path, &mut out.warnings)?;
 
     // The triangles every instance unfolds to, counted before anything is
@@ -227,6 +223,7 @@ pub fn parse(
     }
 
     // Each mesh's primitives decoded once, however many nodes instance it.
+    let textured = out.materials.iter().any(Material::is_textured);
     let mut decoded: Vec<Option<Vec<Option<Primitive>>>> = vec![None; root.meshes.len()];
     out.triangles.reserve(total as usize);
     for &(mesh, world) in &instances {
@@ -235,7 +232,7 @@ pub fn parse(
                 .primitives
                 .iter()
                 .enumerate()
-                .map(|(p, prim)| reader.primitive(mesh, p, prim))
+                .map(|(p, prim)| reader.primitive(mesh, p, prim, &sets))
                 .collect::<Result<Vec<_>>>()?;
             decoded[mesh] = Some(prims);
         }
@@ -247,6 +244,11 @@ pub fn parse(
                 let [a, b, c] = t.map(|i| to_world(prim.positions[i as usize]));
                 let tri = if mirrored { [a, c, b] } else { [a, b, c] };
                 out.triangles.push((tri, material));
+                if textured {
+                    let uv = |i: u32| prim.texcoords.get(i as usize).copied().unwrap_or(Vec2::ZERO);
+                    let [a, b, c] = t.map(uv);
+                    out.texcoords.push(if mirrored { [a, c, b] } else { [a, b, c] });
+                }
             }
         }
     }
@@ -544,6 +546,8 @@ pub fn material_of(index: usize, m: &json::Material) -> (Material, bool) {
         specular: base.map(|b| (0.04 * (1.0 - metallic) + b * metallic) as f32),
         shininess: shininess as f32,
         emission: emission.map(|e| e as f32),
+        diffuse_map: None,
+        emission_map: None,
     };
     (material, clamped)
 }
@@ -648,6 +652,9 @@ fn triangle_count(
 #[derive(Debug, Clone)]
 struct Primitive {
     positions: Vec<glam::Vec3>,
+    /// Texture coordinates of the set its material's maps read (empty:
+    /// untextured, or the primitive has none).
+    texcoords: Vec<Vec2>,
     indices: Vec<u32>,
     mode: Mode,
     material: u32,
@@ -956,8 +963,159 @@ impl Reader<'_> {
         Ok(())
     }
 
-    /// Primitive `p` of mesh `mesh`, decoded (`None`: not triangles).
-    fn primitive(&mut self, mesh: usize, p: usize, prim: &json::mesh::Primitive) -> Result<Option<Primitive>> {
+    /// The images the materials' `baseColorTexture` and `emissiveTexture`
+    /// name, loaded ([`texture::load_images`]: each image once, within the
+    /// texture budget; one that fails is a warning and its material keeps
+    /// its factor), into `out.textures`, and the maps set on
+    /// `out.materials` (glTF §3.9.2, §5.26 samplers' wrap modes,
+    /// `KHR_texture_transform`). Returns each material's texture
+    /// coordinate set (`TEXCOORD_n`), `None` for an untextured one.
+    ///
+    /// Errors: a texture, image or sampler index that names nothing.
+    fn textures(&mut self, out: &mut GltfFile) -> Result<Vec<Option<u32>>> {
+        let root = self.root;
+        // (material, emissive?, info) of every map, checked.
+        let mut uses: Vec<(usize, bool, &json::texture::Info)> = Vec::new();
+        let mut images: Vec<usize> = Vec::new();
+        for (i, m) in root.materials.iter().enumerate() {
+            let slots = [
+                (false, m.pbr_metallic_roughness.base_color_texture.as_ref(), "baseColorTexture"),
+                (true, m.emissive_texture.as_ref(), "emissiveTexture"),
+            ];
+            for (emissive, info, what) in slots {
+                let Some(info) = info else { continue };
+                let here = || format!("material {}: {what}", named(i, m.name.as_deref()));
+                let t = info.index.value();
+                let Some(tex) = root.textures.get(t) else {
+                    return Err(self.fail(format!("{}: texture {t} does not exist (the file has {})", here(), root.textures.len())));
+                };
+                let image = tex.source.value();
+                if image >= root.images.len() {
+                    return Err(self.fail(format!("{}: texture {t}'s image {image} does not exist (the file has {})", here(), root.images.len())));
+                }
+                if let Some(s) = tex.sampler {
+                    if s.value() >= root.samplers.len() {
+                        return Err(self.fail(format!("{}: texture {t}'s sampler {} does not exist", here(), s.value())));
+                    }
+                }
+                if !images.contains(&image) {
+                    images.push(image);
+                }
+                uses.push((i, emissive, info));
+            }
+        }
+        let path = self.path;
+        let (loaded, mut warnings) = texture::load_images(images.len(), |k| {
+            let i = images[k];
+            let image = &root.images[i];
+            let name = match (&image.name, &image.uri) {
+                (_, Some(uri)) if !uri.starts_with("data:") => format!("{}: image {i} ({uri:?})", path.display()),
+                (Some(n), _) => format!("{}: image {i} ({n:?})", path.display()),
+                _ => format!("{}: image {i}", path.display()),
+            };
+            (name, self.image_bytes(i))
+        });
+        out.warnings.append(&mut warnings);
+        let mut index: Vec<Option<u32>> = Vec::with_capacity(loaded.len());
+        for t in loaded {
+            index.push(t.map(|t| {
+                out.textures.push(t);
+                (out.textures.len() - 1) as u32
+            }));
+        }
+        let mut sets: Vec<Option<u32>> = vec![None; root.materials.len()];
+        let mut mixed: Vec<String> = Vec::new();
+        for (i, emissive, info) in uses {
+            let tex = &root.textures[info.index.value()];
+            let k = images.iter().position(|&im| im == tex.source.value()).unwrap_or(0);
+            let Some(texture) = index[k] else { continue };
+            let transform = info.extensions.as_ref().and_then(|e| e.texture_transform.as_ref());
+            let set = transform.and_then(|t| t.tex_coord).unwrap_or(info.tex_coord);
+            let wrap = |w: &Checked<json::texture::WrappingMode>| match w {
+                Checked::Valid(json::texture::WrappingMode::ClampToEdge) => Wrap::Clamp,
+                Checked::Valid(json::texture::WrappingMode::MirroredRepeat) => Wrap::Mirror,
+                _ => Wrap::Repeat,
+            };
+            let wraps = tex
+                .sampler
+                .map(|s| &root.samplers[s.value()])
+                .map_or([Wrap::Repeat; 2], |s| [wrap(&s.wrap_s), wrap(&s.wrap_t)]);
+            let map = TextureMap {
+                texture,
+                transform: transform.map_or(TextureMap::IDENTITY, |t| {
+                    // KHR_texture_transform: T · R · S, R = [cos sin; −sin cos].
+                    let finite = |v: f32, d: f32| if v.is_finite() { v } else { d };
+                    let (o, r, sc) = (t.offset.0, finite(t.rotation.0, 0.0), t.scale.0);
+                    let (sin, cos) = r.sin_cos();
+                    let (sx, sy) = (finite(sc[0], 1.0), finite(sc[1], 1.0));
+                    [cos * sx, sin * sy, finite(o[0], 0.0), -sin * sx, cos * sy, finite(o[1], 0.0)]
+                }),
+                wrap: wraps,
+            };
+            let m = &mut out.materials[i];
+            if emissive {
+                m.emission_map = Some(map);
+            } else {
+                m.diffuse_map = Some(map);
+            }
+            match sets[i] {
+                Some(s) if s != set => mixed.push(m.name.clone()),
+                Some(_) => {}
+                None => sets[i] = Some(set),
+            }
+        }
+        if !mixed.is_empty() {
+            out.warnings.push(format!(
+                "{}: material(s) {} read their colour and emission textures through different TEXCOORD sets; both use the colour texture's",
+                path.display(),
+                mixed.iter().take(LISTED).map(|n| format!("`{n}`")).collect::<Vec<_>>().join(", ")
+            ));
+        }
+        Ok(sets)
+    }
+
+    /// The bytes of image `i`: its buffer view, its `data:` URI, or the
+    /// file beside the glTF its URI names; `Err` says why not, in words.
+    fn image_bytes(&mut self, i: usize) -> std::result::Result<Vec<u8>, String> {
+        let image = &self.root.images[i];
+        let strip = |e: Error| {
+            let e = e.to_string();
+            let prefix = format!("{}: ", self.path.display());
+            e.strip_prefix(&prefix).unwrap_or(&e).to_string()
+        };
+        if let Some(v) = image.buffer_view {
+            let at = || format!("image {i}");
+            let (data, offset, len, _) = self.view(v.value(), &at).map_err(strip)?;
+            return Ok(data[offset..offset + len].to_vec());
+        }
+        match image.uri.as_deref() {
+            None => Err("neither a uri nor a buffer view".into()),
+            Some(uri) if uri.starts_with("data:") => {
+                let (head, body) = uri.split_once(',').unwrap_or((uri, ""));
+                if !head.ends_with(";base64") {
+                    return Err("a data URI that is not base64".into());
+                }
+                base64::engine::general_purpose::STANDARD
+                    .decode(body.trim())
+                    .map_err(|e| format!("its base64 data URI is malformed: {e}"))
+            }
+            Some(uri) if uri.contains("://") => Err("a URL; probeplace reads only files beside the glTF".into()),
+            Some(uri) => {
+                let name = percent_decode(uri).ok_or("its uri is malformed")?;
+                (self.external)(&name).map_err(|e| e.to_string())
+            }
+        }
+    }
+
+    /// Primitive `p` of mesh `mesh`, decoded (`None`: not triangles), with
+    /// the texture coordinates of the set `sets` gives its material.
+    fn primitive(
+        &mut self,
+        mesh: usize,
+        p: usize,
+        prim: &json::mesh::Primitive,
+        sets: &[Option<u32>],
+    ) -> Result<Option<Primitive>> {
         let root = self.root;
         let at = || format!("mesh {}, primitive {p}", mesh_name(root, mesh));
         let mode = match prim.mode {
@@ -1012,8 +1170,22 @@ impl Reader<'_> {
                 (0..positions.len() as u32).collect()
             }
         };
+        let set = sets.get(material as usize).copied().flatten();
+        let texcoords = match set.and_then(|n| prim.attributes.get(&Checked::Valid(Semantic::TexCoords(n)))) {
+            Some(&uv) => {
+                let at_uv = || format!("{} TEXCOORD_{}", at(), set.unwrap_or(0));
+                // Normalized 8/16-bit, or (KHR_mesh_quantization) plain
+                // integers, which a texture transform then scales.
+                let e = self.elements(uv.value(), Type::Vec2, &[F32, I8, U8, I16, U16], &at_uv)?;
+                (0..e.count)
+                    .map(|i| Vec2::new(e.get(i, 0) as f32, e.get(i, 1) as f32))
+                    .collect()
+            }
+            None => Vec::new(),
+        };
         Ok(Some(Primitive {
             positions,
+            texcoords,
             indices,
             mode,
             material,
@@ -1056,6 +1228,7 @@ mod tests {
     fn strips_and_fans_keep_the_first_triangles_winding() {
         let p = |mode| Primitive {
             positions: vec![glam::Vec3::ZERO; 5],
+            texcoords: Vec::new(),
             indices: vec![0, 1, 2, 3, 4],
             mode,
             material: 0,

@@ -19,14 +19,16 @@
 pub mod gltf;
 pub mod obj;
 pub mod raycast;
+pub mod texture;
 pub mod watertight;
 mod wide_bvh;
 
 use crate::config::params::UpAxis;
 use crate::error::{Error, Result};
-use glam::{DVec3, Vec3};
+use glam::{DVec3, Vec2, Vec3};
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 /// The subset of an MTL material that the lighting stages use
 /// (McGuire et al. 2017 §3 bakes radiance from Lambertian + glossy surfaces).
@@ -42,6 +44,12 @@ pub struct Material {
     pub shininess: f32,
     /// Emitted radiance `Ke`.
     pub emission: [f32; 3],
+    /// A colour texture (`map_Kd`, glTF's `baseColorTexture`): the diffuse
+    /// albedo at a point is `diffuse ×` its texel ([`texture`] module docs).
+    pub diffuse_map: Option<texture::TextureMap>,
+    /// An emission texture (`map_Ke`, glTF's `emissiveTexture`): the
+    /// emitted radiance at a point is `emission ×` its texel.
+    pub emission_map: Option<texture::TextureMap>,
 }
 
 impl Material {
@@ -53,7 +61,14 @@ impl Material {
             specular: [0.0; 3],
             shininess: 1.0,
             emission: [0.0; 3],
+            diffuse_map: None,
+            emission_map: None,
         }
+    }
+
+    /// Whether either colour varies over the surface (a texture map).
+    pub fn is_textured(&self) -> bool {
+        self.diffuse_map.is_some() || self.emission_map.is_some()
     }
 }
 
@@ -147,6 +162,12 @@ pub struct Scene {
     /// The file format it was read from: `"obj"` ([`load_obj`]), `"gltf"`
     /// ([`load_gltf`]), or `"generated"` for triangles given in code.
     pub format: &'static str,
+    /// Texture coordinates of each triangle's corners (glTF's convention:
+    /// [`texture`] module docs), or empty when no material has a texture
+    /// (most scenes: their triangles then carry none).
+    pub texcoords: Vec<[Vec2; 3]>,
+    /// The decoded textures the materials' maps index.
+    pub textures: Vec<Arc<texture::Texture>>,
 }
 
 impl Scene {
@@ -159,7 +180,30 @@ impl Scene {
         triangles: impl IntoIterator<Item = ([Vec3; 3], u32)>,
         materials: Vec<Material>,
     ) -> Result<Scene> {
-        Scene::assemble(source, DVec3::ZERO, 0, triangles, materials)
+        Scene::assemble(source, DVec3::ZERO, 0, triangles, materials, Vec::new())
+    }
+
+    /// [`Scene::from_triangles`] with texture coordinates for each triangle
+    /// and the `textures` its materials' maps index (procedural scenes and
+    /// tests of textured materials).
+    ///
+    /// Contract: every map of `materials` indexes `textures`; an error
+    /// ([`Error::User`]) otherwise.
+    pub fn from_textured_triangles(
+        source: PathBuf,
+        triangles: impl IntoIterator<Item = ([Vec3; 3], u32, [Vec2; 3])>,
+        materials: Vec<Material>,
+        textures: Vec<Arc<texture::Texture>>,
+    ) -> Result<Scene> {
+        let (triangles, uvs): (Vec<_>, Vec<_>) =
+            triangles.into_iter().map(|(t, m, uv)| ((t, m), uv)).unzip();
+        let maps = materials.iter().flat_map(|m| [m.diffuse_map, m.emission_map]);
+        if maps.flatten().any(|m| m.texture as usize >= textures.len()) {
+            return Err(Error::user_file(&source, "a material's texture map names no texture"));
+        }
+        let mut scene = Scene::assemble(source, DVec3::ZERO, 0, triangles, materials, uvs)?;
+        scene.textures = textures;
+        Ok(scene)
     }
 
     /// Builds a scene from triangles in world coordinates (f64): the origin
@@ -173,19 +217,21 @@ impl Scene {
         materials: Vec<Material>,
     ) -> Result<Scene> {
         let all: Vec<([DVec3; 3], u32)> = triangles.into_iter().collect();
-        Scene::from_world(source, all.len(), |i| all[i], materials)
+        Scene::from_world(source, all.len(), |i| all[i], materials, Vec::new())
     }
 
     /// [`Scene::from_world_triangles`] of the `n` triangles `triangle(0)`,
     /// `triangle(1)`, … The tests and conversions run in parallel (millions
     /// of triangles in a large scene); the origin is the minimum taken in
     /// file order, so that which of a −0 and a +0 it keeps does not depend
-    /// on how the work was split.
+    /// on how the work was split. `texcoords` is empty, or holds the `n`
+    /// triangles' texture coordinates.
     fn from_world(
         source: PathBuf,
         n: usize,
         triangle: impl Fn(usize) -> ([DVec3; 3], u32) + Sync,
         materials: Vec<Material>,
+        mut texcoords: Vec<[Vec2; 3]>,
     ) -> Result<Scene> {
         let kept: Vec<bool> = (0..n)
             .into_par_iter()
@@ -209,8 +255,12 @@ impl Scene {
         if dropped > 0 {
             let mut keep = kept.iter();
             local.retain(|_| keep.next() == Some(&true));
+            if !texcoords.is_empty() {
+                let mut keep = kept.iter();
+                texcoords.retain(|_| keep.next() == Some(&true));
+            }
         }
-        Scene::assemble(source, origin, dropped, local, materials)
+        Scene::assemble(source, origin, dropped, local, materials, texcoords)
     }
 
     /// The world position of local point `p`, in f64 (for outputs).
@@ -225,13 +275,15 @@ impl Scene {
     }
 
     /// A scene with `origin` from local `triangles`, `dropped` faces already
-    /// dropped by the caller.
+    /// dropped by the caller; `texcoords` empty or one per triangle, kept
+    /// only when a material has a texture map.
     fn assemble(
         source: PathBuf,
         origin: DVec3,
         dropped: usize,
         triangles: impl IntoIterator<Item = ([Vec3; 3], u32)>,
         materials: Vec<Material>,
+        texcoords: Vec<[Vec2; 3]>,
     ) -> Result<Scene> {
         let mut scene = Scene {
             source,
@@ -245,7 +297,10 @@ impl Scene {
             warnings: Vec::new(),
             lights: Vec::new(),
             format: "generated",
+            texcoords: Vec::new(),
+            textures: Vec::new(),
         };
+        let textured = scene.materials.iter().any(Material::is_textured);
         scene.materials.push(Material::fallback());
         let fallback = (scene.materials.len() - 1) as u32;
         // The arrays are filled in parallel, in order; the bounds grow in
@@ -264,12 +319,18 @@ impl Scene {
                 fallback
             }
         };
+        let texcoords = if textured && texcoords.len() == triangles.len() {
+            texcoords
+        } else {
+            Vec::new()
+        };
         if normals.iter().all(Option::is_some) {
             scene.triangles = triangles.par_iter().map(|&(tri, _)| tri).collect();
             scene.material_ids = triangles.par_iter().map(|&(_, m)| material(m)).collect();
             scene.normals = normals.par_iter().map(|n| n.unwrap_or_default()).collect();
+            scene.texcoords = texcoords;
         } else {
-            for ((tri, m), normal) in triangles.into_iter().zip(normals) {
+            for (i, ((tri, m), normal)) in triangles.into_iter().zip(normals).enumerate() {
                 let Some(normal) = normal else {
                     scene.dropped_triangles += 1;
                     continue;
@@ -277,6 +338,9 @@ impl Scene {
                 scene.triangles.push(tri);
                 scene.normals.push(normal);
                 scene.material_ids.push(material(m));
+                if let Some(uv) = texcoords.get(i) {
+                    scene.texcoords.push(*uv);
+                }
             }
         }
         for tri in &scene.triangles {
@@ -313,6 +377,36 @@ impl Scene {
             ));
         }
         Ok(())
+    }
+
+    /// The texture coordinates at local point `p` of triangle `triangle`
+    /// (interpolated from its corners'), or zero where the scene has none.
+    ///
+    /// Contract: `triangle` indexes [`Scene::triangles`]; `p` on (or near)
+    /// its plane. Allocation-free.
+    pub fn texcoord_at(&self, triangle: usize, p: Vec3) -> Vec2 {
+        match self.texcoords.get(triangle) {
+            Some(uv) => texture::interpolate(uv, texture::barycentric(&self.triangles[triangle], p)),
+            None => Vec2::ZERO,
+        }
+    }
+
+    /// The diffuse colour factor of `material` at texture coordinates `uv`:
+    /// `Kd` times its colour texture's texel, if it has one.
+    pub fn diffuse_at(&self, material: &Material, uv: Vec2) -> [f32; 3] {
+        match material.diffuse_map {
+            Some(map) => (Vec3::from(material.diffuse) * map.sample(&self.textures, uv)).to_array(),
+            None => material.diffuse,
+        }
+    }
+
+    /// The emission of `material` at texture coordinates `uv`: `Ke` times
+    /// its emission texture's texel, if it has one.
+    pub fn emission_at(&self, material: &Material, uv: Vec2) -> [f32; 3] {
+        match material.emission_map {
+            Some(map) => (Vec3::from(material.emission) * map.sample(&self.textures, uv)).to_array(),
+            None => material.emission,
+        }
     }
 
     /// Total surface area (one side of each triangle).
@@ -392,9 +486,29 @@ pub fn load_obj(path: &Path, scale: f64, up: UpAxis) -> Result<Scene> {
     let obj::ObjFile {
         positions,
         triangles,
-        materials,
+        mut materials,
         mut warnings,
+        texcoords,
+        triangle_texcoords,
+        maps,
     } = obj::read(path)?;
+    let textures = obj_textures(&mut materials, &maps, &mut warnings);
+    let textured = materials.iter().any(Material::is_textured);
+    let uvs: Vec<[Vec2; 3]> = if textured && !triangle_texcoords.is_empty() {
+        triangle_texcoords
+            .par_iter()
+            .map(|t| {
+                t.map(|i| match texcoords.get(i as usize) {
+                    // OBJ's v grows upwards, the image's rows downwards.
+                    Some(&[u, v]) => Vec2::new(u, 1.0 - v),
+                    None => Vec2::ZERO,
+                })
+            })
+            .collect()
+    } else {
+        Vec::new()
+    };
+    drop((texcoords, triangle_texcoords));
     let world: Vec<DVec3> = positions
         .par_iter()
         .map(|&p| file_to_world(p, scale, up))
@@ -404,11 +518,78 @@ pub fn load_obj(path: &Path, scale: f64, up: UpAxis) -> Result<Scene> {
         let (t, material) = triangles[i];
         (t.map(|v| world[v as usize]), material)
     };
-    let mut scene = Scene::from_world(path.to_path_buf(), triangles.len(), triangle, materials)?;
+    let mut scene =
+        Scene::from_world(path.to_path_buf(), triangles.len(), triangle, materials, uvs)?;
     warnings.append(&mut scene.warnings);
     scene.warnings = warnings;
     scene.format = "obj";
+    scene.textures = textures;
     Ok(scene)
+}
+
+/// Loads the images an OBJ's materials map (each file once, however many
+/// materials name it) and sets the materials' [`texture::TextureMap`]s;
+/// a map whose image did not load is left out, with a warning
+/// ([`texture::load_images`]).
+fn obj_textures(
+    materials: &mut [Material],
+    maps: &[obj::MapSpec],
+    warnings: &mut Vec<String>,
+) -> Vec<Arc<texture::Texture>> {
+    let mut files: Vec<&Path> = Vec::new();
+    for m in maps {
+        if !files.contains(&m.file.as_path()) {
+            files.push(&m.file);
+        }
+    }
+    let limit = crate::limits::memory_budget();
+    let (images, mut more) = texture::load_images(files.len(), |i| {
+        let file = files[i];
+        let name = file.display().to_string();
+        if !file.exists() {
+            return (name, Err("texture not found".into()));
+        }
+        let bytes = crate::input::read(file, "texture", limit).map_err(|e| {
+            let e = e.to_string();
+            e.strip_prefix(&format!("{name}: ")).unwrap_or(&e).to_string()
+        });
+        (name, bytes)
+    });
+    warnings.append(&mut more);
+    let mut textures = Vec::new();
+    let mut index: Vec<Option<u32>> = Vec::with_capacity(images.len());
+    for image in images {
+        index.push(image.map(|t| {
+            textures.push(t);
+            (textures.len() - 1) as u32
+        }));
+    }
+    for m in maps {
+        let file = files.iter().position(|f| *f == m.file.as_path()).unwrap_or(0);
+        let Some(texture) = index[file] else {
+            continue;
+        };
+        let [su, sv] = m.scale;
+        let [ou, ov] = m.offset;
+        // MTL's `-s`/`-o` act in OBJ's v-up coordinates; the scene stores
+        // v flipped (`w = 1 − v`), so `1 − (sv (1 − w) + ov)`.
+        let map = texture::TextureMap {
+            texture,
+            transform: [su, 0.0, ou, 0.0, sv, 1.0 - sv - ov],
+            wrap: [if m.clamp {
+                texture::Wrap::Clamp
+            } else {
+                texture::Wrap::Repeat
+            }; 2],
+        };
+        let slot = &mut materials[m.material];
+        if m.emission {
+            slot.emission_map = Some(map);
+        } else {
+            slot.diffuse_map = Some(map);
+        }
+    }
+    textures
 }
 
 /// The scene format of `path`: glTF 2.0 for a `.gltf` or `.glb` name (any
@@ -454,9 +635,13 @@ pub fn load_gltf(path: &Path, scale: f64, up: UpAxis) -> Result<Scene> {
         materials,
         lights,
         mut warnings,
+        texcoords,
+        textures,
     } = gltf::read(path, scale, up)?;
     let n = triangles.len();
-    let mut scene = Scene::from_world(path.to_path_buf(), n, |i| triangles[i], materials)?;
+    let mut scene =
+        Scene::from_world(path.to_path_buf(), n, |i| triangles[i], materials, texcoords)?;
+    scene.textures = textures;
     warnings.append(&mut scene.warnings);
     scene.warnings = warnings;
     scene.lights = lights;

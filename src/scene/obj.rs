@@ -1,11 +1,14 @@
 //! The Wavefront OBJ and MTL reader: streaming, bounded, and precise about
 //! where a file is wrong.
 //!
-//! Only what the stages use is read: vertex positions (`v`), faces (`f`,
-//! any of the `v`, `v/t`, `v//n`, `v/t/n` forms, negative indices
-//! relative to the vertices read so far), material libraries (`mtllib`)
-//! and switches (`usemtl`); every other statement is skipped, as OBJ
-//! readers do. Polygons are fan-triangulated from their first vertex, the
+//! Only what the stages use is read: vertex positions (`v`), texture
+//! coordinates (`vt`), faces (`f`, any of the `v`, `v/t`, `v//n`, `v/t/n`
+//! forms, negative indices relative to the vertices read so far),
+//! material libraries (`mtllib`) and switches (`usemtl`); every other
+//! statement is skipped, as OBJ readers do. Texture coordinates are
+//! lenient, since they only colour a surface: a `vt` that is no number
+//! reads as `0 0`, and a face's texture index that names no `vt` leaves
+//! the face untextured; both are counted in one warning. Polygons are fan-triangulated from their first vertex, the
 //! triangulation tobj and most engines apply, so a quad's two triangles
 //! are `(0,1,2)` and `(0,2,3)`.
 //!
@@ -21,6 +24,11 @@
 //! `Kd` and `Ks` components to [0, 1] (non-finite: the default, 0.8 and
 //! 0); `Ke` components to [0, [`MAX_EMISSION`]] (non-finite: 0); `Ns` to
 //! [0, [`MAX_SHININESS`]] (non-finite: the default 1).
+//!
+//! Texture maps: `map_Kd` and `map_Ke` (the file name, relative to the MTL,
+//! after the options), with the options `-o u v` (offset), `-s u v`
+//! (scale) and `-clamp on`; other options are skipped with their
+//! arguments. The images are decoded by [`super::texture`].
 
 use super::Material;
 use crate::error::{Error, Result};
@@ -69,6 +77,13 @@ pub struct ObjFile {
     pub triangles: Vec<([u32; 3], u32)>,
     /// Materials of every `mtllib`, in library order.
     pub materials: Vec<Material>,
+    /// `vt` statements `(u, v)`, in file order (OBJ's convention: `v` up).
+    pub texcoords: Vec<[f32; 2]>,
+    /// Each triangle's `vt` indices (`u32::MAX`: none), parallel to
+    /// `triangles`; empty when the file has no `vt`.
+    pub triangle_texcoords: Vec<[u32; 3]>,
+    /// The texture maps the materials name, to be loaded.
+    pub maps: Vec<MapSpec>,
     /// What was repaired or skipped, in words.
     pub warnings: Vec<String>,
 }
@@ -122,10 +137,38 @@ const FAR: i64 = 1 << 40;
 /// Offset of relative indices in a [`PendingTriangle`].
 const RELATIVE: i64 = -(1 << 42);
 
+/// A texture map an MTL names: which material and slot, the image file
+/// (relative to the MTL's folder, resolved), and how it is applied.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MapSpec {
+    /// Index into [`ObjFile::materials`].
+    pub material: usize,
+    /// `map_Ke` (true) or `map_Kd` (false).
+    pub emission: bool,
+    /// The image file.
+    pub file: PathBuf,
+    /// Offset and scale (`-o`, `-s`), and whether it clamps (`-clamp on`).
+    pub offset: [f32; 2],
+    /// Scale `-s`.
+    pub scale: [f32; 2],
+    /// `-clamp on`.
+    pub clamp: bool,
+}
+
+/// A face corner's texture index as [`parse_batched`] holds it before the
+/// pieces before its own are counted: [`PendingTriangle`]'s encoding, or
+/// [`NO_TEXCOORD`].
+const NO_TEXCOORD: i64 = i64::MIN;
+
 /// What one piece of a batch holds, in file order.
 #[derive(Default)]
 struct Piece {
     positions: Vec<DVec3>,
+    texcoords: Vec<[f32; 2]>,
+    /// Texture indices of `triangles`, in the same encoding (or [`NO_TEXCOORD`]).
+    triangle_texcoords: Vec<[i64; 3]>,
+    /// `vt` statements that were no numbers.
+    bad_texcoords: usize,
     /// Triangles, with the `usemtl` statement of this piece in force
     /// (index into `usemtl`), or [`INHERITED`] before the first.
     triangles: Vec<PendingTriangle>,
@@ -184,6 +227,7 @@ fn parse_batches(
     let mut materials = MaterialState::default();
     let mut current = u32::MAX;
     let mut text: Vec<u8> = Vec::new();
+    let mut bad_texcoords = 0usize;
     loop {
         let before = text.len();
         (&mut reader)
@@ -212,7 +256,9 @@ fn parse_batches(
         // Each piece's first vertex, and the `usemtl` in force at its start
         // with what its own `usemtl` statements name, in file order.
         let mut joins: Vec<(i64, u32, Vec<u32>)> = Vec::with_capacity(parsed.len());
+        let mut texcoord_bases: Vec<i64> = Vec::with_capacity(parsed.len());
         let mut base = obj.positions.len() as i64;
+        let mut texcoord_base = obj.texcoords.len() as i64;
         for piece in &parsed {
             if piece.reach_back >= base {
                 return None;
@@ -221,7 +267,9 @@ fn parse_batches(
             let inherited = current;
             current = events.last().copied().unwrap_or(current);
             joins.push((base, inherited, events));
+            texcoord_bases.push(texcoord_base);
             base += piece.positions.len() as i64;
+            texcoord_base += piece.texcoords.len() as i64;
         }
         let resolved: Vec<Vec<([u32; 3], u32)>> = parsed
             .par_iter()
@@ -249,9 +297,18 @@ fn parse_batches(
                     .collect()
             })
             .collect::<Option<_>>()?;
-        for (piece, triangles) in parsed.into_iter().zip(resolved) {
+        for ((piece, triangles), texcoord_base) in parsed.into_iter().zip(resolved).zip(texcoord_bases) {
             obj.positions.extend(piece.positions);
             obj.triangles.extend(triangles);
+            obj.texcoords.extend(piece.texcoords);
+            bad_texcoords += piece.bad_texcoords;
+            obj.triangle_texcoords.extend(piece.triangle_texcoords.iter().map(|t| {
+                t.map(|i| match i {
+                    NO_TEXCOORD => u32::MAX,
+                    i if i >= 0 => u32::try_from(i).unwrap_or(u32::MAX),
+                    i => u32::try_from(texcoord_base + (i - RELATIVE)).unwrap_or(u32::MAX),
+                })
+            }));
             for libs in &piece.mtllib {
                 let libs = libs.iter().map(String::as_str);
                 materials.load(&mut obj, libs, library).ok()?;
@@ -270,6 +327,7 @@ fn parse_batches(
         text = rest;
     }
     materials.resolve(&mut obj, name);
+    check_texcoords(&mut obj, name, bad_texcoords);
     Some(obj)
 }
 
@@ -297,6 +355,7 @@ fn parse_piece(text: &[u8]) -> Option<Piece> {
         ..Piece::default()
     };
     let mut face: Vec<i64> = Vec::new();
+    let mut corners_uv: Vec<i64> = Vec::new();
     for mut line in text.split(|&b| b == b'\n') {
         if line.len() > input::MAX_LINE_BYTES {
             return None;
@@ -305,9 +364,25 @@ fn parse_piece(text: &[u8]) -> Option<Piece> {
             line = &line[..line.len() - 1];
         }
         let text = String::from_utf8_lossy(line);
-        match statement(uncommented(&text), &mut face).ok()? {
+        match statement(uncommented(&text), &mut face, &mut corners_uv).ok()? {
             Statement::Vertex(p) => piece.positions.push(p),
+            Statement::TexCoord(uv) => match uv {
+                Some(uv) => piece.texcoords.push(uv),
+                None => {
+                    piece.texcoords.push([0.0; 2]);
+                    piece.bad_texcoords += 1;
+                }
+            },
             Statement::Face => {
+                let vts = piece.texcoords.len() as i64;
+                for i in corners_uv.iter_mut() {
+                    *i = match *i {
+                        0 => NO_TEXCOORD,
+                        i if !(-FAR..=FAR).contains(&i) => NO_TEXCOORD,
+                        i if i > 0 => i - 1,
+                        i => RELATIVE + vts + i,
+                    };
+                }
                 let count = piece.positions.len() as i64;
                 for i in face.iter_mut() {
                     *i = match *i {
@@ -326,6 +401,11 @@ fn parse_piece(text: &[u8]) -> Option<Piece> {
                     piece
                         .triangles
                         .push(([face[0], face[k], face[k + 1]], material));
+                    piece.triangle_texcoords.push([
+                        corners_uv[0],
+                        corners_uv[k],
+                        corners_uv[k + 1],
+                    ]);
                 }
             }
             Statement::UseMtl(name) => piece.usemtl.push(name.to_string()),
@@ -342,9 +422,12 @@ fn parse_piece(text: &[u8]) -> Option<Piece> {
 enum Statement<'a> {
     /// `v x y z`.
     Vertex(DVec3),
+    /// `vt u [v [w]]` (`None`: not numbers).
+    TexCoord(Option<[f32; 2]>),
     /// `f i j k …`: the face's position indices as written (1-based,
     /// negative relative to the vertices read so far) are in the buffer
-    /// [`statement`] was given.
+    /// [`statement`] was given, its texture indices (0: none, or not an
+    /// index) in the second.
     Face,
     /// `usemtl NAME` (the rest of the line).
     UseMtl(&'a str),
@@ -379,6 +462,7 @@ fn uncommented(line: &str) -> &str {
 fn statement<'a>(
     text: &'a str,
     face: &mut Vec<i64>,
+    texcoords: &mut Vec<i64>,
 ) -> std::result::Result<Statement<'a>, Problem<'a>> {
     let mut words = text.split_ascii_whitespace();
     let Some(keyword) = words.next() else {
@@ -393,14 +477,29 @@ fn statement<'a>(
             }
             Statement::Vertex(DVec3::from_array(c))
         }
+        "vt" => {
+            let mut c = [0.0f32; 2];
+            let mut ok = true;
+            for (i, slot) in c.iter_mut().enumerate() {
+                match words.next().map(str::parse::<f32>) {
+                    Some(Ok(v)) if v.is_finite() => *slot = v,
+                    None if i == 1 => {}
+                    _ => ok = false,
+                }
+            }
+            Statement::TexCoord(ok.then_some(c))
+        }
         "f" => {
             face.clear();
+            texcoords.clear();
             for w in words {
                 if face.len() == MAX_FACE_VERTICES {
                     return Err(Problem::FaceTooLong);
                 }
-                let index = w.split('/').next().unwrap_or("");
+                let mut parts = w.split('/');
+                let index = parts.next().unwrap_or("");
                 face.push(index.parse().map_err(|_| Problem::Index(w))?);
+                texcoords.push(parts.next().and_then(|t| t.parse().ok()).unwrap_or(0));
             }
             if face.len() < 3 {
                 return Err(Problem::FaceTooShort(face.len()));
@@ -452,6 +551,9 @@ pub fn parse(
     let mut line = Vec::new();
     let mut face: Vec<i64> = Vec::new();
     let mut corners: Vec<u32> = Vec::new();
+    let mut face_texcoords: Vec<i64> = Vec::new();
+    let mut corner_texcoords: Vec<u32> = Vec::new();
+    let mut bad_texcoords = 0usize;
     let mut n = 0usize;
     let at = |n: usize, msg: String| Error::User(format!("{}:{n}: {msg}", name.display()));
     loop {
@@ -497,7 +599,7 @@ pub fn parse(
             }
         }
         let text = String::from_utf8_lossy(&line);
-        let parsed = statement(uncommented(&text), &mut face).map_err(|p| {
+        let parsed = statement(uncommented(&text), &mut face, &mut face_texcoords).map_err(|p| {
             at(
                 n,
                 match p {
@@ -519,7 +621,22 @@ pub fn parse(
         })?;
         match parsed {
             Statement::Vertex(p) => obj.positions.push(p),
+            Statement::TexCoord(uv) => {
+                if uv.is_none() {
+                    bad_texcoords += 1;
+                }
+                obj.texcoords.push(uv.unwrap_or([0.0; 2]));
+            }
             Statement::Face => {
+                let vts = obj.texcoords.len() as i64;
+                corner_texcoords.clear();
+                for &i in &face_texcoords {
+                    corner_texcoords.push(match i {
+                        0 => u32::MAX,
+                        i if i > 0 => u32::try_from(i - 1).unwrap_or(u32::MAX),
+                        i => u32::try_from(vts + i).unwrap_or(u32::MAX),
+                    });
+                }
                 let count = obj.positions.len() as i64;
                 corners.clear();
                 for &i in &face {
@@ -537,6 +654,11 @@ pub fn parse(
                 for k in 1..corners.len() - 1 {
                     obj.triangles
                         .push(([corners[0], corners[k], corners[k + 1]], current));
+                    obj.triangle_texcoords.push([
+                        corner_texcoords[0],
+                        corner_texcoords[k],
+                        corner_texcoords[k + 1],
+                    ]);
                 }
             }
             Statement::UseMtl(m) => current = materials.used(m),
@@ -545,7 +667,34 @@ pub fn parse(
         }
     }
     materials.resolve(&mut obj, name);
+    check_texcoords(&mut obj, name, bad_texcoords);
     Ok(obj)
+}
+
+/// What both readers do once the file is read: texture indices that name
+/// no `vt` become none, and the repairs are counted in one warning; a
+/// file without `vt` keeps no texture indices.
+fn check_texcoords(obj: &mut ObjFile, name: &Path, bad: usize) {
+    if obj.texcoords.is_empty() {
+        obj.triangle_texcoords = Vec::new();
+        return;
+    }
+    let n = obj.texcoords.len();
+    let mut unnamed = 0usize;
+    for t in obj.triangle_texcoords.iter_mut() {
+        for i in t.iter_mut() {
+            if *i != u32::MAX && *i as usize >= n {
+                *i = u32::MAX;
+                unnamed += 1;
+            }
+        }
+    }
+    if bad + unnamed > 0 {
+        obj.warnings.push(format!(
+            "{}: {bad} `vt` statement(s) that are not numbers (read as 0 0) and {unnamed} face corner(s) whose texture index names no `vt` (left untextured)",
+            name.display()
+        ));
+    }
 }
 
 /// What both OBJ readers keep of materials while they read: the libraries
@@ -591,7 +740,12 @@ impl MaterialState {
             match library(lib)? {
                 Library::Missing(w) => obj.warnings.push(w),
                 Library::Text(path, text) => {
-                    let (materials, mut warnings) = parse_mtl(&text, &path);
+                    let (materials, maps, mut warnings) = parse_mtl(&text, &path);
+                    let first = obj.materials.len();
+                    obj.maps.extend(maps.into_iter().map(|mut m| {
+                        m.material += first;
+                        m
+                    }));
                     for m in materials {
                         self.names
                             .insert(m.name.clone(), obj.materials.len() as u32);
@@ -661,10 +815,14 @@ fn short(word: &str) -> String {
     }
 }
 
-/// The materials of one MTL text (`path` for messages) and the warnings
-/// its values raised (module docs: what is clamped).
-pub fn parse_mtl(text: &str, path: &Path) -> (Vec<Material>, Vec<String>) {
+/// The materials of one MTL text (`path` for messages), the texture maps
+/// they name (image files relative to `path`'s folder) and the warnings
+/// its values raised (module docs: what is clamped, which map options
+/// are read).
+pub fn parse_mtl(text: &str, path: &Path) -> (Vec<Material>, Vec<MapSpec>, Vec<String>) {
     let mut materials: Vec<Material> = Vec::new();
+    let mut maps: Vec<MapSpec> = Vec::new();
+    let dir = path.parent().unwrap_or(Path::new(""));
     let mut warnings: Vec<String> = Vec::new();
     let mut repaired = 0usize;
     let mut warn = |w: String| {
@@ -685,6 +843,7 @@ pub fn parse_mtl(text: &str, path: &Path) -> (Vec<Material>, Vec<String>) {
             materials.push(m);
             continue;
         }
+        let slot = materials.len().wrapping_sub(1);
         let Some(m) = materials.last_mut() else {
             continue;
         };
@@ -696,6 +855,22 @@ pub fn parse_mtl(text: &str, path: &Path) -> (Vec<Material>, Vec<String>) {
                 m.name
             )
         };
+        if keyword == "map_Kd" || keyword == "map_Ke" {
+            let emission = keyword == "map_Ke";
+            maps.retain(|m| !(m.material == slot && m.emission == emission));
+            match map_statement(rest_of(line, keyword)) {
+                Some((file, offset, scale, clamp)) => maps.push(MapSpec {
+                    material: slot,
+                    emission,
+                    file: dir.join(file),
+                    offset,
+                    scale,
+                    clamp,
+                }),
+                None => warn(here(format!("{keyword} names no file; ignored"))),
+            }
+            continue;
+        }
         let values: Vec<&str> = words.collect();
         match keyword {
             "Kd" | "Ks" | "Ke" => {
@@ -766,7 +941,58 @@ pub fn parse_mtl(text: &str, path: &Path) -> (Vec<Material>, Vec<String>) {
             repaired - LISTED_WARNINGS
         ));
     }
-    (materials, warnings)
+    (materials, maps, warnings)
+}
+
+/// Arguments each texture-map option of the MTL format takes (Wavefront's
+/// MTL specification, "Texture map statements"); `-o`, `-s` and `-t` take
+/// one to three numbers, counted as they come.
+fn option_arguments(option: &str) -> Option<usize> {
+    Some(match option {
+        "-blendu" | "-blendv" | "-cc" | "-clamp" | "-imfchan" | "-texres" | "-type" => 1,
+        "-bm" | "-boost" => 1,
+        "-mm" => 2,
+        "-o" | "-s" | "-t" => 3,
+        _ => return None,
+    })
+}
+
+/// A `map_Kd`/`map_Ke` statement's arguments: the file (the rest after
+/// the options, so that names with spaces survive), the `-o` offset, the
+/// `-s` scale and `-clamp on`. `None` when no file name is left.
+fn map_statement(args: &str) -> Option<(String, [f32; 2], [f32; 2], bool)> {
+    let mut offset = [0.0f32; 2];
+    let mut scale = [1.0f32; 2];
+    let mut clamp = false;
+    let mut rest = args.trim();
+    while rest.starts_with('-') {
+        let (option, after) = rest.split_once(char::is_whitespace).unwrap_or((rest, ""));
+        let Some(count) = option_arguments(option) else {
+            break;
+        };
+        rest = after.trim_start();
+        let mut numbers = Vec::new();
+        for k in 0..count {
+            let (word, after) = rest.split_once(char::is_whitespace).unwrap_or((rest, ""));
+            // -o, -s and -t take up to three numbers; stop at the first word
+            // that is not one.
+            let number = word.parse::<f32>().ok().filter(|v| v.is_finite());
+            if count == 3 && k > 0 && number.is_none() {
+                break;
+            }
+            if option == "-clamp" {
+                clamp = word == "on";
+            }
+            numbers.push(number.unwrap_or(0.0));
+            rest = after.trim_start();
+        }
+        match option {
+            "-o" => offset = [numbers[0], numbers.get(1).copied().unwrap_or(0.0)],
+            "-s" => scale = [numbers[0], numbers.get(1).copied().unwrap_or(1.0)],
+            _ => {}
+        }
+    }
+    (!rest.is_empty()).then(|| (rest.to_string(), offset, scale, clamp))
 }
 
 /// `r g b`, or one value for all three.
@@ -900,6 +1126,9 @@ mod tests {
                 assert_eq!(a.triangles, b.triangles, "{text:?}");
                 assert_eq!(a.materials, b.materials, "{text:?}");
                 assert_eq!(a.warnings, b.warnings, "{text:?}");
+                assert_eq!(a.texcoords, b.texcoords, "{text:?}");
+                assert_eq!(a.triangle_texcoords, b.triangle_texcoords, "{text:?}");
+                assert_eq!(a.maps, b.maps, "{text:?}");
                 true
             }
             (Err(_), None) => false,
@@ -921,6 +1150,8 @@ mod tests {
             "v 1e300 -0 0\nv 1 0 0 1\nv 0 1 0\nvt 0 0\nf 1 2 3\n",
             "",
             "# nothing\n",
+            // Texture coordinates: relative, forward, missing, malformed.
+            "vt 0 0\nvt 1 0\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1/1 2/-1 3/3\nvt 0.5 x\nvt 0.25\nf 1/-2 2/4 3/-1\nf 1/x 2//1 3/0\nvt 1 1 1\n",
         ];
         let bad = [
             "v 0 0 0\nv 1 x 0\n",
@@ -942,6 +1173,31 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn texture_coordinates_resolve_and_bad_ones_leave_corners_untextured() {
+        let obj = parse_text(
+            "mtllib t.mtl\nvt 0 0\nvt 1 0\nv 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1/1 2/-1 3/3 4/9\nvt 0.5 x\nf 1/-3 2 3/-1\n",
+            "newmtl a\nmap_Kd -s 2 3 -o 0.5 -blendu off -clamp on my file.png\nmap_Ke glow.jpg\nnewmtl b\nmap_Kd -bm 1\n",
+        )
+        .unwrap();
+        assert_eq!(obj.texcoords, [[0.0, 0.0], [1.0, 0.0], [0.0, 0.0]]);
+        let none = u32::MAX;
+        // A quad's two triangles; then a face whose middle corner has none.
+        assert_eq!(
+            obj.triangle_texcoords,
+            [[0, 1, 2], [0, 2, none], [0, none, 2]]
+        );
+        assert!(obj.warnings.iter().any(|w| w.contains("1 `vt` statement(s) that are not numbers")
+            && w.contains("1 face corner(s) whose texture index names no `vt`")), "{:?}", obj.warnings);
+        let file = |m: &MapSpec| m.file.to_string_lossy().into_owned();
+        assert_eq!(obj.maps.len(), 2, "{:?}", obj.maps);
+        assert_eq!((file(&obj.maps[0]), obj.maps[0].emission), ("my file.png".into(), false));
+        assert_eq!((obj.maps[0].scale, obj.maps[0].offset, obj.maps[0].clamp), ([2.0, 3.0], [0.5, 0.0], true));
+        assert_eq!((file(&obj.maps[1]), obj.maps[1].emission), ("glow.jpg".into(), true));
+        // `map_Kd -bm 1` names no file.
+        assert!(obj.warnings.iter().any(|w| w.contains("material `b`: map_Kd names no file")), "{:?}", obj.warnings);
     }
 
     #[test]

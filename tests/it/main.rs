@@ -27,5 +27,6 @@ mod refine;
 mod render;
 mod report_html;
 mod svo;
+mod textures;
 mod tiles;
 mod translation;

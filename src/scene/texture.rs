@@ -1,0 +1,540 @@
+//! Colour and emission textures: decoded once at load (PNG or JPEG), kept
+//! as 8-bit sRGB, and read at hit points with bilinear filtering in linear
+//! light.
+//!
+//! Why textures matter to probe placement at all: the light a probe stores
+//! is what the surfaces around it reflect, and their albedo decides how
+//! much of it bounces (McGuire et al. 2017 §3 bakes radiance "from the
+//! scene's materials"; Wang et al. 2019 §5.1 compares against path-traced
+//! references of the textured scene). A stone floor whose texture averages
+//! 0.3 but whose factor is 1.0 bounces three times the light it should.
+//!
+//! Conventions:
+//! * **Texture coordinates** are glTF's (Khronos glTF 2.0 §3.9.4): `(0, 0)`
+//!   is the image's top-left corner, `v` grows downwards. OBJ's `vt` have
+//!   `v` growing upwards; its reader flips them (`v → 1 − v`) on the way in.
+//! * **Colour**: the texels are sRGB-encoded (glTF §3.9.2 says so of base
+//!   colour and emissive textures; MTL files do not say, and every tool
+//!   writes sRGB images), decoded to linear by the sRGB curve (IEC
+//!   61966-2-1) *before* filtering, so a black-and-white checker filters to
+//!   the mean of its linear values, not to sRGB grey. Alpha is ignored.
+//! * **Filtering**: bilinear between the four texels around the point,
+//!   with texel centres at half-integers, wrapped per axis ([`Wrap`]). No
+//!   mip-mapping: the bake and the references shoot single rays, whose
+//!   footprint is a point, and their sample counts average the texture.
+//!
+//! Limits: a side is at most [`MAX_SIDE`] texels, and the decoded textures
+//! of one scene take at most a quarter of the memory budget
+//! ([`crate::limits`]): headers are read first and every size is checked
+//! before anything is decoded. A texture that is missing, unreadable, not
+//! a PNG or JPEG, or over a limit is not an error: the scene loads without
+//! it (its factor alone is used), with one warning per file.
+
+use glam::{Vec2, Vec3};
+use rayon::prelude::*;
+use std::sync::{Arc, LazyLock};
+
+/// Longest side of a texture read: 16384 texels, the most any current GPU
+/// samples (and 768 MiB decoded at that size, square).
+pub const MAX_SIDE: u32 = 16384;
+
+/// Files named in the warnings of one kind; the rest are counted.
+const LISTED: usize = 5;
+
+/// How a texture coordinate outside [0, 1] wraps (glTF §5.26 samplers'
+/// `wrapS`/`wrapT`; OBJ's `-clamp on` is [`Wrap::Clamp`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Wrap {
+    /// Tiles the image (glTF's default, `REPEAT`).
+    #[default]
+    Repeat,
+    /// Repeats the edge texels (`CLAMP_TO_EDGE`).
+    Clamp,
+    /// Tiles the image mirrored every other time (`MIRRORED_REPEAT`).
+    Mirror,
+}
+
+impl Wrap {
+    /// Texel index `i` of a side of `n` texels, wrapped.
+    fn index(self, i: i64, n: u32) -> usize {
+        let n = n as i64;
+        (match self {
+            Wrap::Repeat => i.rem_euclid(n),
+            Wrap::Clamp => i.clamp(0, n - 1),
+            Wrap::Mirror => {
+                let m = i.rem_euclid(2 * n);
+                if m < n {
+                    m
+                } else {
+                    2 * n - 1 - m
+                }
+            }
+        }) as usize
+    }
+}
+
+/// A material's use of a texture: which one, the affine map from the
+/// mesh's texture coordinates to the image's (glTF's
+/// `KHR_texture_transform`; OBJ's `-o` and `-s` options), and how it wraps.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TextureMap {
+    /// Index into [`super::Scene::textures`].
+    pub texture: u32,
+    /// `u' = t[0]·u + t[1]·v + t[2]`, `v' = t[3]·u + t[4]·v + t[5]`.
+    pub transform: [f32; 6],
+    /// Wrapping along `u` and along `v`.
+    pub wrap: [Wrap; 2],
+}
+
+impl TextureMap {
+    /// The identity transform.
+    pub const IDENTITY: [f32; 6] = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0];
+
+    /// Texture `texture`, untransformed, repeating.
+    pub fn new(texture: u32) -> TextureMap {
+        TextureMap {
+            texture,
+            transform: Self::IDENTITY,
+            wrap: [Wrap::Repeat; 2],
+        }
+    }
+
+    /// The image coordinates of mesh coordinates `uv`.
+    pub fn apply(&self, uv: Vec2) -> Vec2 {
+        let t = &self.transform;
+        Vec2::new(
+            t[0] * uv.x + t[1] * uv.y + t[2],
+            t[3] * uv.x + t[4] * uv.y + t[5],
+        )
+    }
+
+    /// The linear colour of `textures[self.texture]` at mesh coordinates `uv`.
+    ///
+    /// Contract: `self.texture` indexes `textures` (the scene's loaders
+    /// guarantee it). Finite, each channel in [0, 1].
+    pub fn sample(&self, textures: &[Arc<Texture>], uv: Vec2) -> Vec3 {
+        textures[self.texture as usize].sample(self.apply(uv), self.wrap)
+    }
+}
+
+/// The sRGB transfer function's inverse, per 8-bit code (IEC 61966-2-1).
+static LINEAR: LazyLock<[f32; 256]> = LazyLock::new(|| {
+    std::array::from_fn(|i| {
+        let c = i as f64 / 255.0;
+        (if c <= 0.04045 {
+            c / 12.92
+        } else {
+            ((c + 0.055) / 1.055).powf(2.4)
+        }) as f32
+    })
+});
+
+/// The linear value of 8-bit sRGB code `c`.
+pub fn srgb_to_linear(c: u8) -> f32 {
+    LINEAR[c as usize]
+}
+
+/// A decoded image: 8-bit sRGB texels, rows from the top.
+#[derive(Clone)]
+pub struct Texture {
+    /// Where it came from (a file path, or a glTF image), for messages.
+    pub name: String,
+    /// Width in texels.
+    pub width: u32,
+    /// Height in texels.
+    pub height: u32,
+    texels: Vec<[u8; 3]>,
+    mean: Vec3,
+}
+
+impl std::fmt::Debug for Texture {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "Texture({}, {}×{})", self.name, self.width, self.height)
+    }
+}
+
+impl PartialEq for Texture {
+    fn eq(&self, other: &Texture) -> bool {
+        (self.width, self.height, &self.texels) == (other.width, other.height, &other.texels)
+    }
+}
+
+impl Texture {
+    /// A texture of `width × height` sRGB texels, rows from the top.
+    ///
+    /// Contract: `texels.len() == width × height`, both sides in
+    /// 1..=[`MAX_SIDE`]; panics otherwise (callers are the decoders, which
+    /// check, and tests).
+    pub fn from_srgb8(name: String, width: u32, height: u32, texels: Vec<[u8; 3]>) -> Texture {
+        assert!((1..=MAX_SIDE).contains(&width) && (1..=MAX_SIDE).contains(&height));
+        assert_eq!(texels.len(), width as usize * height as usize);
+        let sum = texels
+            .par_chunks(1 << 16)
+            .map(|c| {
+                c.iter().fold([0.0f64; 3], |mut s, t| {
+                    for k in 0..3 {
+                        s[k] += srgb_to_linear(t[k]) as f64;
+                    }
+                    s
+                })
+            })
+            .collect::<Vec<_>>()
+            .into_iter()
+            .fold([0.0f64; 3], |a, b| [a[0] + b[0], a[1] + b[1], a[2] + b[2]]);
+        let n = texels.len() as f64;
+        Texture {
+            name,
+            width,
+            height,
+            mean: Vec3::new((sum[0] / n) as f32, (sum[1] / n) as f32, (sum[2] / n) as f32),
+            texels,
+        }
+    }
+
+    /// The texels, 8-bit sRGB, rows from the top.
+    pub fn texels(&self) -> &[[u8; 3]] {
+        &self.texels
+    }
+
+    /// The mean linear colour over the whole image: what the light sampler
+    /// weighs a textured emitter by, and the colour previews show.
+    pub fn mean(&self) -> Vec3 {
+        self.mean
+    }
+
+    /// Linear colour of texel `(x, y)`.
+    fn texel(&self, x: usize, y: usize) -> Vec3 {
+        let t = self.texels[y * self.width as usize + x];
+        Vec3::new(srgb_to_linear(t[0]), srgb_to_linear(t[1]), srgb_to_linear(t[2]))
+    }
+
+    /// The bilinearly filtered linear colour at image coordinates `uv`
+    /// (module docs), wrapped by `wrap` per axis. Non-finite coordinates
+    /// read as 0.
+    ///
+    /// Contract: finite, each channel in [0, 1]; allocation-free.
+    pub fn sample(&self, uv: Vec2, wrap: [Wrap; 2]) -> Vec3 {
+        let finite = |v: f32| if v.is_finite() { v.clamp(-1e9, 1e9) } else { 0.0 };
+        let x = finite(uv.x) * self.width as f32 - 0.5;
+        let y = finite(uv.y) * self.height as f32 - 0.5;
+        let (x0, y0) = (x.floor(), y.floor());
+        let (fx, fy) = (x - x0, y - y0);
+        let (x0, y0) = (x0 as i64, y0 as i64);
+        let xs = [wrap[0].index(x0, self.width), wrap[0].index(x0 + 1, self.width)];
+        let ys = [wrap[1].index(y0, self.height), wrap[1].index(y0 + 1, self.height)];
+        let top = self.texel(xs[0], ys[0]) * (1.0 - fx) + self.texel(xs[1], ys[0]) * fx;
+        let bottom = self.texel(xs[0], ys[1]) * (1.0 - fx) + self.texel(xs[1], ys[1]) * fx;
+        (top * (1.0 - fy) + bottom * fy).clamp(Vec3::ZERO, Vec3::ONE)
+    }
+
+    /// Decoded bytes a `width × height` texture takes.
+    pub fn bytes(width: u32, height: u32) -> u64 {
+        width as u64 * height as u64 * 3
+    }
+}
+
+/// The image formats read.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Format {
+    Png,
+    Jpeg,
+}
+
+/// The format of `bytes` by its signature (not by its name or MIME type,
+/// which files get wrong).
+fn format_of(bytes: &[u8]) -> Option<Format> {
+    if bytes.starts_with(b"\x89PNG\r\n\x1a\n") {
+        Some(Format::Png)
+    } else if bytes.starts_with(&[0xFF, 0xD8, 0xFF]) {
+        Some(Format::Jpeg)
+    } else {
+        None
+    }
+}
+
+/// The format and size of the image in `bytes`, from its header alone.
+fn header(bytes: &[u8]) -> Result<(Format, u32, u32), String> {
+    let format = format_of(bytes).ok_or("not a PNG or JPEG image")?;
+    let (w, h) = match format {
+        Format::Png => {
+            let reader = png::Decoder::new(std::io::Cursor::new(bytes))
+                .read_info()
+                .map_err(|e| format!("a broken PNG ({e})"))?;
+            let info = reader.info();
+            (info.width, info.height)
+        }
+        Format::Jpeg => {
+            let mut d = zune_jpeg::JpegDecoder::new(zune_jpeg::zune_core::bytestream::ZCursor::new(bytes));
+            d.decode_headers().map_err(|e| format!("a broken JPEG ({e:?})"))?;
+            let (w, h) = d.dimensions().ok_or("a JPEG without a size")?;
+            (w as u32, h as u32)
+        }
+    };
+    if w == 0 || h == 0 || w > MAX_SIDE || h > MAX_SIDE {
+        return Err(format!("{w}×{h} texels, over the limit of {MAX_SIDE} a side"));
+    }
+    Ok((format, w, h))
+}
+
+/// Decodes the PNG or JPEG in `bytes` (named `name`): 8-bit sRGB texels
+/// (16-bit PNGs rounded to 8 bits, grey expanded to RGB, palettes
+/// expanded, alpha dropped).
+///
+/// Errors: a message without the name (the caller adds it): not a PNG or
+/// JPEG, broken, or over [`MAX_SIDE`].
+pub fn decode(bytes: &[u8], name: String) -> Result<Texture, String> {
+    let (format, width, height) = header(bytes)?;
+    let n = width as usize * height as usize;
+    let texels: Vec<[u8; 3]> = match format {
+        Format::Png => {
+            let mut d = png::Decoder::new(std::io::Cursor::new(bytes));
+            d.set_transformations(png::Transformations::normalize_to_color8());
+            let mut reader = d.read_info().map_err(|e| format!("a broken PNG ({e})"))?;
+            let size = reader.output_buffer_size().ok_or("a PNG too large to decode")?;
+            let mut buf = vec![0u8; size];
+            let frame = reader
+                .next_frame(&mut buf)
+                .map_err(|e| format!("a broken PNG ({e})"))?;
+            let channels = frame.color_type.samples();
+            let line = frame.line_size;
+            let mut out = Vec::with_capacity(n);
+            for y in 0..height as usize {
+                let row = &buf[y * line..];
+                for x in 0..width as usize {
+                    let p = &row[x * channels..(x + 1) * channels];
+                    out.push(match channels {
+                        1 | 2 => [p[0]; 3],
+                        _ => [p[0], p[1], p[2]],
+                    });
+                }
+            }
+            out
+        }
+        Format::Jpeg => {
+            use zune_jpeg::zune_core::{colorspace::ColorSpace, options::DecoderOptions};
+            let options = DecoderOptions::default()
+                .jpeg_set_out_colorspace(ColorSpace::RGB)
+                .set_max_width(MAX_SIDE as usize)
+                .set_max_height(MAX_SIDE as usize);
+            let mut d = zune_jpeg::JpegDecoder::new_with_options(
+                zune_jpeg::zune_core::bytestream::ZCursor::new(bytes),
+                options,
+            );
+            let rgb = d.decode().map_err(|e| format!("a broken JPEG ({e:?})"))?;
+            if rgb.len() != 3 * n {
+                return Err(format!("a JPEG that decodes to {} bytes, not {}", rgb.len(), 3 * n));
+            }
+            rgb.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect()
+        }
+    };
+    Ok(Texture::from_srgb8(name, width, height, texels))
+}
+
+/// Loads the images `count` names, for one scene: `fetch(i)` gives image
+/// `i`'s bytes and its name for messages (or why it could not be read).
+/// Headers are read first; images are then taken in order while their
+/// decoded sizes fit the scene's texture budget (a quarter of the memory
+/// budget), and decoded in parallel.
+///
+/// Contract: one entry per image, `None` for each that was not loaded;
+/// the warnings name each such file (the first [`LISTED`] of each kind,
+/// then a count). Deterministic: which images fit does not depend on the
+/// thread count. Never an error: a scene loads without its textures.
+pub fn load_images(
+    count: usize,
+    mut fetch: impl FnMut(usize) -> (String, Result<Vec<u8>, String>),
+) -> (Vec<Option<Arc<Texture>>>, Vec<String>) {
+    let budget = crate::limits::memory_budget() / 4;
+    let mut used = 0u64;
+    let mut failed: Vec<String> = Vec::new();
+    let mut over: Vec<String> = Vec::new();
+    let mut pending: Vec<(usize, String, Vec<u8>)> = Vec::new();
+    for i in 0..count {
+        let (name, bytes) = fetch(i);
+        let bytes = match bytes.and_then(|b| header(&b).map(|h| (b, h))) {
+            Ok((b, (_, w, h))) => {
+                let need = Texture::bytes(w, h);
+                if used + need > budget {
+                    over.push(name);
+                    continue;
+                }
+                used += need;
+                b
+            }
+            Err(why) => {
+                failed.push(format!("{name}: {why}"));
+                continue;
+            }
+        };
+        pending.push((i, name, bytes));
+    }
+    let decoded: Vec<(usize, String, Result<Texture, String>)> = pending
+        .into_par_iter()
+        .map(|(i, name, bytes)| {
+            let t = decode(&bytes, name.clone());
+            (i, name, t)
+        })
+        .collect();
+    let mut out: Vec<Option<Arc<Texture>>> = vec![None; count];
+    for (i, name, t) in decoded {
+        match t {
+            Ok(t) => out[i] = Some(Arc::new(t)),
+            Err(why) => failed.push(format!("{name}: {why}")),
+        }
+    }
+    let mut warnings: Vec<String> = failed
+        .iter()
+        .take(LISTED)
+        .map(|f| format!("{f}; the texture is not used (its material's factor alone is)"))
+        .collect();
+    if failed.len() > LISTED {
+        warnings.push(format!(
+            "and {} more texture(s) not read; their materials' factors alone are used",
+            failed.len() - LISTED
+        ));
+    }
+    if !over.is_empty() {
+        let more = match over.len().saturating_sub(LISTED) {
+            0 => String::new(),
+            n => format!(" and {n} more"),
+        };
+        warnings.push(format!(
+            "textures {}{more} not read: the scene's textures would take more than {} (a quarter of this run's memory budget); their materials' factors alone are used",
+            over.iter().take(LISTED).map(|n| format!("`{n}`")).collect::<Vec<_>>().join(", "),
+            crate::input::bytes_text(budget)
+        ));
+    }
+    (out, warnings)
+}
+
+/// Barycentric coordinates `(b1, b2)` of point `p` in triangle `t`
+/// (`p ≈ t0 + b1 (t1 − t0) + b2 (t2 − t0)`), by the projection onto the
+/// triangle's plane (Ericson, *Real-Time Collision Detection*, §3.4).
+/// Zero for a degenerate triangle.
+pub fn barycentric(t: &[Vec3; 3], p: Vec3) -> (f32, f32) {
+    let (e1, e2, d) = (t[1] - t[0], t[2] - t[0], p - t[0]);
+    let (d11, d12, d22) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
+    let (dp1, dp2) = (d.dot(e1), d.dot(e2));
+    let den = d11 * d22 - d12 * d12;
+    if den.abs() <= f32::MIN_POSITIVE || !den.is_finite() {
+        return (0.0, 0.0);
+    }
+    ((d22 * dp1 - d12 * dp2) / den, (d11 * dp2 - d12 * dp1) / den)
+}
+
+/// The texture coordinates `uv` interpolated at barycentric `(b1, b2)`.
+pub fn interpolate(uv: &[Vec2; 3], (b1, b2): (f32, f32)) -> Vec2 {
+    uv[0] + (uv[1] - uv[0]) * b1 + (uv[2] - uv[0]) * b2
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn checker() -> Texture {
+        // 2×2: white, black / black, white.
+        Texture::from_srgb8(
+            "checker".into(),
+            2,
+            2,
+            vec![[255; 3], [0; 3], [0; 3], [255; 3]],
+        )
+    }
+
+    #[test]
+    fn srgb_decoding_matches_the_standard_curve() {
+        assert_eq!(srgb_to_linear(0), 0.0);
+        assert_eq!(srgb_to_linear(255), 1.0);
+        // sRGB 0.5 is linear 0.214 (IEC 61966-2-1).
+        assert!((srgb_to_linear(128) - 0.2158605).abs() < 1e-6);
+        assert!((srgb_to_linear(10) - 10.0 / 255.0 / 12.92).abs() < 1e-7);
+    }
+
+    #[test]
+    fn texel_centres_read_exactly_and_midpoints_average_in_linear_light() {
+        let t = checker();
+        assert_eq!(t.sample(Vec2::new(0.25, 0.25), [Wrap::Repeat; 2]), Vec3::ONE);
+        assert_eq!(t.sample(Vec2::new(0.75, 0.25), [Wrap::Repeat; 2]), Vec3::ZERO);
+        // Half way between a white and a black texel: linear 0.5, not sRGB grey.
+        let mid = t.sample(Vec2::new(0.5, 0.25), [Wrap::Repeat; 2]);
+        assert!((mid - Vec3::splat(0.5)).abs().max_element() < 1e-6, "{mid}");
+        assert_eq!(t.mean(), Vec3::splat(0.5));
+    }
+
+    #[test]
+    fn wrap_modes_follow_the_gltf_sampler() {
+        let ramp = Texture::from_srgb8("ramp".into(), 4, 1, vec![[0; 3], [85; 3], [170; 3], [255; 3]]);
+        let at = |u: f32, w: Wrap| ramp.sample(Vec2::new(u, 0.5), [w, Wrap::Clamp]).x;
+        let texel = |i: u8| srgb_to_linear(i);
+        // Texel centres of the next tile.
+        assert_eq!(at(1.125, Wrap::Repeat), texel(0));
+        assert_eq!(at(1.125, Wrap::Clamp), texel(255));
+        assert_eq!(at(1.125, Wrap::Mirror), texel(255));
+        assert_eq!(at(1.375, Wrap::Mirror), texel(170));
+        assert_eq!(at(-0.125, Wrap::Mirror), texel(0));
+        assert_eq!(at(-0.125, Wrap::Repeat), texel(255));
+        assert_eq!(at(f32::NAN, Wrap::Repeat), at(0.0, Wrap::Repeat));
+        assert!(at(1e30, Wrap::Repeat).is_finite());
+    }
+
+    #[test]
+    fn texture_transforms_offset_rotate_and_scale() {
+        let m = TextureMap {
+            texture: 0,
+            transform: [2.0, 0.0, 0.5, 0.0, 3.0, -1.0],
+            wrap: [Wrap::Repeat; 2],
+        };
+        assert_eq!(m.apply(Vec2::new(1.0, 1.0)), Vec2::new(2.5, 2.0));
+    }
+
+    #[test]
+    fn png_and_jpeg_decode_and_bad_images_are_refused_in_words() {
+        let mut png_bytes = Vec::new();
+        {
+            let mut e = png::Encoder::new(&mut png_bytes, 2, 1);
+            e.set_color(png::ColorType::Grayscale);
+            e.set_depth(png::BitDepth::Sixteen);
+            let mut w = e.write_header().unwrap();
+            w.write_image_data(&[0xFF, 0xFF, 0x00, 0x00]).unwrap();
+        }
+        let t = decode(&png_bytes, "a.png".into()).unwrap();
+        assert_eq!((t.width, t.height), (2, 1));
+        assert_eq!(t.sample(Vec2::new(0.25, 0.5), [Wrap::Clamp; 2]), Vec3::ONE);
+        assert!(decode(b"GIF89a", "a.gif".into()).unwrap_err().contains("not a PNG or JPEG"));
+        assert!(decode(&png_bytes[..20], "cut.png".into()).unwrap_err().contains("broken PNG"));
+        assert!(decode(&[0xFF, 0xD8, 0xFF, 0xE0, 0], "cut.jpg".into())
+            .unwrap_err()
+            .contains("broken JPEG"));
+        // A header that claims 100000 × 100000 texels is refused before
+        // anything is allocated for them.
+        let mut huge = png_bytes.clone();
+        huge[16..20].copy_from_slice(&100_000u32.to_be_bytes());
+        huge[20..24].copy_from_slice(&100_000u32.to_be_bytes());
+        let crc = crc32fast::hash(&huge[12..29]);
+        huge[29..33].copy_from_slice(&crc.to_be_bytes());
+        assert!(decode(&huge, "huge.png".into()).unwrap_err().contains("over the limit"), "{:?}", decode(&huge, "huge.png".into()));
+    }
+
+    #[test]
+    fn barycentrics_interpolate_the_corners() {
+        let t = [Vec3::ZERO, Vec3::X, Vec3::Y];
+        let uv = [Vec2::new(0.0, 0.0), Vec2::new(1.0, 0.0), Vec2::new(0.0, 2.0)];
+        let p = Vec3::new(0.25, 0.5, 0.0);
+        let b = barycentric(&t, p);
+        assert_eq!(b, (0.25, 0.5));
+        assert_eq!(interpolate(&uv, b), Vec2::new(0.25, 1.0));
+        assert_eq!(barycentric(&[Vec3::ZERO; 3], p), (0.0, 0.0));
+    }
+
+    #[test]
+    fn missing_and_broken_images_warn_once_each_and_load_nothing() {
+        let (out, warnings) = load_images(3, |i| match i {
+            0 => ("gone.png".into(), Err("not found".into())),
+            1 => ("junk.png".into(), Ok(b"junk".to_vec())),
+            _ => ("ok.png".into(), Err("not found".into())),
+        });
+        assert!(out.iter().all(Option::is_none));
+        assert_eq!(warnings.len(), 3, "{warnings:?}");
+        assert!(warnings[0].starts_with("gone.png: not found"), "{warnings:?}");
+    }
+}
