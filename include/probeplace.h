@@ -1,4 +1,5 @@
-/* probeplace.h: reads probeplace's svo.bin and answers probes_at, in C99.
+/* probeplace.h: reads probeplace's svo.bin and lightfield.bin, answers
+ * probes_at and gives the diffuse blend's probes and weights, in C99.
  *
  * A single-header library (stb style). In exactly one C file:
  *
@@ -6,7 +7,8 @@
  *     #include "probeplace.h"
  *
  * and include it plainly everywhere else. It needs only the C99 standard
- * library (stdio for pp_svo_load_file, stdlib for malloc, math for floorf).
+ * library (stdio for the *_load_file functions, stdlib for malloc and
+ * qsort, math for floorf, roundf, sqrtf, fabsf).
  *
  * WHAT IT READS. `svo.bin`, version 2: the sparse voxel octree of probe
  * indices that `probeplace place` writes (Wang et al. 2019 §4.1; byte
@@ -22,6 +24,29 @@
  *     unsigned n = pp_svo_probes_at(&svo, p, list);   // list[0..n), best first
  *     pp_svo_free(&svo);
  *
+ * And `lightfield.bin`, version 1 (`probeplace bake`; docs/formats.md,
+ * "lightfield.bin"): pp_lightfield_load points at each section of the
+ * probes' maps, and pp_blend_weights gives, for a point and its unit
+ * normal, the probes and the normalized weights of the validation
+ * renders' irradiance gather (McGuire et al. 2017 section 5.2), exactly
+ * as `trace::gather::blend_weights` gives them (WEIGHTS, below):
+ *
+ *     pp_lightfield field;
+ *     e = pp_lightfield_load_file("out/cornell/lightfield.bin", &field);
+ *     // ... and svo loaded as above; then, per shading point:
+ *     uint32_t *ids = malloc(pp_blend_terms(&field, NULL) * sizeof *ids);
+ *     float *w = malloc(pp_blend_terms(&field, NULL) * sizeof *w);
+ *     float normal[3] = { 0.0f, 1.0f, 0.0f };
+ *     size_t count;
+ *     e = pp_blend_weights(&field, &svo, NULL, p, normal, ids, w,
+ *                          pp_blend_terms(&field, NULL), &count);
+ *     // irradiance = sum over k < count of w[k] * E_ids[k](normal)
+ *     pp_lightfield_free(&field);
+ *
+ * For a grid run's bi-level render, pass the lattice instead of the tree:
+ * pp_lattice_from_positions(&field, &lattice), then
+ * pp_blend_weights(&field, NULL, &lattice, ...) with 8 terms.
+ *
  * CONTRACT.
  *  - pp_svo_load / pp_svo_load_file accept exactly the files probeplace's
  *    own reader (`Svo::read`, src/svo/format.rs) accepts, with the same
@@ -35,30 +60,74 @@
  *    read outside the `size` bytes given: the loader reads each byte of the
  *    file at most a bounded number of times, and its only allocation is one
  *    byte per node (freed before it returns).
+ *  - pp_lightfield_load / pp_lightfield_load_file accept exactly the files
+ *    `LightField::read` (src/lightfield/format.rs) accepts, with its
+ *    checks in its order: length at least the header's, magic, version,
+ *    map sides powers of two up to 16384, pyramid levels log2(n) + 1, the
+ *    exact length the header implies (computed without overflow), CRC-32.
+ *    The map values are not checked (nor are they by Rust): a NaN in them
+ *    makes the blend's weights NaN, hence its count 0, never a bad read.
  *  - A pp_svo filled by a successful load answers pp_svo_probes_at in
  *    O(depth) reads, without allocating; the walk is bounded by the depth
  *    (at most 24 steps) whatever the node words hold, and it re-checks
  *    every index it follows, so even a pp_svo whose bytes changed after the
  *    load reads nothing out of bounds. Every index it returns is below
  *    `probe_count`; it returns at most `max_probes` of them.
- *  - pp_svo_load keeps pointers into `bytes` (no copy): the buffer must
- *    outlive the pp_svo and stay unchanged. pp_svo_load_file owns its
- *    buffer; pp_svo_free releases it (and is harmless on a pp_svo from
- *    pp_svo_load, or on a failed load).
+ *  - pp_blend_weights reads only the positions and moments of probes below
+ *    `probe_count` and texels inside their maps, without allocating, in
+ *    O(terms); pp_lattice_from_positions allocates its index (freed by
+ *    pp_lattice_free) and, while it works, 12 bytes a probe.
+ *  - The loaders keep pointers into `bytes` (no copy): the buffer must
+ *    outlive the result and stay unchanged. The *_load_file functions own
+ *    their buffer; pp_svo_free and pp_lightfield_free release it (and are
+ *    harmless on a result of the in-memory loaders, or of a failed load).
  *  - Thread safety: loading touches only its arguments; any number of
- *    threads may query one pp_svo at once.
+ *    threads may query one pp_svo, pp_lightfield and pp_lattice at once.
  *
  * ARITHMETIC. pp_svo_probes_at answers exactly what `Svo::probes_at`
  * answers, bit for bit: g = floorf((p - origin) / leaf_size) in IEEE single
  * precision, one subtraction, one division and one floor per axis, each
- * rounded to float, then the walk in integers. That holds wherever float
- * operations are IEEE single precision (FLT_EVAL_METHOD 0: x86-64 SSE,
- * AArch64). With FLT_EVAL_METHOD 2 (x87), C99 rounds every assignment to
- * float (GCC with -std=c99 does, -fexcess-precision=standard), and each
- * intermediate here is assigned, so it holds too. Do not build this file
- * with -ffast-math or -Ofast (they change the floor/compare semantics and
- * NaN handling). There is no multiply-add in the query for a compiler to
- * contract, but the tests build with -ffp-contract=off all the same.
+ * rounded to float, then the walk in integers.
+ *
+ * WEIGHTS. pp_blend_weights gives `trace::gather::blend_weights`'s bits.
+ * Each term's weight is spatial x max(n . w, PP_MIN_NORMAL_WEIGHT) x
+ * visibility, w the unit direction from the point toward the probe ("a
+ * clamped dot product of the shading point's surface normal and the
+ * direction towards each probe center", a smooth backface test), and the
+ * visibility Chebyshev's bound s2 / (s2 + (r - E[r])^2) where r > E[r]
+ * (else 1), s2 = |E[r^2] - E[r]^2| floored at 1e-6, from the probe's
+ * moments read bilinearly (across the octahedral fold) in direction -w at
+ * the distance r to the probe; at the probe itself (r = 0) facing counts
+ * n . 0, so the floor, and visibility 1. Each weight is then divided by
+ * their sum ("We normalize the result by the sum of all eight weights").
+ * The spatial weight and the order of the terms follow the selection:
+ *  - the SVO selection (`svo`, the Hi-Z render's, and the bi-level
+ *    render's for probes off a grid): every probe, in index order,
+ *    1 / (|q - p|^2 + leaf_size^2). Not the tree's lists: they change at
+ *    node faces and weights from them jump there, which showed as
+ *    rectangles on walls (src/trace/gather.rs);
+ *  - the grid selection (`lattice`): the 8 corners of the cell holding p
+ *    (clamped to the lattice), corner k at offset (k & 1, k >> 1 & 1,
+ *    k >> 2 & 1), trilinear; a probe twice where the lattice has one layer
+ *    along an axis, and weight 0 on a cell face.
+ * The weights are in [0, 1] and sum to 1 up to a rounding per term; the
+ * count is 0 when they sum to no positive number (a non-finite point).
+ *
+ * Both answers hold bit for bit wherever float operations are IEEE single
+ * precision (FLT_EVAL_METHOD 0: x86-64 SSE, AArch64) and the compiler does
+ * not contract a multiply and an add into a fused multiply-add: the blend
+ * has many, and Rust never fuses them. BUILD WITH -ffp-contract=off (GCC
+ * and Clang; elsewhere the switch that forbids contraction) for
+ * bit-identical weights: GCC contracts by default in its GNU dialects
+ * (-std=gnu*, its default) where the target has FMA (-march=haswell and
+ * later, AArch64), and the weights then differ in their last bits (with
+ * -std=gnu99 -march=haswell, at each of 4000 points of a Cornell grid's
+ * SVO blend). With FLT_EVAL_METHOD 2 (x87),
+ * C99 rounds every assignment to float (GCC with -std=c99 does,
+ * -fexcess-precision=standard), and each intermediate here is assigned,
+ * so it should hold too (untested). Do not build this file with
+ * -ffast-math or -Ofast (they change the floor/compare semantics and NaN
+ * handling, on which the answers for non-finite points rest).
  *
  * COORDINATES. Points are world space, as probes.json's `position`. The
  * origin is stored as f32 (`origin`) and exactly (`origin_exact`, f64).
@@ -66,12 +135,15 @@
  * D * 6e-8; where that nears the leaf size, compute p - origin_exact in
  * double in your own frame and query with `origin` set to zero: the
  * answers are then those of your rounding, not Rust's (docs/formats.md,
- * "Precision").
+ * "Precision"). The blend takes world points as lightfield.bin's f32
+ * positions hold them.
  *
  * Tested against the Rust writer by tests/it/readers.rs (tests/c/readers.c,
  * built with gcc -std=c99 -Wall -Wextra -Werror -pedantic
- * -fsanitize=address,undefined -ffp-contract=off), on Cornell, Holodeck and
- * Sponza and on damaged and hostile files.
+ * -fsanitize=address,undefined -ffp-contract=off): probes_at on Cornell,
+ * Holodeck and Sponza, the blend on Cornell's placed probes and on a
+ * Cornell grid with both selections (Holodeck and Sponza in the full
+ * tier), and damaged and hostile files of both kinds.
  *
  * Overrides, before including with PROBEPLACE_IMPLEMENTATION:
  * PROBEPLACE_MALLOC(n), PROBEPLACE_REALLOC(p, n), PROBEPLACE_FREE(p).
@@ -120,7 +192,19 @@ typedef enum pp_error {
     PP_ERR_EMPTY_INNER,      /* an inner node other than the root without a child */
     PP_ERR_BELOW_LEAF_LEVEL, /* a node with children at the leaf level */
     PP_ERR_CHILD_INDEX,      /* children at or before their parent, or past the array */
-    PP_ERR_SHARED_CHILD      /* a node that is the child of two nodes */
+    PP_ERR_SHARED_CHILD,     /* a node that is the child of two nodes */
+    /* lightfield.bin (pp_lightfield_load), in the order of
+     * src/lightfield/format.rs after PP_ERR_TRUNCATED (shorter than the
+     * 64-byte header and the checksum), before PP_ERR_VERSION and
+     * PP_ERR_CHECKSUM, which it shares with svo.bin: */
+    PP_ERR_NOT_LIGHTFIELD,   /* the first 8 bytes are not PROBELFB */
+    PP_ERR_MAP_SIDE,         /* a map side that is not a power of two up to 16384 */
+    PP_ERR_LEVELS,           /* pyramid levels other than log2(n) + 1 */
+    PP_ERR_LENGTH,           /* a length other than the header implies */
+    /* The blend (pp_lattice_from_positions, pp_blend_weights): */
+    PP_ERR_NOT_A_GRID,       /* the probes are not a regular lattice */
+    PP_ERR_MISMATCH,         /* an svo.bin or lattice of another probe count than the light field */
+    PP_ERR_CAPACITY          /* output arrays shorter than the blend's terms */
 } pp_error;
 
 /* A loaded svo.bin. Fields are the header's (docs/formats.md); `nodes`
@@ -157,6 +241,90 @@ void pp_svo_free(pp_svo *svo);
  * solid or outside-the-scene space, or for a non-finite point. */
 unsigned pp_svo_probes_at(const pp_svo *svo, const float point[3],
                           uint32_t out[PP_MAX_PROBES_PER_LEAF]);
+
+/* The svo.bin and lightfield.bin versions this header reads. */
+#define PP_LIGHTFIELD_VERSION 1u
+/* Bytes before the probe positions of lightfield.bin. */
+#define PP_LIGHTFIELD_HEADER_BYTES 64u
+/* Terms of the blend on a grid: the eight corners of a cell. */
+#define PP_GRID_TERMS 8u
+/* trace::gather::MIN_NORMAL_WEIGHT: the floor of the normal weight. */
+#define PP_MIN_NORMAL_WEIGHT 0.05f
+
+/* A loaded lightfield.bin (docs/formats.md, "lightfield.bin"). The section
+ * pointers point into the loaded bytes: little-endian f32 positions, then
+ * f16 maps (IEEE half), each probe after probe and row by row. */
+typedef struct pp_lightfield {
+    uint32_t probe_count;            /* P, in the order of probes.json */
+    uint32_t resolution;             /* n: side of the radiance, normal and distance maps */
+    uint32_t levels;                 /* pyramid levels, log2(n) + 1 */
+    uint32_t irradiance_resolution;  /* m: side of the irradiance and moment maps */
+    float max_distance;              /* the moments' stand-in for escaping rays (not checked) */
+    uint64_t provenance[4];          /* as pp_svo's: equal for files of one run */
+    const unsigned char *positions;  /* P x 3 f32, world space */
+    const unsigned char *radiance;   /* P n^2 x 3 f16, RGB */
+    const unsigned char *normal;     /* P n^2 x 2 f16, octahedral */
+    const unsigned char *distance;   /* P n^2 f16 */
+    const unsigned char *pyramid;    /* level k: P (n >> k)^2 x 2 f16, levels in order */
+    const unsigned char *irradiance; /* P m^2 x 3 f16, RGB */
+    const unsigned char *moments;    /* P m^2 x 2 f16, (E[r], E[r^2]) */
+    void *owned;                     /* the buffer of pp_lightfield_load_file, or NULL */
+} pp_lightfield;
+
+/* The probes of a light field as a regular grid (trace::Lattice): the grid
+ * selection of the blend. */
+typedef struct pp_lattice {
+    float origin[3];                 /* lattice point (0, 0, 0) */
+    float spacing[3];                /* per axis; 1 where an axis has one layer */
+    int32_t dims[3];                 /* points per axis */
+    uint32_t *index;                 /* dims[0]*dims[1]*dims[2] probes, x fastest, then y, z */
+} pp_lattice;
+
+/* Checks and loads the lightfield.bin image `bytes` of `size` bytes into
+ * `*field` (zero-filled on failure), with the checks of `LightField::read`
+ * in its order: PP_ERR_TRUNCATED (under 68 bytes), PP_ERR_NOT_LIGHTFIELD,
+ * PP_ERR_VERSION, PP_ERR_MAP_SIDE, PP_ERR_LEVELS, PP_ERR_LENGTH,
+ * PP_ERR_CHECKSUM. `bytes` must outlive `*field`; no copy. */
+pp_error pp_lightfield_load(const void *bytes, size_t size, pp_lightfield *field);
+
+/* Reads the file at `path` whole and loads it; free with pp_lightfield_free. */
+pp_error pp_lightfield_load_file(const char *path, pp_lightfield *field);
+
+/* Releases what pp_lightfield_load_file allocated and zeroes `*field`. */
+void pp_lightfield_free(pp_lightfield *field);
+
+/* Recognizes the probes of `field` as a regular grid, as
+ * `Lattice::from_positions` does: PP_ERR_NOT_A_GRID unless the positions
+ * are finite, at least one, and exactly the points of an nx x ny x nz
+ * lattice with constant spacing per axis (to 1e-4 of the largest
+ * coordinate). Allocates the index (P words) and, while it works, 3 P
+ * floats; free with pp_lattice_free. O(P x distinct values per axis). */
+pp_error pp_lattice_from_positions(const pp_lightfield *field, pp_lattice *lattice);
+
+/* Releases the index of `*lattice` and zeroes it. */
+void pp_lattice_free(pp_lattice *lattice);
+
+/* How many terms the blend has: PP_GRID_TERMS with a lattice, else (the
+ * SVO selection) the probe count of `field`; 0 for a NULL field. */
+size_t pp_blend_terms(const pp_lightfield *field, const pp_lattice *lattice);
+
+/* The probes and normalized weights of the validation renders' diffuse
+ * blend at the world-space `point` with unit `normal` (McGuire et al. 2017
+ * section 5.2; trace::gather::blend_weights, bit for bit; WEIGHTS, in
+ * the opening comment).
+ * Give exactly one selection: `svo` (the run's tree: the SVO selection,
+ * which reads only its leaf size) or `lattice` (from
+ * pp_lattice_from_positions on `field`: the grid selection). Writes
+ * `*count` terms, in blend order, to `probes` and `weights`, which hold
+ * `capacity` entries, at least pp_blend_terms(field, lattice); `*count` is
+ * 0 when the weights sum to no positive number (a non-finite point).
+ * Errors: PP_ERR_ARGUMENT (a NULL pointer, or not exactly one selection),
+ * PP_ERR_MISMATCH (a selection of another probe count than `field`),
+ * PP_ERR_CAPACITY. No allocation; O(terms); thread-safe. */
+pp_error pp_blend_weights(const pp_lightfield *field, const pp_svo *svo,
+                          const pp_lattice *lattice, const float point[3],
+                          const float normal[3], uint32_t *probes, float *weights,
+                          size_t capacity, size_t *count);
 
 /* A one-line description of `e` (static storage). */
 const char *pp_error_string(pp_error e);
@@ -377,18 +545,16 @@ pp_error pp_svo_load(const void *bytes, size_t size, pp_svo *svo)
     return PP_OK;
 }
 
-pp_error pp_svo_load_file(const char *path, pp_svo *svo)
+/* The whole file at `path` in a buffer the caller frees (NULL for an
+ * empty file, which then has `*len` 0). */
+static pp_error pp__read_file(const char *path, unsigned char **out, size_t *out_len)
 {
     FILE *f;
     unsigned char *buf = NULL;
     size_t len = 0, cap = 0;
-    pp_error e;
 
-    if (svo == NULL)
-        return PP_ERR_ARGUMENT;
-    memset(svo, 0, sizeof *svo);
-    if (path == NULL)
-        return PP_ERR_ARGUMENT;
+    *out = NULL;
+    *out_len = 0;
     f = fopen(path, "rb");
     if (f == NULL)
         return PP_ERR_IO;
@@ -423,6 +589,25 @@ pp_error pp_svo_load_file(const char *path, pp_svo *svo)
             break;
         }
     }
+    *out = buf;
+    *out_len = len;
+    return PP_OK;
+}
+
+pp_error pp_svo_load_file(const char *path, pp_svo *svo)
+{
+    unsigned char *buf;
+    size_t len;
+    pp_error e;
+
+    if (svo == NULL)
+        return PP_ERR_ARGUMENT;
+    memset(svo, 0, sizeof *svo);
+    if (path == NULL)
+        return PP_ERR_ARGUMENT;
+    e = pp__read_file(path, &buf, &len);
+    if (e != PP_OK)
+        return e;
     e = pp_svo_load(buf, len, svo);
     if (e != PP_OK) {
         PROBEPLACE_FREE(buf);
@@ -488,6 +673,492 @@ unsigned pp_svo_probes_at(const pp_svo *svo, const float point[3],
     return 0;
 }
 
+/* ---- lightfield.bin ---------------------------------------------------- */
+
+pp_error pp_lightfield_load(const void *bytes, size_t size, pp_lightfield *field)
+{
+    const unsigned char *b = (const unsigned char *)bytes;
+    uint64_t per_probe, want, pyramid = 0;
+    uint32_t p, n, levels, m, k;
+    pp_lightfield f;
+
+    if (field == NULL)
+        return PP_ERR_ARGUMENT;
+    memset(field, 0, sizeof *field);
+    if (b == NULL && size != 0)
+        return PP_ERR_ARGUMENT;
+    if (size < PP_LIGHTFIELD_HEADER_BYTES + 4u)
+        return PP_ERR_TRUNCATED;
+    if (memcmp(b, "PROBELFB", 8) != 0)
+        return PP_ERR_NOT_LIGHTFIELD;
+    if (pp__u32(b + 8) != PP_LIGHTFIELD_VERSION)
+        return PP_ERR_VERSION;
+    p = pp__u32(b + 12);
+    n = pp__u32(b + 16);
+    levels = pp__u32(b + 20);
+    m = pp__u32(b + 24);
+    if (n == 0 || (n & (n - 1u)) != 0 || m == 0 || (m & (m - 1u)) != 0 ||
+        n > (1u << 14) || m > (1u << 14))
+        return PP_ERR_MAP_SIDE;
+    for (k = 0; (n >> k) > 1u; k++)
+        ;
+    if (levels != k + 1u)
+        return PP_ERR_LEVELS;
+    for (k = 0; k < levels; k++)
+        pyramid += (uint64_t)(n >> k) * (n >> k);
+    /* At most 2^34 bytes a probe (sides up to 2^14): the product with P
+     * can pass 2^64, so compare by division first. */
+    per_probe = 12u + 12u * (uint64_t)n * n + 4u * pyramid + 10u * (uint64_t)m * m;
+    if (p != 0 && per_probe > (UINT64_MAX - PP_LIGHTFIELD_HEADER_BYTES - 4u) / p)
+        return PP_ERR_LENGTH;
+    want = (uint64_t)p * per_probe + PP_LIGHTFIELD_HEADER_BYTES + 4u;
+    if (want != (uint64_t)size)
+        return PP_ERR_LENGTH;
+    if (pp_crc32(b, size - 4u) != pp__u32(b + size - 4u))
+        return PP_ERR_CHECKSUM;
+
+    memset(&f, 0, sizeof f);
+    f.probe_count = p;
+    f.resolution = n;
+    f.levels = levels;
+    f.irradiance_resolution = m;
+    f.max_distance = pp__f32(b + 28);
+    for (k = 0; k < 4; k++)
+        f.provenance[k] = pp__u64(b + 32 + 8 * k);
+    f.positions = b + PP_LIGHTFIELD_HEADER_BYTES;
+    f.radiance = f.positions + 12u * (size_t)p;
+    f.normal = f.radiance + 6u * (size_t)p * n * n;
+    f.distance = f.normal + 4u * (size_t)p * n * n;
+    f.pyramid = f.distance + 2u * (size_t)p * n * n;
+    f.irradiance = f.pyramid + 4u * (size_t)p * (size_t)pyramid;
+    f.moments = f.irradiance + 6u * (size_t)p * m * m;
+    *field = f;
+    return PP_OK;
+}
+
+pp_error pp_lightfield_load_file(const char *path, pp_lightfield *field)
+{
+    unsigned char *buf;
+    size_t len;
+    pp_error e;
+
+    if (field == NULL)
+        return PP_ERR_ARGUMENT;
+    memset(field, 0, sizeof *field);
+    if (path == NULL)
+        return PP_ERR_ARGUMENT;
+    e = pp__read_file(path, &buf, &len);
+    if (e != PP_OK)
+        return e;
+    e = pp_lightfield_load(buf, len, field);
+    if (e != PP_OK) {
+        PROBEPLACE_FREE(buf);
+        return e;
+    }
+    field->owned = buf;
+    return PP_OK;
+}
+
+void pp_lightfield_free(pp_lightfield *field)
+{
+    if (field == NULL)
+        return;
+    PROBEPLACE_FREE(field->owned);
+    memset(field, 0, sizeof *field);
+}
+
+/* ---- The blend ----------------------------------------------------------
+ * Each function mirrors the Rust one named beside it, operation for
+ * operation, each intermediate assigned to a float (WEIGHTS, in the
+ * header's opening comment). `a > b ? a : b` is both glam's Vec3::max and,
+ * against a constant that is not NaN, f32::max: NaN gives the constant. */
+
+static float pp__max(float a, float b) { return a > b ? a : b; }
+static float pp__min(float a, float b) { return a < b ? a : b; }
+
+/* IEEE half to float, exactly (half::f16::to_f32). */
+static float pp__half(const unsigned char *b)
+{
+    uint32_t h = (uint32_t)b[0] | ((uint32_t)b[1] << 8);
+    uint32_t sign = (h & 0x8000u) << 16, exp = (h >> 10) & 0x1Fu, man = h & 0x3FFu, w;
+    float f;
+    if (exp == 0x1Fu) {
+        w = sign | 0x7F800000u | (man << 13);
+    } else if (exp != 0) {
+        w = sign | ((exp + 112u) << 23) | (man << 13);
+    } else if (man == 0) {
+        w = sign;
+    } else {
+        /* Subnormal: man x 2^-24, normalized. */
+        exp = 113u;
+        while ((man & 0x400u) == 0) {
+            man <<= 1;
+            exp--;
+        }
+        w = sign | (exp << 23) | ((man & 0x3FFu) << 13);
+    }
+    memcpy(&f, &w, sizeof f);
+    return f;
+}
+
+/* Rust's `x as i32` for an integral float: NaN is 0, beyond the range the
+ * nearest end (where a C cast would be undefined). */
+static int32_t pp__sat_i32(float x)
+{
+    if (!(x == x))
+        return 0;
+    if (x >= 2147483648.0f)
+        return INT32_MAX;
+    if (x < -2147483648.0f)
+        return INT32_MIN;
+    return (int32_t)x;
+}
+
+/* lightfield::octahedral::encode */
+static void pp__oct_encode(float dx, float dy, float dz, float *ex, float *ey)
+{
+    float s = fabsf(dx) + fabsf(dy);
+    float px, py;
+    s = s + fabsf(dz);
+    px = dx / s;
+    py = dy / s;
+    if (dz < 0.0f) {
+        float sx = px >= 0.0f ? 1.0f : -1.0f;
+        float sy = py >= 0.0f ? 1.0f : -1.0f;
+        float fx = 1.0f - fabsf(py), fy = 1.0f - fabsf(px);
+        *ex = fx * sx;
+        *ey = fy * sy;
+    } else {
+        *ex = px;
+        *ey = py;
+    }
+}
+
+static int64_t pp__clamp64(int64_t v, int64_t lo, int64_t hi)
+{
+    return v < lo ? lo : (v > hi ? hi : v);
+}
+
+/* lightfield::octahedral::wrap_texel */
+static void pp__wrap_texel(int64_t x, int64_t y, int64_t n, uint32_t *ox, uint32_t *oy)
+{
+    int64_t wx = x, wy = y;
+    if (x < 0 || x >= n) {
+        wx = pp__clamp64(x, 0, n - 1);
+        wy = n - 1 - y;
+    }
+    if (y < 0 || y >= n) {
+        wy = pp__clamp64(wy, 0, n - 1);
+        wx = n - 1 - wx;
+    }
+    *ox = (uint32_t)pp__clamp64(wx, 0, n - 1);
+    *oy = (uint32_t)pp__clamp64(wy, 0, n - 1);
+}
+
+/* trace::gather::bilinear of `probe`'s moment map in direction d. */
+static void pp__bilinear_moments(const pp_lightfield *f, uint32_t probe, float dx,
+                                 float dy, float dz, float out[2])
+{
+    const uint32_t m = f->irradiance_resolution;
+    const float mf = (float)m;
+    float ex, ey, ux, uy, x0, y0, fx, fy, gx, gy, w[4];
+    int64_t xi, yi;
+    int k;
+    pp__oct_encode(dx, dy, dz, &ex, &ey);
+    ux = (ex + 1.0f) * 0.5f;
+    ux = ux * mf;
+    ux = ux - 0.5f;
+    uy = (ey + 1.0f) * 0.5f;
+    uy = uy * mf;
+    uy = uy - 0.5f;
+    x0 = floorf(ux);
+    y0 = floorf(uy);
+    fx = ux - x0;
+    fy = uy - y0;
+    gx = 1.0f - fx;
+    gy = 1.0f - fy;
+    w[0] = gx * gy;
+    w[1] = fx * gy;
+    w[2] = gx * fy;
+    w[3] = fx * fy;
+    /* `x0 as i64`: |e| <= 1, so x0 lies in -1..=m, or is NaN (0). */
+    xi = pp__sat_i32(x0);
+    yi = pp__sat_i32(y0);
+    out[0] = 0.0f;
+    out[1] = 0.0f;
+    for (k = 0; k < 4; k++) {
+        uint32_t x, y;
+        const unsigned char *t;
+        float a, b;
+        pp__wrap_texel(xi + (k & 1), yi + (k >> 1), m, &x, &y);
+        t = f->moments + 4u * ((size_t)probe * m * m + (size_t)y * m + x);
+        a = w[k] * pp__half(t);
+        b = w[k] * pp__half(t + 2);
+        out[0] = out[0] + a;
+        out[1] = out[1] + b;
+    }
+}
+
+/* lightfield::irradiance::chebyshev_visibility */
+static float pp__chebyshev(const float moments[2], float r)
+{
+    float mean = moments[0], variance, d, dd;
+    if (r <= mean)
+        return 1.0f;
+    variance = mean * mean;
+    variance = fabsf(moments[1] - variance);
+    variance = pp__max(variance, 1e-6f);
+    d = r - mean;
+    dd = d * d;
+    dd = variance + dd;
+    return variance / dd;
+}
+
+/* The weight of one term (trace::gather::for_each_term): spatial x facing
+ * x visibility of `probe` at `p` with normal `n`. */
+static float pp__term(const pp_lightfield *f, uint32_t probe, float spatial,
+                      const float p[3], const float n[3])
+{
+    const unsigned char *q = f->positions + 12u * (size_t)probe;
+    float tx = pp__f32(q) - p[0], ty = pp__f32(q + 4) - p[1], tz = pp__f32(q + 8) - p[2];
+    float r, ox = 0.0f, oy = 0.0f, oz = 0.0f, facing, visibility = 1.0f, xx, yy, zz, w;
+    xx = tx * tx;
+    yy = ty * ty;
+    zz = tz * tz;
+    r = xx + yy;
+    r = r + zz;
+    r = sqrtf(r);
+    if (r > 0.0f) {
+        ox = tx / r;
+        oy = ty / r;
+        oz = tz / r;
+    }
+    xx = n[0] * ox;
+    yy = n[1] * oy;
+    zz = n[2] * oz;
+    facing = xx + yy;
+    facing = facing + zz;
+    facing = pp__max(facing, PP_MIN_NORMAL_WEIGHT);
+    if (r > 0.0f) {
+        float moments[2];
+        pp__bilinear_moments(f, probe, -ox, -oy, -oz, moments);
+        visibility = pp__chebyshev(moments, r);
+    }
+    w = spatial * facing;
+    return w * visibility;
+}
+
+size_t pp_blend_terms(const pp_lightfield *field, const pp_lattice *lattice)
+{
+    if (field == NULL)
+        return 0;
+    return lattice != NULL ? PP_GRID_TERMS : field->probe_count;
+}
+
+pp_error pp_blend_weights(const pp_lightfield *field, const pp_svo *svo,
+                          const pp_lattice *lattice, const float point[3],
+                          const float normal[3], uint32_t *probes, float *weights,
+                          size_t capacity, size_t *count)
+{
+    size_t terms, k;
+    float p[3], n[3], total = 0.0f;
+
+    if (count != NULL)
+        *count = 0;
+    if (field == NULL || point == NULL || normal == NULL || probes == NULL ||
+        weights == NULL || count == NULL || (svo == NULL) == (lattice == NULL))
+        return PP_ERR_ARGUMENT;
+    if ((field->positions == NULL && field->probe_count != 0) ||
+        (lattice != NULL && lattice->index == NULL))
+        return PP_ERR_ARGUMENT;
+    if (svo != NULL && svo->probe_count != field->probe_count)
+        return PP_ERR_MISMATCH;
+    if (lattice != NULL &&
+        (lattice->dims[0] < 1 || lattice->dims[1] < 1 || lattice->dims[2] < 1 ||
+         (uint64_t)lattice->dims[0] * (uint64_t)lattice->dims[1] * (uint64_t)lattice->dims[2] !=
+             field->probe_count))
+        return PP_ERR_MISMATCH;
+    terms = pp_blend_terms(field, lattice);
+    if (capacity < terms)
+        return PP_ERR_CAPACITY;
+    for (k = 0; k < 3; k++) {
+        p[k] = point[k];
+        n[k] = normal[k];
+    }
+    if (lattice != NULL) {
+        /* trace::Lattice::cell, then the trilinear weights of
+         * for_each_term's grid branch (glam's clamp: max, then min). */
+        int32_t cell[3];
+        float f[3];
+        for (k = 0; k < 3; k++) {
+            float g = p[k] - lattice->origin[k];
+            int32_t hi = lattice->dims[k] - 2 > 0 ? lattice->dims[k] - 2 : 0;
+            int32_t c;
+            g = g / lattice->spacing[k];
+            c = pp__sat_i32(floorf(g));
+            cell[k] = c < 0 ? 0 : (c > hi ? hi : c);
+            f[k] = g - (float)cell[k];
+            f[k] = pp__min(pp__max(f[k], 0.0f), 1.0f);
+        }
+        for (k = 0; k < PP_GRID_TERMS; k++) {
+            size_t c[3], a;
+            float w[3], spatial;
+            for (a = 0; a < 3; a++) {
+                int32_t o = (int32_t)((k >> a) & 1u);
+                int32_t top = lattice->dims[a] - 1;
+                c[a] = (size_t)(cell[a] + o < top ? cell[a] + o : top);
+                w[a] = o ? f[a] : 1.0f - f[a];
+            }
+            probes[k] = lattice->index[c[0] + (size_t)lattice->dims[0] *
+                                                  (c[1] + (size_t)lattice->dims[1] * c[2])];
+            spatial = w[0] * w[1];
+            spatial = spatial * w[2];
+            weights[k] = pp__term(field, probes[k], spatial, p, n);
+            total = total + weights[k];
+        }
+    } else {
+        float soft = svo->leaf_size * svo->leaf_size;
+        for (k = 0; k < terms; k++) {
+            const unsigned char *q = field->positions + 12u * k;
+            float vx = pp__f32(q) - p[0], vy = pp__f32(q + 4) - p[1], vz = pp__f32(q + 8) - p[2];
+            float d = vx * vx, yy = vy * vy, zz = vz * vz;
+            d = d + yy;
+            d = d + zz;
+            d = d + soft;
+            probes[k] = (uint32_t)k;
+            weights[k] = pp__term(field, (uint32_t)k, 1.0f / d, p, n);
+            total = total + weights[k];
+        }
+    }
+    if (!(total > 0.0f))
+        return PP_OK;
+    for (k = 0; k < terms; k++)
+        weights[k] = weights[k] / total;
+    *count = terms;
+    return PP_OK;
+}
+
+/* ---- The lattice (trace::Lattice::from_positions) ---------------------- */
+
+static int pp__cmp_float(const void *a, const void *b)
+{
+    float x = *(const float *)a, y = *(const float *)b;
+    return (x > y) - (x < y);
+}
+
+pp_error pp_lattice_from_positions(const pp_lightfield *field, pp_lattice *lattice)
+{
+    uint32_t count, i, len[3] = {0, 0, 0};
+    float scale = 0.0f, tol, *axes;
+    pp_lattice l;
+    size_t a;
+
+    if (lattice == NULL)
+        return PP_ERR_ARGUMENT;
+    memset(lattice, 0, sizeof *lattice);
+    if (field == NULL || (field->positions == NULL && field->probe_count != 0))
+        return PP_ERR_ARGUMENT;
+    count = field->probe_count;
+    if (count == 0)
+        return PP_ERR_NOT_A_GRID;
+    for (i = 0; i < count; i++)
+        for (a = 0; a < 3; a++) {
+            float v = pp__f32(field->positions + 12u * (size_t)i + 4u * a);
+            if (!pp__finite(v))
+                return PP_ERR_NOT_A_GRID;
+            scale = pp__max(scale, fabsf(v));
+        }
+    scale = pp__max(scale, 1e-6f);
+    tol = 1e-4f * scale;
+    axes = (float *)PROBEPLACE_MALLOC(3u * (size_t)count * sizeof(float));
+    if (axes == NULL)
+        return PP_ERR_NO_MEMORY;
+    /* Each axis's distinct values (within tol), first seen first, as
+     * Rust's. The axes only grow: once they span more lattice points than
+     * there are probes, the count check below must fail. */
+    for (i = 0; i < count; i++) {
+        for (a = 0; a < 3; a++) {
+            float v = pp__f32(field->positions + 12u * (size_t)i + 4u * a);
+            float *axis = axes + a * (size_t)count;
+            uint32_t j;
+            for (j = 0; j < len[a]; j++) {
+                float d = axis[j] - v;
+                if (fabsf(d) <= tol)
+                    break;
+            }
+            if (j == len[a])
+                axis[len[a]++] = v;
+        }
+        if ((uint64_t)len[0] * len[1] * len[2] > count) {
+            PROBEPLACE_FREE(axes);
+            return PP_ERR_NOT_A_GRID;
+        }
+    }
+    memset(&l, 0, sizeof l);
+    for (a = 0; a < 3; a++) {
+        float *axis = axes + a * (size_t)count;
+        uint32_t j;
+        /* Distinct by more than tol: no -0 beside +0, so any sort orders
+         * them as Rust's total_cmp does. */
+        qsort(axis, len[a], sizeof(float), pp__cmp_float);
+        l.origin[a] = axis[0];
+        l.dims[a] = (int32_t)len[a];
+        l.spacing[a] = 1.0f;
+        if (len[a] > 1) {
+            float span = axis[len[a] - 1] - axis[0];
+            l.spacing[a] = span / (float)(len[a] - 1);
+            for (j = 1; j < len[a]; j++) {
+                float step = axis[j] - axis[j - 1];
+                step = step - l.spacing[a];
+                if (fabsf(step) > tol) {
+                    PROBEPLACE_FREE(axes);
+                    return PP_ERR_NOT_A_GRID;
+                }
+            }
+        }
+    }
+    PROBEPLACE_FREE(axes);
+    if ((uint64_t)len[0] * len[1] * len[2] != count)
+        return PP_ERR_NOT_A_GRID;
+    l.index = (uint32_t *)PROBEPLACE_MALLOC((size_t)count * sizeof(uint32_t));
+    if (l.index == NULL)
+        return PP_ERR_NO_MEMORY;
+    for (i = 0; i < count; i++)
+        l.index[i] = UINT32_MAX;
+    for (i = 0; i < count; i++) {
+        size_t flat = 0, stride = 1;
+        for (a = 0; a < 3; a++) {
+            float v = pp__f32(field->positions + 12u * (size_t)i + 4u * a);
+            float c = v - l.origin[a];
+            c = c / l.spacing[a];
+            c = roundf(c);
+            /* Rust rounds (halves away from zero, as roundf), casts and
+             * compares with the dims; NaN fails here. */
+            if (!(c >= 0.0f && c < (float)l.dims[a])) {
+                PROBEPLACE_FREE(l.index);
+                return PP_ERR_NOT_A_GRID;
+            }
+            flat += (size_t)c * stride;
+            stride *= (size_t)l.dims[a];
+        }
+        if (l.index[flat] != UINT32_MAX) {
+            PROBEPLACE_FREE(l.index);
+            return PP_ERR_NOT_A_GRID;
+        }
+        l.index[flat] = i;
+    }
+    *lattice = l;
+    return PP_OK;
+}
+
+void pp_lattice_free(pp_lattice *lattice)
+{
+    if (lattice == NULL)
+        return;
+    PROBEPLACE_FREE(lattice->index);
+    memset(lattice, 0, sizeof *lattice);
+}
+
 const char *pp_error_string(pp_error e)
 {
     switch (e) {
@@ -498,7 +1169,7 @@ const char *pp_error_string(pp_error e)
     case PP_ERR_NOT_SVO: return "not a probeplace SVO file (its first bytes are not PROBESVO)";
     case PP_ERR_TRUNCATED: return "truncated: shorter than its header, or than its header announces";
     case PP_ERR_TOO_LONG: return "corrupted: longer than its header announces";
-    case PP_ERR_VERSION: return "unsupported version: this reader reads version 2";
+    case PP_ERR_VERSION: return "unsupported version: this reader reads svo.bin version 2, lightfield.bin version 1";
     case PP_ERR_CHECKSUM: return "corrupted: the checksum does not match the contents";
     case PP_ERR_ORIGIN: return "corrupted: the origin is not finite";
     case PP_ERR_LEAF_SIZE: return "corrupted: the leaf size is not positive";
@@ -514,6 +1185,13 @@ const char *pp_error_string(pp_error e)
     case PP_ERR_BELOW_LEAF_LEVEL: return "corrupted: a node has children below the leaf level";
     case PP_ERR_CHILD_INDEX: return "corrupted: a node points outside the node array";
     case PP_ERR_SHARED_CHILD: return "corrupted: a node shares a child with another node";
+    case PP_ERR_NOT_LIGHTFIELD: return "not a probeplace light-field file (bad magic)";
+    case PP_ERR_MAP_SIDE: return "map sides must be powers of two up to 16384";
+    case PP_ERR_LEVELS: return "pyramid levels other than log2 of the map side + 1";
+    case PP_ERR_LENGTH: return "a length other than its header implies";
+    case PP_ERR_NOT_A_GRID: return "the probes are not a regular grid";
+    case PP_ERR_MISMATCH: return "the files come from different runs: their probe counts differ";
+    case PP_ERR_CAPACITY: return "the output arrays are shorter than the blend's terms";
     }
     return "unknown error";
 }

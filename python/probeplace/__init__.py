@@ -6,6 +6,8 @@
     lists, counts = svo.probes_at(points)          # (N, 3) world points
     field = probeplace.load_lightfield("out/cornell/lightfield.bin")
     probes = probeplace.load_probes("out/cornell/probes.json")
+    # the diffuse blend of the validation renders: probes and weights
+    ids, weights, counts = probeplace.blend_weights(field, svo, points, normals)
 
 Each loader makes the checks probeplace's own Rust reader makes and raises
 :class:`ProbeplaceError` (``PATH: reason``) for a file it would refuse.
@@ -13,17 +15,21 @@ Byte layouts: docs/formats.md.
 """
 
 from ._common import ProbeplaceError, Provenance, crc32, fnv1a64
+from .blend import Lattice, blend_terms, blend_weights
 from .lightfield import LightField, load_lightfield
 from .probes import Probes, load_probes
 from .run import Run, open_run
 from .svo import NO_PROBE, Svo, load_svo
-from . import lightfield, probes, svo
+from . import blend, lightfield, probes, svo
 
 __all__ = [
     "ProbeplaceError",
     "Provenance",
     "crc32",
     "fnv1a64",
+    "Lattice",
+    "blend_terms",
+    "blend_weights",
     "LightField",
     "load_lightfield",
     "Probes",
@@ -33,6 +39,7 @@ __all__ = [
     "NO_PROBE",
     "Svo",
     "load_svo",
+    "blend",
     "lightfield",
     "probes",
     "svo",

@@ -137,3 +137,35 @@ def test_damaged_file_is_refused_as_rust_refuses_it(case):
             assert got.positions.ravel().tolist() == case["positions"]
             assert got.cluster_size.tolist() == case["cluster_size"]
     verified(f"damaged:{case['kind']}:{case['name']}")
+
+
+@pytest.mark.parametrize("case", cases("blend"))
+def test_blend_weights_answer_as_rust(case):
+    """``blend_weights`` gives Rust's probes and weights, bit for bit, on
+    the run's files; ``Lattice.from_positions`` finds a grid where Rust does."""
+    field = pp.load_lightfield(case["lightfield"])
+    lattice = pp.Lattice.from_positions(field.positions)
+    assert (lattice is not None) == case["is_grid"]
+    selection = lattice if case["grid"] else pp.load_svo(case["svo"])
+    k = case["terms"]
+    assert pp.blend_terms(field, selection) == k
+    pts = np.fromfile(case["points"], dtype="<f4").astype(np.float32).reshape(-1, 3)
+    nrm = np.fromfile(case["normals"], dtype="<f4").astype(np.float32).reshape(-1, 3)
+    ans = np.fromfile(case["answers"], dtype="<u4").astype(np.uint32).reshape(-1, 1 + 2 * k)
+    assert len(pts) == len(nrm) == len(ans) == case["count"]
+    probes, weights, counts = pp.blend_weights(field, selection, pts, nrm)
+    assert probes.shape == weights.shape == (len(pts), k) and counts.shape == (len(pts),)
+    want_probes, want_bits = ans[:, 1::2], ans[:, 2::2]
+    bad = np.nonzero((counts != ans[:, 0]) | np.any(probes != want_probes, axis=1)
+                     | np.any(weights.view(np.uint32) != want_bits, axis=1))[0]
+    assert len(bad) == 0, f"{len(bad)} points differ; " + "; ".join(
+        f"point {i} {pts[i].tolist()} n {nrm[i].tolist()}: Python {probes[i].tolist()} "
+        f"{weights[i].tolist()}, Rust {want_probes[i].tolist()} "
+        f"{want_bits[i].view(np.float32).tolist()}" for i in bad[:3])
+    assert int(np.count_nonzero(counts)) == case["non_empty"]
+    # One point at a time, as a renderer might ask, answers alike.
+    for i in range(0, len(pts), 211):
+        p1, w1, c1 = pp.blend_weights(field, selection, pts[i], nrm[i])
+        assert int(c1) == counts[i] and np.array_equal(p1, probes[i])
+        assert np.array_equal(w1.view(np.uint32), weights[i].view(np.uint32))
+    verified(f"blend:{case['name']}")

@@ -261,3 +261,108 @@ def test_provenance_shows_its_hashes_in_hex_as_the_json_writes_them():
     assert "config_hash=00ab12cd34ef5678" in text
     assert "scene_hash=ffffffffffffffff" in text
     assert "seed=7" in text
+
+
+def blend_field(positions, wall=50.0, m=4, n=2, far_wall=None):
+    """A light field of ``positions`` whose moments put every surface at
+    ``wall`` (the last probe's at ``far_wall`` when given)."""
+    p = len(positions)
+    levels = n.bit_length()
+    head = struct.pack("<8s5If", b"PROBELFB", 1, p, n, levels, m, 9.5) + bytes(32)
+    maps = np.zeros(p * (6 * n * n + 2 * sum((n >> k) ** 2 for k in range(levels))
+                         + 3 * m * m), dtype="<f2")
+    moments = np.empty((p, m * m, 2), dtype="<f2")
+    moments[:] = (wall, wall * wall)
+    if far_wall is not None:
+        moments[-1] = (far_wall, far_wall * far_wall)
+    body = (head + np.asarray(positions, dtype="<f4").tobytes() + maps.tobytes()
+            + moments.tobytes())
+    return pp.lightfield.from_bytes(body + struct.pack("<I", pp.crc32(body)))
+
+
+def cube(side=2, step=2.0):
+    return [[x * step, y * step, z * step]
+            for z in range(side) for y in range(side) for x in range(side)]
+
+
+def test_lattice_is_recognized_in_any_order_and_only_a_full_grid():
+    pts = np.array(cube(3, 0.5), dtype=np.float32)[::-1]
+    lat = pp.Lattice.from_positions(pts)
+    assert lat.dims.tolist() == [3, 3, 3] and lat.spacing.tolist() == [0.5] * 3
+    # Lattice point (x, y, z) holds the probe standing there.
+    for k, q in enumerate(pts):
+        c = np.round(q / 0.5).astype(int)
+        assert lat.index[c[0] + 3 * (c[1] + 3 * c[2])] == k
+    flat = pp.Lattice.from_positions([[0, 1, 0], [2, 1, 0], [4, 1, 0]])
+    assert flat.dims.tolist() == [3, 1, 1] and flat.spacing.tolist() == [2, 1, 1]
+    broken = pts.copy()
+    broken[4, 0] += np.float32(0.1)
+    for bad in (broken, pts[1:], np.zeros((0, 3)), np.vstack([pts[:-1], pts[:1]]),
+                np.where(np.arange(27)[:, None] == 3, np.nan, pts)):
+        assert pp.Lattice.from_positions(bad) is None
+
+
+def test_at_a_grid_probe_that_probe_takes_all_the_weight():
+    field = blend_field(cube())
+    lat = pp.Lattice.from_positions(field.positions)
+    probes, weights, counts = pp.blend_weights(field, lat, field.positions,
+                                               np.tile([0, 1, 0], (8, 1)))
+    assert counts.tolist() == [8] * 8
+    for k in range(8):
+        assert weights[k][probes[k] == k].tolist() == [1.0]
+        assert not weights[k][probes[k] != k].any()
+
+
+def test_weights_sum_to_one_and_follow_inverse_square_and_facing():
+    field = blend_field(cube())
+    tree = svo_module.from_bytes(svo_bytes([0], [], probes=8, leaf_size=0.25))
+    lat = pp.Lattice.from_positions(field.positions)
+    rng = np.random.default_rng(3)
+    pts = rng.uniform(-0.5, 2.5, (200, 3))
+    nrm = rng.normal(size=(200, 3))
+    nrm /= np.linalg.norm(nrm, axis=1, keepdims=True)
+    for sel in (tree, lat):
+        probes, weights, counts = pp.blend_weights(field, sel, pts, nrm)
+        assert np.all(counts == pp.blend_terms(field, sel))
+        assert np.all((weights >= 0) & (weights <= 1))
+        assert np.allclose(weights.astype(np.float64).sum(axis=1), 1, atol=1e-6)
+    # With nothing occluding, the SVO selection's weights are the softened
+    # inverse square distance times the clamped cosine, recomputed in f64.
+    probes, weights, _ = pp.blend_weights(field, tree, pts, nrm)
+    v = field.positions[None].astype(np.float64) - pts.astype(np.float32)[:, None]
+    d2 = (v ** 2).sum(axis=2)
+    facing = np.maximum(np.einsum("nk,npk->np", nrm.astype(np.float32), v / np.sqrt(d2)[..., None]),
+                        0.05)
+    raw = facing / (d2 + 0.25 ** 2)
+    assert np.allclose(weights, raw / raw.sum(axis=1, keepdims=True), rtol=1e-5, atol=1e-7)
+
+
+def test_a_probe_behind_a_wall_loses_its_weight():
+    # The far probe sees a surface at 1.0 in every direction: a point 3.0
+    # from it is hidden (Chebyshev), whatever the selection.
+    line = [[0, 0, 0], [0, 0, 4]]
+    tree = svo_module.from_bytes(svo_bytes([0], [], probes=2, leaf_size=0.1))
+    walled, open_ = blend_field(line, wall=10, far_wall=1.0), blend_field(line, wall=10)
+
+    def far(field, sel):
+        probes, weights, _ = pp.blend_weights(field, sel, [0, 0, 1], [1, 0, 0])
+        return float(weights[probes == 1].sum())
+
+    for sel in (tree, pp.Lattice.from_positions(line)):
+        assert far(open_, sel) > 0.05 and far(walled, sel) < 1e-5 * far(open_, sel)
+
+
+def test_blend_refuses_what_it_cannot_answer():
+    field = blend_field(cube())
+    other = svo_module.from_bytes(svo_bytes([0], [], probes=9), "other/svo.bin")
+    with pytest.raises(pp.ProbeplaceError, match="other/svo.bin: indexes 9 probes but"):
+        pp.blend_weights(field, other, [0, 0, 0], [0, 1, 0])
+    tree = svo_module.from_bytes(svo_bytes([0], [], probes=8))
+    with pytest.raises(ValueError, match="one shape"):
+        pp.blend_weights(field, tree, [[0, 0, 0]], [0, 1, 0])
+    with pytest.raises(TypeError):
+        pp.blend_weights(field, None, [0, 0, 0], [0, 1, 0])
+    probes, weights, counts = pp.blend_weights(field, tree, [[np.nan, 0, 0], [0, 0, 0]],
+                                               [[0, 1, 0], [0, 1, 0]])
+    assert counts.tolist() == [0, 8]
+    assert (probes[0] == pp.NO_PROBE).all() and not weights[0].any()

@@ -50,6 +50,7 @@ pub struct ProbeTracer<'c> {
     has_grid: bool,
     trace: wgpu::ComputePipeline,
     gather: wgpu::ComputePipeline,
+    blend: wgpu::ComputePipeline,
     bind_group: wgpu::BindGroup,
     params: wgpu::Buffer,
     queries: wgpu::Buffer,
@@ -103,6 +104,7 @@ impl<'c> ProbeTracer<'c> {
         let timestamps = ctx.timestamps.then(|| timestamp_queries(device));
         let trace = compute_pipeline(device, &pipeline_layout, &module, "trace_rays");
         let gather = compute_pipeline(device, &pipeline_layout, &module, "gather_irradiance");
+        let blend = compute_pipeline(device, &pipeline_layout, &module, "blend_weights");
         for scope in [memory, scope] {
             if let Some(e) = pollster::block_on(scope.pop()) {
                 return Err(format!("GPU set-up failed: {e}"));
@@ -115,6 +117,7 @@ impl<'c> ProbeTracer<'c> {
             has_grid: lattice.is_some(),
             trace,
             gather,
+            blend,
             bind_group,
             params: io.params,
             queries: io.queries,
@@ -174,6 +177,22 @@ impl<'c> ProbeTracer<'c> {
         selection: SelectionKind,
     ) -> Result<Traced, String> {
         self.run(&self.gather, queries, 0, selection)
+    }
+
+    /// One normalized weight of the diffuse blend per query (kernel
+    /// `blend_weights`, whose `blend_term` `gather_irradiance` blends
+    /// with): query `i` holds a point in `origin`, its unit normal in `dir`
+    /// and a term index k in `t_max` (as f32); record `i` holds term k of
+    /// [`crate::trace::gather::blend_weights`] at that point, its probe in
+    /// `probe` and its weight in `t` ([`super::twin::blend_weights`] is
+    /// the CPU side). Each query weighs every term again to normalize: a
+    /// check of the kernel's weights, not a fast path.
+    pub fn blend_weights(
+        &self,
+        queries: &[Query],
+        selection: SelectionKind,
+    ) -> Result<Traced, String> {
+        self.run(&self.blend, queries, 0, selection)
     }
 
     fn run(

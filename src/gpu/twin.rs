@@ -75,3 +75,27 @@ pub fn gather_irradiance(
         })
         .collect()
 }
+
+/// What `blend_weights` computes for each query, on the CPU: term k (the
+/// query's `t_max`) of [`gather::blend_weights`] at the query's point and
+/// normal, its probe in `probe`, k in `texel` and its weight in `t`;
+/// `u32::MAX` and 0 past the blend's terms.
+///
+/// Contract: as [`trace_rays`]; the other fields are zero.
+pub fn blend_weights(field: &LightField, selection: &Selection, queries: &[Query]) -> Vec<Record> {
+    queries
+        .par_iter()
+        .map_init(Vec::new, |terms, q| {
+            let k = q.t_max as u32;
+            let (p, n) = (Vec3::from(q.origin), Vec3::from(q.dir));
+            gather::blend_weights(field, selection, p, n, terms);
+            let (probe, t) = terms.get(k as usize).copied().unwrap_or((u32::MAX, 0.0));
+            Record {
+                probe,
+                texel: k,
+                t,
+                ..Record::zeroed()
+            }
+        })
+        .collect()
+}

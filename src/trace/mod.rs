@@ -97,9 +97,14 @@ pub struct Lattice {
 impl Lattice {
     /// Recognizes `positions` as a full regular grid (any order).
     ///
-    /// Contract: `None` unless the positions are exactly the points of an
-    /// nx×ny×nz lattice with constant spacing per axis (to 1e-4 relative).
+    /// Contract: `None` unless the positions are finite, at least one, and
+    /// exactly the points of an nx×ny×nz lattice with constant spacing per
+    /// axis (to 1e-4 relative). The Python and C readers recognize the same lattices
+    /// (`probeplace.Lattice.from_positions`, `pp_lattice_from_positions`).
     pub fn from_positions(positions: &[Vec3]) -> Option<Lattice> {
+        if positions.is_empty() || !positions.iter().all(|p| p.is_finite()) {
+            return None;
+        }
         let mut axes = [Vec::new(), Vec::new(), Vec::new()];
         let scale = positions
             .iter()
@@ -130,12 +135,20 @@ impl Lattice {
                 }
             }
         }
-        if (dims.x * dims.y * dims.z) as usize != positions.len() {
+        // In i64: three axes of a few thousand distinct values each (any
+        // placement off a grid) overflow an i32 product.
+        if dims.x as i64 * dims.y as i64 * dims.z as i64 != positions.len() as i64 {
             return None;
         }
         let mut index = HashMap::new();
         for (k, p) in positions.iter().enumerate() {
             let c = ((*p - origin) / spacing).round().as_ivec3();
+            // A point rounding outside the lattice (possible only where the
+            // spacing nears the tolerance) would leave a lattice point
+            // without a probe, which `corner` could not find.
+            if c.cmplt(IVec3::ZERO).any() || c.cmpge(dims).any() {
+                return None;
+            }
             index.insert((c.x, c.y, c.z), k as u32);
         }
         (index.len() == positions.len()).then_some(Lattice {
@@ -362,6 +375,15 @@ mod tests {
         broken[3].x += 0.3;
         assert!(Lattice::from_positions(&broken).is_none());
         assert!(Lattice::from_positions(&shuffled[1..]).is_none());
+        assert!(Lattice::from_positions(&[]).is_none());
+        broken[3].x = f32::NAN;
+        assert!(Lattice::from_positions(&broken).is_none());
+        // 1300 distinct values on every axis: 1300³ overflowed the i32
+        // count check (a panic with debug assertions).
+        let cloud: Vec<Vec3> = (0..1300u32)
+            .map(|i| Vec3::new(i as f32, (i * 7 % 1300) as f32, (i * 11 % 1300) as f32))
+            .collect();
+        assert!(Lattice::from_positions(&cloud).is_none());
     }
 
     #[test]

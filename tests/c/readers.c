@@ -9,9 +9,21 @@
  *       for each line `PATH` or `PATH<TAB>ANSWERS` of LIST, loads PATH
  *       (both ways), prints `PATH<TAB>CODE`, and where it loads queries
  *       every point (against ANSWERS when given).
+ *   readers blend LIGHTFIELD SVO SELECTION POINTS NORMALS BLEND
+ *       loads LIGHTFIELD (both ways) and SVO, prints whether the probes
+ *       form a grid (`probes: grid` or `probes: not-grid`), and checks
+ *       pp_blend_weights with SELECTION (`grid` or `svo`) at every point
+ *       and normal against Rust's answers, bit for bit, and its errors.
+ *   readers check-lightfield LIST POINTS NORMALS
+ *       for each line `PATH` or `PATH<TAB>SVO<TAB>BLEND` of LIST, loads
+ *       the lightfield.bin PATH (both ways), prints `PATH<TAB>CODE`, and
+ *       where it loads and BLEND is given checks the SVO selection's blend.
  *
- * POINTS: little-endian f32 x, y, z per point. ANSWERS: per point nine
- * little-endian u32: the count, then 8 slots (unused ones 0xFFFFFFFF).
+ * POINTS, NORMALS: little-endian f32 x, y, z per point. ANSWERS: per point
+ * nine little-endian u32: the count, then 8 slots (unused ones 0xFFFFFFFF).
+ * BLEND: per point 1 + 2K little-endian u32 (K = pp_blend_terms): the
+ * count of terms (K, or 0 where the weights sum to no positive number),
+ * then K pairs (probe, bits of the weight).
  */
 #define PROBEPLACE_IMPLEMENTATION
 #include "probeplace.h"
@@ -46,6 +58,13 @@ static const char *code_name(pp_error e)
     case PP_ERR_BELOW_LEAF_LEVEL: return "PP_ERR_BELOW_LEAF_LEVEL";
     case PP_ERR_CHILD_INDEX: return "PP_ERR_CHILD_INDEX";
     case PP_ERR_SHARED_CHILD: return "PP_ERR_SHARED_CHILD";
+    case PP_ERR_NOT_LIGHTFIELD: return "PP_ERR_NOT_LIGHTFIELD";
+    case PP_ERR_MAP_SIDE: return "PP_ERR_MAP_SIDE";
+    case PP_ERR_LEVELS: return "PP_ERR_LEVELS";
+    case PP_ERR_LENGTH: return "PP_ERR_LENGTH";
+    case PP_ERR_NOT_A_GRID: return "PP_ERR_NOT_A_GRID";
+    case PP_ERR_MISMATCH: return "PP_ERR_MISMATCH";
+    case PP_ERR_CAPACITY: return "PP_ERR_CAPACITY";
     }
     return "?";
 }
@@ -243,12 +262,227 @@ static int run_check(const char *list, const char *points)
     return failed == 0 ? 0 : 1;
 }
 
+/* Both loads of the lightfield.bin `path` must agree; returns the code,
+ * `*field` from memory (its buffer in `*bytes`, to free after). */
+static pp_error load_field_both(const char *path, pp_lightfield *field, unsigned char **bytes)
+{
+    size_t size;
+    pp_lightfield from_file;
+    pp_error e, f;
+    *bytes = slurp(path, &size);
+    e = pp_lightfield_load(*bytes, size, field);
+    f = pp_lightfield_load_file(path, &from_file);
+    if (e != f) {
+        printf("%s: pp_lightfield_load says %s but pp_lightfield_load_file %s\n", path,
+               code_name(e), code_name(f));
+        exit(1);
+    }
+    if (e == PP_OK &&
+        (from_file.probe_count != field->probe_count ||
+         from_file.irradiance_resolution != field->irradiance_resolution ||
+         memcmp(from_file.positions, field->positions, 12u * (size_t)field->probe_count) != 0 ||
+         memcmp(from_file.moments, field->moments,
+                4u * (size_t)field->probe_count * field->irradiance_resolution *
+                    field->irradiance_resolution) != 0)) {
+        printf("%s: the two loads differ\n", path);
+        exit(1);
+    }
+    pp_lightfield_free(&from_file);
+    return e;
+}
+
+/* Checks pp_blend_weights at every point against `answers`; returns the
+ * number of points that differ and counts those with terms. */
+static size_t compare_blend(const char *name, const pp_lightfield *field, const pp_svo *svo,
+                            const pp_lattice *lattice, struct points pts,
+                            struct points normals, const char *answers, size_t *non_empty)
+{
+    size_t terms = pp_blend_terms(field, lattice), words = 1 + 2 * terms, size, i, bad = 0;
+    unsigned char *a = slurp(answers, &size);
+    /* Exactly `terms` entries, so that the sanitizer sees any overrun. */
+    uint32_t *probes = (uint32_t *)malloc(terms * sizeof(uint32_t) + 1);
+    float *weights = (float *)malloc(terms * sizeof(float) + 1);
+    if (probes == NULL || weights == NULL)
+        exit(2);
+    if (pts.count != normals.count || size != 4 * words * pts.count) {
+        printf("%s: %lu answer bytes for %lu points and %lu normals of %lu terms\n", answers,
+               (unsigned long)size, (unsigned long)pts.count, (unsigned long)normals.count,
+               (unsigned long)terms);
+        exit(1);
+    }
+    *non_empty = 0;
+    for (i = 0; i < pts.count; i++) {
+        const unsigned char *want = a + 4 * words * i;
+        size_t count = 99, k;
+        int same;
+        pp_error e = pp_blend_weights(field, svo, lattice, pts.xyz + 3 * i, normals.xyz + 3 * i,
+                                      probes, weights, terms, &count);
+        if (e != PP_OK) {
+            printf("%s: point %lu: %s\n", name, (unsigned long)i, code_name(e));
+            exit(1);
+        }
+        *non_empty += count > 0;
+        same = le32(want) == count;
+        for (k = 0; same && k < count; k++) {
+            uint32_t bits;
+            memcpy(&bits, &weights[k], sizeof bits);
+            same = le32(want + 4 + 8 * k) == probes[k] && le32(want + 8 + 8 * k) == bits;
+        }
+        if (!same) {
+            if (bad < 5) {
+                const float *p = pts.xyz + 3 * i;
+                printf("%s: point %lu (%.9g, %.9g, %.9g): C %lu terms, Rust %u", name,
+                       (unsigned long)i, p[0], p[1], p[2], (unsigned long)count,
+                       (unsigned)le32(want));
+                for (k = 0; k < count && k < terms; k++)
+                    if (le32(want + 4 + 8 * k) != probes[k] ||
+                        lef32(want + 8 + 8 * k) != weights[k]) {
+                        printf("; term %lu: C %u %.9g, Rust %u %.9g", (unsigned long)k,
+                               (unsigned)probes[k], weights[k], (unsigned)le32(want + 4 + 8 * k),
+                               lef32(want + 8 + 8 * k));
+                        break;
+                    }
+                printf("\n");
+            }
+            bad++;
+        }
+    }
+    /* The errors: one slot short, no selection or two, a tree of another run. */
+    if (terms > 0) {
+        size_t count = 7;
+        pp_svo other;
+        if (pp_blend_weights(field, svo, lattice, pts.xyz, normals.xyz, probes, weights,
+                             terms - 1, &count) != PP_ERR_CAPACITY || count != 0) {
+            printf("%s: a short output is not PP_ERR_CAPACITY\n", name);
+            exit(1);
+        }
+        if (pp_blend_weights(field, NULL, NULL, pts.xyz, normals.xyz, probes, weights, terms,
+                             &count) != PP_ERR_ARGUMENT) {
+            printf("%s: no selection is not PP_ERR_ARGUMENT\n", name);
+            exit(1);
+        }
+        if (svo != NULL) {
+            other = *svo;
+            other.probe_count++;
+            if (pp_blend_weights(field, &other, NULL, pts.xyz, normals.xyz, probes, weights,
+                                 terms, &count) != PP_ERR_MISMATCH) {
+                printf("%s: another run's tree is not PP_ERR_MISMATCH\n", name);
+                exit(1);
+            }
+        }
+    }
+    free(probes);
+    free(weights);
+    free(a);
+    return bad;
+}
+
+static int run_blend(char **argv)
+{
+    const char *field_path = argv[0], *svo_path = argv[1], *selection = argv[2];
+    struct points pts = read_points(argv[3]), normals = read_points(argv[4]);
+    unsigned char *bytes;
+    pp_lightfield field;
+    pp_svo svo;
+    pp_lattice lattice;
+    size_t bad, non_empty;
+    pp_error e = load_field_both(field_path, &field, &bytes), g;
+    if (e != PP_OK) {
+        printf("%s: %s (%s)\n", field_path, pp_error_string(e), code_name(e));
+        return 1;
+    }
+    e = pp_svo_load_file(svo_path, &svo);
+    if (e != PP_OK) {
+        printf("%s: %s (%s)\n", svo_path, pp_error_string(e), code_name(e));
+        return 1;
+    }
+    g = pp_lattice_from_positions(&field, &lattice);
+    if (g != PP_OK && g != PP_ERR_NOT_A_GRID) {
+        printf("%s: pp_lattice_from_positions: %s\n", field_path, code_name(g));
+        return 1;
+    }
+    printf("%s: probes: %s\n", field_path, g == PP_OK ? "grid" : "not-grid");
+    if (strcmp(selection, "grid") == 0 && g != PP_OK) {
+        printf("%s: the grid selection without a grid\n", field_path);
+        return 1;
+    }
+    bad = compare_blend(field_path, &field, strcmp(selection, "grid") == 0 ? NULL : &svo,
+                        strcmp(selection, "grid") == 0 ? &lattice : NULL, pts, normals,
+                        argv[5], &non_empty);
+    printf("%s (%s): %lu points, %lu non-empty, %lu differ from Rust\n", field_path, selection,
+           (unsigned long)pts.count, (unsigned long)non_empty, (unsigned long)bad);
+    pp_lattice_free(&lattice);
+    pp_svo_free(&svo);
+    free(bytes);
+    free(pts.xyz);
+    free(normals.xyz);
+    return bad == 0 ? 0 : 1;
+}
+
+static int run_check_lightfield(const char *list, const char *points, const char *normal_path)
+{
+    struct points pts = read_points(points), normals = read_points(normal_path);
+    size_t size, at = 0, failed = 0;
+    unsigned char *text = slurp(list, &size);
+    while (at < size) {
+        char *line = (char *)text + at, *tab, *svo_path = NULL, *answers = NULL;
+        size_t end = at;
+        pp_lightfield field;
+        unsigned char *bytes;
+        pp_error e;
+        while (end < size && text[end] != '\n')
+            end++;
+        if (end == size) {
+            fprintf(stderr, "%s: the last line has no newline\n", list);
+            return 2;
+        }
+        text[end] = '\0';
+        at = end + 1;
+        tab = strchr(line, '\t');
+        if (tab != NULL) {
+            *tab = '\0';
+            svo_path = tab + 1;
+            tab = strchr(svo_path, '\t');
+            if (tab == NULL) {
+                fprintf(stderr, "%s: a line with a tree but no answers\n", list);
+                return 2;
+            }
+            *tab = '\0';
+            answers = tab + 1;
+        }
+        e = load_field_both(line, &field, &bytes);
+        printf("%s\t%s\n", line, code_name(e));
+        if (e == PP_OK && answers != NULL) {
+            pp_svo svo;
+            size_t non_empty;
+            if (pp_svo_load_file(svo_path, &svo) != PP_OK) {
+                printf("%s: cannot load\n", svo_path);
+                return 1;
+            }
+            failed += compare_blend(line, &field, &svo, NULL, pts, normals, answers,
+                                    &non_empty) != 0;
+            pp_svo_free(&svo);
+        }
+        free(bytes);
+    }
+    free(text);
+    free(pts.xyz);
+    free(normals.xyz);
+    return failed == 0 ? 0 : 1;
+}
+
 int main(int argc, char **argv)
 {
     if (argc == 5 && strcmp(argv[1], "answers") == 0)
         return run_answers(argv[2], argv[3], argv[4]);
     if (argc == 4 && strcmp(argv[1], "check") == 0)
         return run_check(argv[2], argv[3]);
-    fprintf(stderr, "usage: readers answers SVO POINTS ANSWERS | readers check LIST POINTS\n");
+    if (argc == 8 && strcmp(argv[1], "blend") == 0)
+        return run_blend(argv + 2);
+    if (argc == 5 && strcmp(argv[1], "check-lightfield") == 0)
+        return run_check_lightfield(argv[2], argv[3], argv[4]);
+    fprintf(stderr, "usage: readers answers SVO POINTS ANSWERS | readers check LIST POINTS"
+                    " | readers blend LIGHTFIELD SVO grid|svo POINTS NORMALS BLEND"
+                    " | readers check-lightfield LIST POINTS NORMALS\n");
     return 2;
 }

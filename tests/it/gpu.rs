@@ -2,7 +2,8 @@
 //! and Hi-Z traces (McGuire et al. 2017 §4; Wang et al. 2019 §4.2) agree
 //! with the CPU tracer, and with each other, on hit/miss and on the texel
 //! a hit is read from; the irradiance gather (McGuire §5.2) matches its
-//! twin; and Hi-Z reads fewer texels than bi-level.
+//! twin, and so do the blend weights it uses; and Hi-Z reads fewer texels
+//! than bi-level.
 
 use crate::common::*;
 use probeplace::gpu::{kind, twin, ProbeTracer, Query, Record, SelectionKind};
@@ -141,7 +142,112 @@ fn compare(test: &str, config: &str, method: Option<&str>) {
     assert!(cpu
         .iter()
         .all(|r| r.radiance.iter().all(|v| v.is_finite() && *v >= 0.0)));
+    blend_weights_agree(
+        &ctx.adapter,
+        &format!("{config} {method:?}"),
+        &tracer,
+        field,
+        &selection,
+        kind_of,
+        &queries,
+    );
 }
+
+/// Points whose every blend weight the GPU computes against the CPU, per
+/// scene: each is as many queries as the blend has terms, and each query
+/// weighs them all again.
+const BLEND_POINTS: usize = 400;
+
+/// The kernel `blend_weights` (the weights `gather_irradiance` blends with)
+/// against `trace::gather::blend_weights` at the first [`BLEND_POINTS`]
+/// ray origins (facing along the rays) and at the first probes (r = 0):
+/// the same probe for every term, and the same weight bit for bit on
+/// lavapipe (llvmpipe: IEEE division and square root, no fused
+/// multiply-add, as CI runs it), within [`BLEND_ULPS`] units of 1.0 in
+/// the last place on other adapters (WGSL allows f32 division 2.5 ULP and
+/// `length` its own error, and a GPU compiler may fuse a multiply and an
+/// add).
+fn blend_weights_agree(
+    adapter: &str,
+    label: &str,
+    tracer: &ProbeTracer,
+    field: &LightField,
+    selection: &Selection,
+    kind_of: SelectionKind,
+    queries: &[Query],
+) {
+    let terms = match selection {
+        Selection::Grid(_) => 8,
+        Selection::Svo(_) => field.positions.len(),
+    };
+    let at_probes = field.positions.iter().take(8).map(|q| Query {
+        origin: q.to_array(),
+        t_max: 0.0,
+        dir: [0.0, 1.0, 0.0],
+        pad: 0.0,
+    });
+    let points: Vec<Query> = queries[..BLEND_POINTS]
+        .iter()
+        .copied()
+        .chain(at_probes)
+        .collect();
+    let expanded: Vec<Query> = points
+        .iter()
+        .flat_map(|q| {
+            (0..terms).map(|k| Query {
+                t_max: k as f32,
+                ..*q
+            })
+        })
+        .collect();
+    let start = std::time::Instant::now();
+    let cpu = twin::blend_weights(field, selection, &expanded);
+    let cpu_s = start.elapsed().as_secs_f64();
+    let start = std::time::Instant::now();
+    let (gpu, _) = tracer.blend_weights(&expanded, kind_of).unwrap();
+    let gpu_s = start.elapsed().as_secs_f64();
+    let mut exact = 0;
+    let mut worst = (0.0f32, 0usize);
+    for (i, (a, b)) in cpu.iter().zip(&gpu).enumerate() {
+        assert_eq!(
+            (a.probe, a.texel),
+            (b.probe, b.texel),
+            "{label}: term {i}: probes differ"
+        );
+        assert_ne!(a.probe, u32::MAX, "{label}: term {i} has no weight");
+        exact += (a.t.to_bits() == b.t.to_bits()) as usize;
+        let err = (a.t - b.t).abs() / f32::EPSILON;
+        if err > worst.0 {
+            worst = (err, i);
+        }
+    }
+    eprintln!(
+        "{label}: blend weights of {} points × {terms} terms: {exact} of {} bit for bit, worst {:.1} ε (term {}: CPU {} GPU {}); CPU {cpu_s:.2} s, GPU {gpu_s:.2} s",
+        points.len(),
+        expanded.len(),
+        worst.0,
+        worst.1,
+        cpu[worst.1].t,
+        gpu[worst.1].t
+    );
+    if adapter.contains("llvmpipe") {
+        assert_eq!(
+            exact,
+            expanded.len(),
+            "{label}: lavapipe's weights are Rust's bits"
+        );
+    }
+    assert!(
+        worst.0 <= BLEND_ULPS,
+        "{label}: a GPU blend weight differs by {} ε",
+        worst.0
+    );
+}
+
+/// How far (in units of f32::EPSILON) a GPU's blend weight may stray from
+/// Rust's where the adapter's arithmetic is not IEEE's: some ten roundings
+/// of up to 2.5 ULP each, with margin.
+const BLEND_ULPS: f32 = 64.0;
 
 #[test]
 fn kernels_match_their_twins_on_cornell_glossy() {

@@ -19,6 +19,8 @@ use glam::Vec3;
 use probeplace::lightfield::LightField;
 use probeplace::sampling::{hash2, unit_f32};
 use probeplace::svo::{format, Svo};
+use probeplace::trace::gather::blend_weights;
+use probeplace::trace::{Lattice, Selection};
 use serde_json::{json, Value};
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -416,10 +418,29 @@ fn cornell_light_field_reads_alike_in_python() {
     }
 }
 
-/// Holodeck and Sponza at test quality (16² maps, one sample a texel, and
-/// the overlay's lighter coverage and refinement): a full-quality bake of
-/// either takes minutes, and what a reader reads does not depend on the
-/// quality.
+/// Holodeck and Sponza baked at test quality (16² maps, one sample a
+/// texel, and the overlay's lighter coverage and refinement), once per
+/// test process: a full-quality bake of either takes minutes, and what a
+/// reader reads does not depend on the quality.
+fn test_quality_bakes(test: &str) -> &'static [(&'static str, PathBuf); 2] {
+    shared("readers: test-quality bakes", || {
+        shared_scenes();
+        ["holodeck", "sponza"].map(|scene| {
+            let out = shared_dir(&format!("readers-test-quality-{scene}"));
+            let config = test_quality(&format!("configs/{scene}.ron"), &[]);
+            let start = std::time::Instant::now();
+            run_job("bake", config.path(), &out, &[]);
+            eprintln!(
+                "{test}: test-quality bake of {scene}: {:.1} s",
+                start.elapsed().as_secs_f64()
+            );
+            (scene, out)
+        })
+    })
+}
+
+/// Python reads the Holodeck and Sponza light fields as Rust does
+/// ([`test_quality_bakes`]).
 #[test]
 #[ignore = "full tier (about 6 s): cargo test --release -- --include-ignored"]
 fn holodeck_and_sponza_light_fields_read_alike_in_python() {
@@ -427,19 +448,253 @@ fn holodeck_and_sponza_light_fields_read_alike_in_python() {
     if !python(test) {
         return;
     }
-    shared_scenes();
-    let outs = [(); 2].map(|_| tempfile::tempdir().unwrap());
-    let scenes = ["holodeck", "sponza"];
-    for (scene, out) in scenes.iter().zip(&outs) {
-        let config = test_quality(&format!("configs/{scene}.ron"), &[]);
+    let [(a, a_dir), (b, b_dir)] = test_quality_bakes(test);
+    light_fields_agree(&[(a, a_dir), (b, b_dir)]);
+}
+
+// ---------------------------------------------------------------------------
+// The diffuse blend's probes and weights.
+
+/// Points per case in the blend comparison.
+const BLEND_POINTS: usize = 4000;
+
+/// `count` seeded points, each with a normal, where the blend of `field`
+/// is asked: a quarter uniform over the probes' box and a margin around it
+/// as wide as the box, a quarter uniform inside it, a quarter at a probe
+/// (exactly, or one unit in the last place off on one axis: r = 0 and r
+/// tiny), a quarter on a plane through a probe (on a grid, a cell face,
+/// where a trilinear weight is 0 and the cell changes), those last ones
+/// again one unit in the last place either side. Normals are uniform, one
+/// in ten along an axis; the first points and normals are special
+/// (non-finite, huge, zero, negative zero, not of unit length), which the
+/// readers must answer as Rust does.
+fn blend_queries(field: &LightField, count: usize, seed: u64) -> (Vec<Vec3>, Vec<Vec3>) {
+    let probes = &field.positions;
+    let lo = probes.iter().fold(Vec3::INFINITY, |a, &b| a.min(b));
+    let hi = probes.iter().fold(Vec3::NEG_INFINITY, |a, &b| a.max(b));
+    let size = (hi - lo).max(Vec3::splat(0.1));
+    let mut points = Vec::with_capacity(count);
+    let mut normals = Vec::with_capacity(count);
+    for i in 0..count as u64 {
+        let h = hash2(seed, i);
+        let u = |k: u64| {
+            Vec3::new(
+                unit_f32(hash2(h, k)),
+                unit_f32(hash2(h, k + 1)),
+                unit_f32(hash2(h, k + 2)),
+            )
+        };
+        let probe = probes[(hash2(h, 10) % probes.len() as u64) as usize];
+        let axis = (hash2(h, 11) % 3) as usize;
+        let p = match i % 4 {
+            0 => lo - size + 3.0 * size * u(1),
+            1 => lo + size * u(1),
+            2 => {
+                let mut p = probe.to_array();
+                p[axis] = nudge(p[axis], hash2(h, 12) % 3);
+                Vec3::from_array(p)
+            }
+            _ => {
+                let mut p = (lo + size * u(1)).to_array();
+                p[axis] = nudge(probe.to_array()[axis], hash2(h, 12) % 3);
+                Vec3::from_array(p)
+            }
+        };
+        let n = if i % 10 == 9 {
+            let mut a = [0.0; 3];
+            a[axis] = if h & 1 == 0 { 1.0 } else { -1.0 };
+            Vec3::from_array(a)
+        } else {
+            probeplace::sampling::uniform_direction(seed ^ 0x4E0, i)
+        };
+        points.push(p);
+        normals.push(n);
+    }
+    let inside = (lo + hi) * 0.5;
+    let special = [
+        (Vec3::splat(f32::NAN), Vec3::Y),
+        (Vec3::new(inside.x, f32::NAN, inside.z), Vec3::Y),
+        (Vec3::splat(f32::INFINITY), Vec3::Y),
+        (Vec3::new(f32::NEG_INFINITY, inside.y, inside.z), Vec3::X),
+        (Vec3::new(f32::MAX, inside.y, inside.z), Vec3::X),
+        (Vec3::new(-0.0, -0.0, -0.0), Vec3::Z),
+        (inside, Vec3::splat(f32::NAN)),
+        (inside, Vec3::ZERO),
+        (inside, Vec3::new(0.0, 3.0, 0.0)),
+        (probes[0], Vec3::new(-0.0, -1.0, -0.0)),
+        (lo, Vec3::NEG_Y),
+        (hi, Vec3::Y),
+    ];
+    for (k, (p, n)) in special.into_iter().enumerate() {
+        points[k] = p;
+        normals[k] = n;
+    }
+    (points, normals)
+}
+
+/// Rust's blend at each point: the count of terms (0 where the weights
+/// sum to no positive number), then per term its probe and the bits of its
+/// weight ([`NO_PROBE`] and 0 past the count). Returns how many points
+/// have terms.
+fn write_blend_answers(
+    path: &Path,
+    field: &LightField,
+    selection: &Selection,
+    terms: usize,
+    points: &[Vec3],
+    normals: &[Vec3],
+) -> usize {
+    let mut words = Vec::with_capacity((1 + 2 * terms) * points.len());
+    let mut out = Vec::new();
+    let mut non_empty = 0;
+    for (&p, &n) in points.iter().zip(normals) {
+        blend_weights(field, selection, p, n, &mut out);
+        assert!(
+            out.is_empty() || out.len() == terms,
+            "{p}: {} terms",
+            out.len()
+        );
+        non_empty += !out.is_empty() as usize;
+        words.push(out.len() as u32);
+        for k in 0..terms {
+            let (probe, w) = out.get(k).copied().unwrap_or((NO_PROBE, 0.0));
+            words.extend([probe, w.to_bits()]);
+        }
+    }
+    std::fs::write(path, le_bytes(&words, u32::to_le_bytes)).unwrap();
+    non_empty
+}
+
+/// One blend case: `name`, the run directory `dir` (its `lightfield.bin`
+/// and `svo.bin`), and whether to blend on the grid its probes form (the
+/// bi-level render's selection on a grid) or with the SVO selection.
+struct BlendCase<'a> {
+    name: &'a str,
+    dir: &'a Path,
+    grid: bool,
+}
+
+/// Python and C blend as Rust's `trace::gather::blend_weights` does, bit
+/// for bit, on [`BLEND_POINTS`] points and normals per case, reading the
+/// files of each run; and they recognize the probes as a grid where Rust's
+/// `Lattice::from_positions` does, and only there.
+fn blend_weights_agree(test: &str, cases: &[BlendCase]) {
+    let dir = tempfile::tempdir().unwrap();
+    let mut entries = Vec::new();
+    let mut c_runs = Vec::new();
+    for case in cases {
+        let field_path = case.dir.join("lightfield.bin");
+        let svo_path = case.dir.join("svo.bin");
+        let field = LightField::read(&field_path).unwrap();
+        let svo = Svo::read(&svo_path).unwrap();
+        let lattice = Lattice::from_positions(&field.positions);
+        let (selection, terms) = match (&lattice, case.grid) {
+            (Some(l), true) => (Selection::Grid(l), 8),
+            (None, true) => panic!("{}: the probes are not a grid", case.name),
+            (_, false) => (Selection::Svo(&svo), field.positions.len()),
+        };
+        let seed = 0xB1E4D ^ field.positions.len() as u64;
+        let (points, normals) = blend_queries(&field, BLEND_POINTS, seed);
+        let files = ["points.f32", "normals.f32", "blend.u32"]
+            .map(|f| dir.path().join(format!("{}.{f}", case.name)));
+        write_points(&files[0], &points);
+        write_points(&files[1], &normals);
         let start = std::time::Instant::now();
-        run_job("bake", config.path(), out.path(), &[]);
+        let non_empty =
+            write_blend_answers(&files[2], &field, &selection, terms, &points, &normals);
         eprintln!(
-            "{test}: test-quality bake of {scene}: {:.1} s",
+            "{test}: {}: Rust blends {terms} terms at {BLEND_POINTS} points in {:.3} s",
+            case.name,
             start.elapsed().as_secs_f64()
         );
+        // Every point but the special ones has weights.
+        assert!(non_empty + 12 >= BLEND_POINTS, "{}: {non_empty}", case.name);
+        let is_grid = if lattice.is_some() {
+            "grid"
+        } else {
+            "not-grid"
+        };
+        c_runs.push((
+            [
+                field_path.clone(),
+                svo_path.clone(),
+                PathBuf::from(if case.grid { "grid" } else { "svo" }),
+                files[0].clone(),
+                files[1].clone(),
+                files[2].clone(),
+            ],
+            is_grid,
+        ));
+        entries.push(json!({
+            "name": case.name, "lightfield": field_path, "svo": svo_path,
+            "grid": case.grid, "is_grid": lattice.is_some(),
+            "points": files[0], "normals": files[1], "answers": files[2],
+            "count": BLEND_POINTS, "terms": terms, "non_empty": non_empty,
+        }));
     }
-    light_fields_agree(&[(scenes[0], outs[0].path()), (scenes[1], outs[1].path())]);
+    if let Some(exe) = c_program(test) {
+        for (args, is_grid) in &c_runs {
+            let mut all: Vec<&Path> = vec![Path::new("blend")];
+            all.extend(args.iter().map(PathBuf::as_path));
+            let out = run_c(exe, &all);
+            assert!(out.contains(", 0 differ from Rust"), "{out}");
+            assert!(out.contains(&format!("probes: {is_grid}")), "{out}");
+            eprintln!("{test}: C: {}", out.trim());
+        }
+    }
+    if python(test) {
+        let expected = cases.iter().map(|c| format!("blend:{}", c.name)).collect();
+        pytest(dir.path(), json!({ "blend": entries }), expected);
+    }
+}
+
+/// The shared full-quality Cornell bake (SDF-skeleton probes: the SVO
+/// selection), and a Cornell bake of a 4 × 3 × 4 grid with both
+/// selections: the grid of its bi-level render, the SVO of its Hi-Z render.
+#[test]
+fn cornell_blend_weights_agree_in_python_and_c() {
+    let placed = shared_job("bake", "configs/cornell.ron", &[]);
+    let grid = shared_job(
+        "bake",
+        "configs/cornell.ron",
+        &["--method", "grid:4x3x4", "--no-refine"],
+    );
+    blend_weights_agree(
+        "readers::cornell_blend_weights_agree_in_python_and_c",
+        &[
+            BlendCase {
+                name: "cornell",
+                dir: &placed.dir,
+                grid: false,
+            },
+            BlendCase {
+                name: "cornell-grid",
+                dir: &grid.dir,
+                grid: true,
+            },
+            BlendCase {
+                name: "cornell-grid-svo",
+                dir: &grid.dir,
+                grid: false,
+            },
+        ],
+    );
+}
+
+/// The blends of Holodeck's and Sponza's placed probes (the SVO selection,
+/// over more probes than Cornell's), on their test-quality bakes.
+#[test]
+#[ignore = "full tier (about 8 s): cargo test --release -- --include-ignored"]
+fn holodeck_and_sponza_blend_weights_agree_in_python_and_c() {
+    let test = "readers::holodeck_and_sponza_blend_weights_agree_in_python_and_c";
+    let cases = test_quality_bakes(test)
+        .each_ref()
+        .map(|(scene, dir)| BlendCase {
+            name: scene,
+            dir,
+            grid: false,
+        });
+    blend_weights_agree(test, &cases);
 }
 
 // ---------------------------------------------------------------------------
@@ -884,6 +1139,15 @@ fn damaged_files_are_refused_by_every_reader() {
         );
     }
     let field_good = std::fs::read(bake.dir.join("lightfield.bin")).unwrap();
+    // The C reader blends on every light field it accepts, as Rust does.
+    let bake_svo_path = bake.dir.join("svo.bin");
+    let bake_svo = Svo::read(&bake_svo_path).unwrap();
+    let good_field = LightField::read(&bake.dir.join("lightfield.bin")).unwrap();
+    let (blend_points, blend_normals) = blend_queries(&good_field, 300, 0x0DA3_B1E4);
+    let blend_files = [dir.join("blend-points.f32"), dir.join("blend-normals.f32")];
+    write_points(&blend_files[0], &blend_points);
+    write_points(&blend_files[1], &blend_normals);
+    let mut c_fields = String::new();
     for (name, bytes) in light_field_variants(&field_good) {
         let path = dir.join(format!("lightfield-{name}.bin"));
         std::fs::write(&path, &bytes).unwrap();
@@ -892,10 +1156,22 @@ fn damaged_files_are_refused_by_every_reader() {
             Ok(field) => {
                 let dump = dir.join(format!("lightfield-{name}.f32"));
                 entry["field"] = field_entry(&name, &path, &field, &dump);
+                let answers = dir.join(format!("lightfield-{name}.blend"));
+                let terms = field.positions.len();
+                let selection = Selection::Svo(&bake_svo);
+                let (p, n) = (&blend_points, &blend_normals);
+                write_blend_answers(&answers, &field, &selection, terms, p, n);
+                c_fields += &format!(
+                    "{}\t{}\t{}\n",
+                    path.display(),
+                    bake_svo_path.display(),
+                    answers.display()
+                );
                 accepted += 1;
             }
             Err(e) => {
                 entry["error"] = json!(e.to_string());
+                c_fields += &format!("{}\n", path.display());
                 refused += 1;
             }
         }
@@ -957,6 +1233,28 @@ fn damaged_files_are_refused_by_every_reader() {
             };
             assert_eq!(*code, want, "{}: {}", e["name"], e["error"]);
         }
+        let list = dir.join("c-lightfields.txt");
+        std::fs::write(&list, &c_fields).unwrap();
+        let args = [
+            Path::new("check-lightfield"),
+            &list,
+            &blend_files[0],
+            &blend_files[1],
+        ];
+        let out = run_c(exe, &args);
+        let codes: std::collections::BTreeMap<&str, &str> =
+            out.lines().filter_map(|l| l.split_once('\t')).collect();
+        for e in entries.iter().filter(|e| e["kind"] == "lightfield") {
+            let path = e["path"].as_str().unwrap();
+            let code = codes
+                .get(path)
+                .unwrap_or_else(|| panic!("C said nothing of {path}: {out}"));
+            let want = match e["error"].as_str() {
+                None => "PP_OK",
+                Some(message) => c_field_code(message.strip_prefix(&format!("{path}: ")).unwrap()),
+            };
+            assert_eq!(*code, want, "{}: {}", e["name"], e["error"]);
+        }
     }
     if python(test) {
         let expected = entries
@@ -971,6 +1269,24 @@ fn damaged_files_are_refused_by_every_reader() {
             .collect();
         pytest(dir, json!({ "damaged": entries }), expected);
     }
+}
+
+/// The C error code for a reason `lightfield::format::from_bytes` gives.
+fn c_field_code(reason: &str) -> &'static str {
+    let table = [
+        ("truncated", "PP_ERR_TRUNCATED"),
+        ("bad magic", "PP_ERR_NOT_LIGHTFIELD"),
+        ("this build reads version", "PP_ERR_VERSION"),
+        ("must be powers of two", "PP_ERR_MAP_SIDE"),
+        ("pyramid levels for side", "PP_ERR_LEVELS"),
+        ("where the header implies", "PP_ERR_LENGTH"),
+        ("checksum mismatch", "PP_ERR_CHECKSUM"),
+    ];
+    table
+        .iter()
+        .find(|(needle, _)| reason.contains(needle))
+        .unwrap_or_else(|| panic!("no C code for {reason:?}"))
+        .1
 }
 
 /// The C error code for a reason `format::from_bytes` gives.
