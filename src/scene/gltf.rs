@@ -32,6 +32,13 @@
 //!   [`Material::fallback`], as an OBJ face without one does (not the
 //!   specification's white metal, which would make every untextured test
 //!   asset a mirror).
+//! * **Textures** (§3.8, §3.9.2, §5.26): `baseColorTexture` and
+//!   `emissiveTexture` with their samplers' wrap modes and
+//!   `KHR_texture_transform`, read through the `TEXCOORD_n` set they name;
+//!   each image (a buffer view, a `data:` URI or a file) decoded once
+//!   ([`super::texture`]). An image that cannot be read is a warning and
+//!   its material keeps its factor; a texture, image or sampler index
+//!   that names nothing is an error.
 //! * **Lights** (`KHR_lights_punctual`): point, spot and directional
 //!   lights at their nodes, as config lights ([`light_of`]).
 //!

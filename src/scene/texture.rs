@@ -202,10 +202,12 @@ impl Texture {
         self.mean
     }
 
-    /// Linear colour of texel `(x, y)`.
-    fn texel(&self, x: usize, y: usize) -> Vec3 {
+    /// Linear colour of texel `(x, y)`, decoded by `lut` ([`LINEAR`],
+    /// dereferenced once per sample rather than once per channel).
+    #[inline(always)]
+    fn texel(&self, lut: &[f32; 256], x: usize, y: usize) -> Vec3 {
         let t = self.texels[y * self.width as usize + x];
-        Vec3::new(srgb_to_linear(t[0]), srgb_to_linear(t[1]), srgb_to_linear(t[2]))
+        Vec3::new(lut[t[0] as usize], lut[t[1] as usize], lut[t[2] as usize])
     }
 
     /// The bilinearly filtered linear colour at image coordinates `uv`
@@ -213,6 +215,7 @@ impl Texture {
     /// read as 0.
     ///
     /// Contract: finite, each channel in [0, 1]; allocation-free.
+    #[inline]
     pub fn sample(&self, uv: Vec2, wrap: [Wrap; 2]) -> Vec3 {
         let finite = |v: f32| if v.is_finite() { v.clamp(-1e9, 1e9) } else { 0.0 };
         let x = finite(uv.x) * self.width as f32 - 0.5;
@@ -222,8 +225,10 @@ impl Texture {
         let (x0, y0) = (x0 as i64, y0 as i64);
         let xs = [wrap[0].index(x0, self.width), wrap[0].index(x0 + 1, self.width)];
         let ys = [wrap[1].index(y0, self.height), wrap[1].index(y0 + 1, self.height)];
-        let top = self.texel(xs[0], ys[0]) * (1.0 - fx) + self.texel(xs[1], ys[0]) * fx;
-        let bottom = self.texel(xs[0], ys[1]) * (1.0 - fx) + self.texel(xs[1], ys[1]) * fx;
+        let lut: &[f32; 256] = &LINEAR;
+        let texel = |x, y| self.texel(lut, x, y);
+        let top = texel(xs[0], ys[0]) * (1.0 - fx) + texel(xs[1], ys[0]) * fx;
+        let bottom = texel(xs[0], ys[1]) * (1.0 - fx) + texel(xs[1], ys[1]) * fx;
         (top * (1.0 - fy) + bottom * fy).clamp(Vec3::ZERO, Vec3::ONE)
     }
 
@@ -287,7 +292,12 @@ pub fn decode(bytes: &[u8], name: String) -> Result<Texture, String> {
     let n = width as usize * height as usize;
     let texels: Vec<[u8; 3]> = match format {
         Format::Png => {
-            let mut d = png::Decoder::new(std::io::Cursor::new(bytes));
+            // The decoder's own limit (64 MiB by default) would refuse a
+            // 4K RGBA texture; the size is already checked against ours.
+            let limits = png::Limits {
+                bytes: n.saturating_mul(8).saturating_add(1 << 20),
+            };
+            let mut d = png::Decoder::new_with_limits(std::io::Cursor::new(bytes), limits);
             d.set_transformations(png::Transformations::normalize_to_color8());
             let mut reader = d.read_info().map_err(|e| format!("a broken PNG ({e})"))?;
             let size = reader.output_buffer_size().ok_or("a PNG too large to decode")?;
@@ -513,6 +523,22 @@ mod tests {
         let crc = crc32fast::hash(&huge[12..29]);
         huge[29..33].copy_from_slice(&crc.to_be_bytes());
         assert!(decode(&huge, "huge.png".into()).unwrap_err().contains("over the limit"), "{:?}", decode(&huge, "huge.png".into()));
+    }
+
+    #[test]
+    fn a_4k_rgba_png_decodes_past_the_png_crates_default_limit() {
+        let (w, h) = (4096u32, 4097u32);
+        let mut bytes = Vec::new();
+        {
+            let mut e = png::Encoder::new(&mut bytes, w, h);
+            e.set_color(png::ColorType::Rgba);
+            e.set_compression(png::Compression::Fast);
+            let mut wr = e.write_header().unwrap();
+            wr.write_image_data(&vec![200u8; (w * h * 4) as usize]).unwrap();
+        }
+        let t = decode(&bytes, "4k.png".into()).unwrap();
+        assert_eq!((t.width, t.height), (w, h));
+        assert_eq!(t.texels()[0], [200; 3]);
     }
 
     #[test]

@@ -316,7 +316,15 @@ fn punctual_lights_and_emissive_strength_become_the_scenes_lights() {
 
 /// Six quads facing into the box `[lo, hi]` (a room's shell), or out of it
 /// (`outward`: a closed solid).
-fn shell(b: &mut Builder, lo: [f32; 3], hi: [f32; 3], outward: bool) -> usize {
+/// A box of six quads, facing out (or, for a room, in), of `material`,
+/// each quad's texture coordinates spanning the unit square.
+fn shell(
+    b: &mut Builder,
+    lo: [f32; 3],
+    hi: [f32; 3],
+    outward: bool,
+    material: Option<usize>,
+) -> usize {
     let c =
         |x: usize, y: usize, z: usize| [[lo[0], hi[0]][x], [lo[1], hi[1]][y], [lo[2], hi[2]][z]];
     // Each face counter-clockwise seen from outside the box.
@@ -339,18 +347,39 @@ fn shell(b: &mut Builder, lo: [f32; 3], hi: [f32; 3], outward: bool) -> usize {
         }
     }
     let pos = b.positions(&positions, Positions::Float);
+    let uv = b.texcoords(&[[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]].repeat(6));
     let ix = b.indices(&ix);
-    b.mesh(
-        if outward { "box" } else { "room" },
-        &[(pos, Some(ix), 4, None)],
-    )
+    let mut prim =
+        json!({"attributes": {"POSITION": pos, "TEXCOORD_0": uv}, "indices": ix, "mode": 4});
+    if let Some(m) = material {
+        prim["material"] = json!(m);
+    }
+    b.mesh_json(if outward { "box" } else { "room" }, vec![prim])
 }
 
 #[test]
-fn an_instanced_hierarchy_places_as_its_flattened_twin() {
+fn an_instanced_textured_lit_hierarchy_places_as_its_flattened_twin() {
     let mut b = Builder::new();
-    let room = shell(&mut b, [0.0, 0.0, 0.0], [8.0, 3.0, 6.0], false);
-    let pillar = shell(&mut b, [-0.5, 0.0, -0.5], [0.5, 1.0, 0.5], true);
+    let room = shell(&mut b, [0.0, 0.0, 0.0], [8.0, 3.0, 6.0], false, None);
+    // Checkered pillars: a PNG in the buffer, mirrored by its sampler.
+    let texels: Vec<u8> = (0..16u32)
+        .flat_map(|i| [if (i % 4 + i / 4) % 2 == 0 { 230 } else { 40 }; 3])
+        .collect();
+    let image = b.image(
+        &probeplace::fixtures::gltf_writer::png_rgb(4, 4, &texels),
+        "image/png",
+    );
+    let sampler = b.sampler(json!({"wrapS": 33648, "wrapT": 33648}));
+    let texture = b.texture(image, Some(sampler));
+    let stone = b.material("stone", [0.9, 0.85, 0.8], 0.0, 0.8, [0.0; 3]);
+    b.material_json(stone)["pbrMetallicRoughness"]["baseColorTexture"] = json!({"index": texture});
+    let pillar = shell(
+        &mut b,
+        [-0.5, 0.0, -0.5],
+        [0.5, 1.0, 0.5],
+        true,
+        Some(stone),
+    );
     let lamp = b.light(json!({"type": "point", "intensity": 5.0}));
     let mut pillars = Vec::new();
     for (i, x) in [1.5f32, 3.5, 5.5].into_iter().enumerate() {
@@ -371,6 +400,8 @@ fn an_instanced_hierarchy_places_as_its_flattened_twin() {
     std::fs::write(dir.path().join("hall.glb"), b.glb()).unwrap();
     let hall = scene::load(&dir.path().join("hall.glb"), 1.0, UpAxis::Y).unwrap();
     assert_eq!(hall.triangles.len(), 12 * 7);
+    assert!(hall.warnings.is_empty(), "{:?}", hall.warnings);
+    assert_eq!((hall.textures.len(), hall.texcoords.len()), (1, 12 * 7));
     // Every pillar's faces point out of it, mirrored or not: its top up.
     let tops = hall
         .normals
@@ -382,13 +413,27 @@ fn an_instanced_hierarchy_places_as_its_flattened_twin() {
         2 * (1 + 6),
         "the room's floor and the six pillar tops face up"
     );
-    std::fs::write(dir.path().join("flat.glb"), from_scene(&hall).glb()).unwrap();
+    // The flattened twin, as a GLB and as a .gltf with its buffer (the
+    // image in it) in a data URI.
+    let flat = from_scene(&hall);
+    std::fs::write(dir.path().join("flat.glb"), flat.glb()).unwrap();
+    std::fs::write(dir.path().join("inline.gltf"), flat.gltf(None)).unwrap();
+    let inline = scene::load(&dir.path().join("inline.gltf"), 1.0, UpAxis::Y).unwrap();
+    assert_eq!(inline.textures[0].texels(), hall.textures[0].texels());
+    assert_eq!(
+        inline.materials[0].diffuse_map.unwrap().wrap,
+        hall.materials[0].diffuse_map.unwrap().wrap
+    );
     let mut counts = Vec::new();
-    for name in ["hall", "flat"] {
+    for (name, file) in [
+        ("hall", "hall.glb"),
+        ("flat", "flat.glb"),
+        ("inline", "inline.gltf"),
+    ] {
         let cfg = dir.path().join(format!("{name}.ron"));
         std::fs::write(
             &cfg,
-            format!("(scene: \"{name}.glb\", voxel_size: 0.2, output: \"{name}-out\", seed: 3)"),
+            format!("(scene: \"{file}\", voxel_size: 0.2, output: \"{name}-out\", seed: 3)"),
         )
         .unwrap();
         let r = crate::common::place(&cfg, &dir.path().join(format!("{name}-out")), &[]);
@@ -412,6 +457,8 @@ fn an_instanced_hierarchy_places_as_its_flattened_twin() {
         (c - d).abs() <= 0.003,
         "coverage {c} instanced, {d} flattened"
     );
+    // The same file in another container: the same placement.
+    assert_eq!(counts[2], counts[1], "the .gltf places as the GLB");
 }
 
 #[test]
