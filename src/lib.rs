@@ -42,7 +42,8 @@
 //! What a renderer and a pipeline need: the config ([`config`]), placing
 //! as a library call ([`jobs`]), the probe set and its file
 //! ([`placement`]), the readers of the binary outputs ([`svo`],
-//! [`lightfield`]), provenance ([`provenance`]) and the tile grid
+//! [`lightfield`]) and the diffuse blend over them ([`blend_weights`]),
+//! provenance ([`provenance`]) and the tile grid
 //! ([`tiles`]). The stages' modules (`scene`, `sdf`, `coverage`, `refine`,
 //! `render`, `trace`, `gpu`, `raster`, `sampling`, `stages`) are internal;
 //! the `testkit` feature, which the tests, examples and benchmarks turn
@@ -132,3 +133,13 @@ pub mod svo;
 pub mod tiles;
 
 pub use error::{Error, Result};
+
+/// The diffuse blend a renderer shades with, as the validation renders do
+/// (McGuire et al. 2017 §5.2): for a point and a normal, the probes of a
+/// read [`lightfield::LightField`] and their normalized weights, on a grid
+/// ([`Selection::Grid`] of [`Lattice::from_positions`]) or over every probe
+/// ([`Selection::Svo`] of the run's [`svo::Svo`]); Python's
+/// `probeplace.blend_weights` and C's `pp_blend_weights` give the same bits
+/// (docs/formats.md, "Blend weights").
+pub use trace::gather::blend_weights;
+pub use trace::{Lattice, Selection};

@@ -9,15 +9,6 @@ pub mod maps;
 pub mod octahedral;
 pub mod pyramid;
 
-/// The diffuse blend a renderer shades with, as the validation renders do
-/// (McGuire et al. 2017 §5.2): for a point and a normal, the probes and
-/// their normalized weights, on a grid ([`Selection::Grid`] of
-/// [`Lattice::from_positions`]) or over every probe ([`Selection::Svo`]);
-/// the Python and C readers give the same bits (docs/formats.md, "Blend
-/// weights").
-pub use crate::trace::gather::blend_weights;
-pub use crate::trace::{Lattice, Selection};
-
 use crate::config::BakeParams;
 use crate::error::{Error, Result};
 use crate::progress::Progress;
