@@ -210,6 +210,13 @@ mod tests {
         assert_eq!(names, ["b.mtl", "a.mtl", "c.mtl"]);
     }
 
+    /// The scene hash of a run of `config` reading `files`.
+    fn scene_hash(config: &Config, files: &[InputFile]) -> String {
+        Provenance::of_files(config, Path::new("x.ron"), "", &Overrides::default(), files)
+            .unwrap()
+            .scene_hash
+    }
+
     #[test]
     fn an_obj_reads_the_textures_its_libraries_map() {
         let dir = tempfile::tempdir().unwrap();
@@ -245,17 +252,7 @@ mod tests {
             ]
         );
         // The image is hashed as binary, and a changed image changes the hash.
-        let hash = || {
-            Provenance::of_files(
-                &config,
-                Path::new("x.ron"),
-                "",
-                &Overrides::default(),
-                &files,
-            )
-            .unwrap()
-            .scene_hash
-        };
+        let hash = || scene_hash(&config, &files);
         let before = hash();
         std::fs::write(dir.path().join("tex.png"), b"\x89PNG\0\x02").unwrap();
         assert_ne!(before, hash());
@@ -285,17 +282,7 @@ mod tests {
             .collect();
         assert_eq!(names, ["scene.gltf", "a b.bin", "tex.png"]);
         // Binary files are hashed, not refused as text with a NUL byte.
-        let hash = || {
-            Provenance::of_files(
-                &config,
-                Path::new("x.ron"),
-                "",
-                &Overrides::default(),
-                &files,
-            )
-            .unwrap()
-            .scene_hash
-        };
+        let hash = || scene_hash(&config, &files);
         let before = hash();
         std::fs::write(dir.path().join("a b.bin"), b"\0\x02").unwrap();
         assert_ne!(before, hash(), "a changed buffer changes the scene's hash");

@@ -1220,19 +1220,7 @@ fn damaged_files_are_refused_by_every_reader() {
         let list = dir.join("c-cases.txt");
         std::fs::write(&list, &c_list).unwrap();
         let out = run_c(exe, &[Path::new("check"), &list, &pts]);
-        let codes: std::collections::BTreeMap<&str, &str> =
-            out.lines().filter_map(|l| l.split_once('\t')).collect();
-        for e in entries.iter().filter(|e| e["kind"] == "svo") {
-            let path = e["path"].as_str().unwrap();
-            let code = codes
-                .get(path)
-                .unwrap_or_else(|| panic!("C said nothing of {path}: {out}"));
-            let want = match e["error"].as_str() {
-                None => "PP_OK",
-                Some(message) => c_code(message.strip_prefix(&format!("{path}: ")).unwrap()),
-            };
-            assert_eq!(*code, want, "{}: {}", e["name"], e["error"]);
-        }
+        assert_c_codes(&out, &entries, "svo", c_code);
         let list = dir.join("c-lightfields.txt");
         std::fs::write(&list, &c_fields).unwrap();
         let args = [
@@ -1242,19 +1230,7 @@ fn damaged_files_are_refused_by_every_reader() {
             &blend_files[1],
         ];
         let out = run_c(exe, &args);
-        let codes: std::collections::BTreeMap<&str, &str> =
-            out.lines().filter_map(|l| l.split_once('\t')).collect();
-        for e in entries.iter().filter(|e| e["kind"] == "lightfield") {
-            let path = e["path"].as_str().unwrap();
-            let code = codes
-                .get(path)
-                .unwrap_or_else(|| panic!("C said nothing of {path}: {out}"));
-            let want = match e["error"].as_str() {
-                None => "PP_OK",
-                Some(message) => c_field_code(message.strip_prefix(&format!("{path}: ")).unwrap()),
-            };
-            assert_eq!(*code, want, "{}: {}", e["name"], e["error"]);
-        }
+        assert_c_codes(&out, &entries, "lightfield", c_field_code);
     }
     if python(test) {
         let expected = entries
@@ -1272,6 +1248,25 @@ fn damaged_files_are_refused_by_every_reader() {
 }
 
 /// The C error code for a reason `lightfield::format::from_bytes` gives.
+/// Checks the C checker's output `out` (a `path\tCODE` line per file)
+/// against every entry of kind `kind`: the code `code_of` gives Rust's
+/// reason (without the path), or `PP_OK` where Rust read the file.
+fn assert_c_codes(out: &str, entries: &[Value], kind: &str, code_of: fn(&str) -> &'static str) {
+    let codes: std::collections::BTreeMap<&str, &str> =
+        out.lines().filter_map(|l| l.split_once('\t')).collect();
+    for e in entries.iter().filter(|e| e["kind"] == kind) {
+        let path = e["path"].as_str().unwrap();
+        let code = codes
+            .get(path)
+            .unwrap_or_else(|| panic!("C said nothing of {path}: {out}"));
+        let want = match e["error"].as_str() {
+            None => "PP_OK",
+            Some(message) => code_of(message.strip_prefix(&format!("{path}: ")).unwrap()),
+        };
+        assert_eq!(*code, want, "{}: {}", e["name"], e["error"]);
+    }
+}
+
 fn c_field_code(reason: &str) -> &'static str {
     let table = [
         ("truncated", "PP_ERR_TRUNCATED"),
