@@ -243,6 +243,22 @@ pub fn obj(data: &[u8]) {
         );
     }
     check_materials(&file.materials);
+    // Texture indices: none, or one per triangle, each naming a `vt`;
+    // maps name materials that exist.
+    assert!(
+        file.triangle_texcoords.is_empty() || file.triangle_texcoords.len() == file.triangles.len()
+    );
+    for t in file.triangle_texcoords.iter().flatten() {
+        assert!(
+            *t == u32::MAX || (*t as usize) < file.texcoords.len(),
+            "{t}"
+        );
+    }
+    assert!(file.texcoords.iter().flatten().all(|v| v.is_finite()));
+    for m in &file.maps {
+        assert!(m.material < file.materials.len(), "{m:?}");
+        assert!(!m.file.as_os_str().is_empty());
+    }
     let triangles = file
         .triangles
         .iter()
