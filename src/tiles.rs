@@ -231,10 +231,13 @@ pub fn stream_bounds(path: &Path, scale: f64, up: UpAxis) -> Result<WorldBox> {
 /// as the source gives it. Returns what each tile got, and the material
 /// libraries the source names (relative to its directory).
 ///
-/// Contract: streams the source once; holds its vertex positions and, per
-/// tile, the map from source to tile vertex; every triangle whose
-/// bounding box touches a tile's closed box is written to that tile, with
-/// the material the source gives it, and nothing else is.
+/// Contract: streams the source once; holds its vertex positions and
+/// texture coordinates and, per tile, the maps from source to tile vertex
+/// and `vt`; every triangle whose bounding box touches a tile's closed box
+/// is written to that tile, with the material and the texture
+/// coordinates the source gives it (a corner whose texture index names no
+/// `vt` read so far is written without one, as the scene reader leaves
+/// it untextured), and nothing else is.
 pub fn split_obj(
     path: &Path,
     scale: f64,
@@ -250,7 +253,10 @@ pub fn split_obj(
         writers.push(BufWriter::with_capacity(1 << 16, file));
     }
     let mut positions: Vec<DVec3> = Vec::new();
+    let mut texcoords: Vec<String> = Vec::new();
     let mut local: Vec<HashMap<u32, u32>> = vec![HashMap::new(); tiles.len()];
+    let mut local_vt: Vec<HashMap<u32, u32>> = vec![HashMap::new(); tiles.len()];
+    let mut face_vt: Vec<Option<u32>> = Vec::new();
     let mut geometry = vec![TileGeometry::default(); tiles.len()];
     let mut material: Option<String> = None;
     let mut written_material: Vec<Option<String>> = vec![None; tiles.len()];
@@ -261,6 +267,9 @@ pub fn split_obj(
     for_each_line(path, &mut |n, words| {
         match words.first().copied() {
             Some("v") => positions.push(file_to_world(vertex(path, n, words)?, scale, up)),
+            // Kept as written: texture coordinates are not moved by the
+            // scale or the up axis.
+            Some("vt") => texcoords.push(words[1..].join(" ")),
             Some("usemtl") => material = words.get(1).map(|s| s.to_string()),
             Some("mtllib") => {
                 for name in &words[1..] {
@@ -276,8 +285,10 @@ pub fn split_obj(
             }
             Some("f") => {
                 face.clear();
+                face_vt.clear();
                 for w in &words[1..] {
                     face.push(face_index(path, n, w, positions.len())?);
+                    face_vt.push(texcoord_index(w, texcoords.len()));
                 }
                 if face.len() < 3 {
                     return Err(Error::User(format!(
@@ -287,6 +298,7 @@ pub fn split_obj(
                 }
                 for k in 1..face.len() - 1 {
                     let tri = [face[0], face[k], face[k + 1]];
+                    let tri_vt = [face_vt[0], face_vt[k], face_vt[k + 1]];
                     let p = tri.map(|i| positions[i as usize]);
                     let (lo, hi) = (p[0].min(p[1]).min(p[2]), p[0].max(p[1]).max(p[2]));
                     for (t, tile) in tiles.iter().enumerate() {
@@ -309,7 +321,20 @@ pub fn split_obj(
                                 next
                             });
                         }
-                        line_out.push_str(&format!("f {} {} {}\n", ids[0], ids[1], ids[2]));
+                        let mut corners = [String::new(), String::new(), String::new()];
+                        for (c, (id, vt)) in corners.iter_mut().zip(ids.iter().zip(tri_vt)) {
+                            *c = id.to_string();
+                            if let Some(vt) = vt {
+                                let next = local_vt[t].len() as u32 + 1;
+                                let v = *local_vt[t].entry(vt).or_insert_with(|| {
+                                    line_out.push_str(&format!("vt {}\n", texcoords[vt as usize]));
+                                    next
+                                });
+                                c.push_str(&format!("/{v}"));
+                            }
+                        }
+                        line_out
+                            .push_str(&format!("f {} {} {}\n", corners[0], corners[1], corners[2]));
                         geometry[t].triangles += 1;
                         if let Err(e) = writers[t].write_all(line_out.as_bytes()) {
                             io_error.get_or_insert((t, e));
@@ -398,6 +423,15 @@ fn face_index(path: &Path, n: usize, word: &str, read: usize) -> Result<u32> {
     Ok(resolved as u32)
 }
 
+/// The texture index of face corner `word` (`v/t`, `v/t/n`), resolved as
+/// the scene reader resolves it (negative: relative to the `read` `vt`
+/// so far), or `None` where it has none or it names no `vt` read so far.
+fn texcoord_index(word: &str, read: usize) -> Option<u32> {
+    let i: i64 = word.split('/').nth(1)?.parse().ok()?;
+    let resolved = if i < 0 { read as i64 + i } else { i - 1 };
+    (i != 0 && (0..read as i64).contains(&resolved)).then_some(resolved as u32)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -481,5 +515,39 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("bad.obj:2: face index \"2\""), "{e}");
+    }
+
+    #[test]
+    fn split_tiles_keep_their_faces_texture_coordinates() {
+        let dir = tempfile::tempdir().unwrap();
+        let src = dir.path().join("s.obj");
+        // A quad straddling x = 2 (both tiles of the bottom row), textured
+        // by relative and absolute indices; a corner naming no `vt`.
+        std::fs::write(
+            &src,
+            "v 1 0 1\nv 3 0 1\nv 3 0 0.5\nv 1 0 0.5\nvt 0.1 0.2\nvt 0.9 0.2 0\nvt 0.9 0.8\nf 1/1 2/-2 3/3/1 4/7\nvt 0.5 0.5\nf 4/-1 3/3 1/1\n",
+        )
+        .unwrap();
+        let outs: Vec<PathBuf> = (0..4)
+            .map(|i| dir.path().join(format!("t{i}.obj")))
+            .collect();
+        split_obj(&src, 1.0, UpAxis::Y, &grid(), &outs, "").unwrap();
+        let t0 = std::fs::read_to_string(&outs[0]).unwrap();
+        assert_eq!(
+            t0,
+            "v 1 0 1\nv 3 0 1\nv 3 0 0.5\nvt 0.1 0.2\nvt 0.9 0.2 0\nvt 0.9 0.8\nf 1/1 2/2 3/3\n\
+             v 1 0 0.5\nf 1/1 3/3 4\n\
+             vt 0.5 0.5\nf 4/4 3/3 1/1\n"
+        );
+        // The tile reads back with the source's texture coordinates.
+        let read = |p: &Path| crate::scene::obj::read(p).unwrap();
+        let (a, b) = (read(&src), read(&outs[0]));
+        let uvs = |o: &crate::scene::obj::ObjFile| -> Vec<[Option<[f32; 2]>; 3]> {
+            o.triangle_texcoords
+                .iter()
+                .map(|t| t.map(|i| o.texcoords.get(i as usize).copied()))
+                .collect()
+        };
+        assert_eq!(uvs(&a), uvs(&b));
     }
 }

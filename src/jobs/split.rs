@@ -223,13 +223,24 @@ pub fn split(options: &SplitOptions) -> Result<Outcome> {
         "../",
     )?;
     let source_dir = config.scene.parent().unwrap_or(Path::new("")).to_path_buf();
+    let mut left_behind: Vec<String> = Vec::new();
     for lib in &libraries {
         let (from, to) = (source_dir.join(lib), dir.join(lib));
         if from.is_file() {
-            if let Some(parent) = to.parent() {
-                std::fs::create_dir_all(parent).map_err(|e| Error::io(parent, e))?;
+            copy_into(&from, &to)?;
+            // The textures the library maps, beside the copy as beside the
+            // original, so that the tiles' runs read them (and hash them).
+            let (from_dir, to_dir) = (parent_of(&from), parent_of(&to));
+            for texture in crate::provenance::inputs::texture_files(std::slice::from_ref(&from)) {
+                use std::path::Component;
+                let rel = texture.strip_prefix(&from_dir).unwrap_or(&texture);
+                if rel.components().all(|c| matches!(c, Component::Normal(_))) {
+                    copy_into(&texture, &to_dir.join(rel))?;
+                } else if !rel.has_root() {
+                    left_behind.push(texture.display().to_string());
+                }
+                // An absolute name is read from where it is.
             }
-            std::fs::copy(&from, &to).map_err(|e| Error::io(&to, e))?;
         }
     }
     let mut entries = Vec::new();
@@ -293,9 +304,16 @@ pub fn split(options: &SplitOptions) -> Result<Outcome> {
         std::str::from_utf8(&json).unwrap_or(""),
     )?;
     let triangles: u64 = index.tile.iter().map(|t| t.triangles).sum();
+    let mut summary = Vec::new();
+    if !left_behind.is_empty() {
+        summary.push(format!(
+            "warning: texture(s) outside their material library's folder not copied (the tiles' runs will not find them, and use the factors): {}",
+            left_behind.join(", ")
+        ));
+    }
     Ok(Outcome {
         out_dir: dir.clone(),
-        summary: vec![
+        summary: [summary, vec![
             format!(
                 "{} tiles ({}x{}x{}), margin {}, voxel {}: {triangles} triangles written over the tiles",
                 grid.len(),
@@ -306,9 +324,24 @@ pub fn split(options: &SplitOptions) -> Result<Outcome> {
                 crate::config::short(voxel_size as f32)
             ),
             format!("run them: {}", dir.join("submit.sh").display()),
-        ],
+        ]]
+        .concat(),
         report: value,
     })
+}
+
+/// Copies file `from` to `to`, creating `to`'s folder.
+fn copy_into(from: &Path, to: &Path) -> Result<()> {
+    if let Some(parent) = to.parent() {
+        std::fs::create_dir_all(parent).map_err(|e| Error::io(parent, e))?;
+    }
+    std::fs::copy(from, to).map_err(|e| Error::io(to, e))?;
+    Ok(())
+}
+
+/// The folder of file `path` (empty for a bare name).
+fn parent_of(path: &Path) -> PathBuf {
+    path.parent().unwrap_or(Path::new("")).to_path_buf()
 }
 
 /// The tile's `probe_density`: the world's regions, then factor 0 over

@@ -477,3 +477,79 @@ fn the_default_margin_is_half_the_longest_tile_edge_as_documented() {
         "docs/tiles.md no longer states the default margin"
     );
 }
+
+/// A textured scene split into tiles: each tile's OBJ keeps its faces'
+/// texture coordinates, the textures its library maps are copied beside
+/// the library's copy (so a tile reads the same texels), and one outside
+/// the library's folder is named in a warning, not silently dropped.
+#[test]
+fn split_tiles_carry_texture_coordinates_and_textures() {
+    let dir = tempfile::tempdir().unwrap();
+    let src = dir.path().join("src");
+    std::fs::create_dir_all(src.join("tex")).unwrap();
+    let png = probeplace::fixtures::gltf_writer::png_rgb(2, 1, &[255, 0, 0, 0, 0, 255]);
+    std::fs::write(src.join("tex/red-blue.png"), &png).unwrap();
+    std::fs::write(dir.path().join("outside.png"), &png).unwrap();
+    // A closed 4 × 2 × 2 box whose floor is textured.
+    std::fs::write(
+        src.join("room.mtl"),
+        "newmtl floor\nmap_Kd tex/red-blue.png\nnewmtl walls\nmap_Kd ../outside.png\n",
+    )
+    .unwrap();
+    std::fs::write(
+        src.join("room.obj"),
+        "mtllib room.mtl\nv 0 0 0\nv 4 0 0\nv 4 0 2\nv 0 0 2\nv 0 2 0\nv 4 2 0\nv 4 2 2\nv 0 2 2\n\
+         vt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n\
+         usemtl floor\nf 1/1 4/4 3/3 2/2\n\
+         usemtl walls\nf 5 6 7 8\nf 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\n",
+    )
+    .unwrap();
+    let config = src.join("room.ron");
+    std::fs::write(&config, "(scene: \"room.obj\", voxel_size: 0.1)").unwrap();
+    // Deeper than the source, so that `../outside.png` from the copied
+    // library names nothing.
+    let out = dir.path().join("runs/tiles");
+    let o = probeplace(&[
+        "split",
+        config.to_str().unwrap(),
+        "--tiles",
+        "2x1x1",
+        "--out",
+        out.to_str().unwrap(),
+        "--cpus",
+        "1",
+    ]);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{stderr}");
+    assert!(
+        format!("{stdout}{stderr}").contains("outside.png"),
+        "the texture left behind is named: {stdout} {stderr}"
+    );
+    assert_eq!(std::fs::read(out.join("tex/red-blue.png")).unwrap(), png);
+    let world =
+        probeplace::scene::load(&src.join("room.obj"), 1.0, probeplace::config::UpAxis::Y).unwrap();
+    for tile in ["tile-000", "tile-001"] {
+        let s = probeplace::scene::load(
+            &out.join(tile).join("scene.obj"),
+            1.0,
+            probeplace::config::UpAxis::Y,
+        )
+        .unwrap();
+        assert_eq!(s.textures.len(), 1, "{tile}: {:?}", s.warnings);
+        assert_eq!(s.textures[0].texels(), world.textures[0].texels());
+        // Every floor triangle of the tile carries texture coordinates
+        // that are among the world's.
+        let floor = s.materials.iter().position(|m| m.name == "floor").unwrap() as u32;
+        let uvs: Vec<_> = world.texcoords.iter().flatten().collect();
+        for (t, &m) in s.material_ids.iter().enumerate() {
+            if m == floor {
+                assert!(
+                    s.texcoords[t].iter().all(|uv| uvs.contains(&uv)),
+                    "{tile}: {:?}",
+                    s.texcoords[t]
+                );
+            }
+        }
+    }
+}
