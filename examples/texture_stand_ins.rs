@@ -73,7 +73,7 @@ fn image(file: &Path, side: u16) -> Result<Vec<u8>, Box<dyn std::error::Error>> 
     let tile = (n / 16).max(1);
     let rgb: Vec<u8> = (0..n * n)
         .flat_map(|i| {
-            if (i % n / tile + i / n / tile) % 2 == 0 {
+            if (i % n / tile + i / n / tile).is_multiple_of(2) {
                 a
             } else {
                 b

@@ -9,7 +9,7 @@
 //! | `split.json` | the world config, seed, grid, margin, voxel size, and per tile its boxes, files and the provenance its run must carry |
 //! | `tile-NNN/scene.obj` | the triangles that touch the tile's box, in world coordinates |
 //! | `tile-NNN/config.ron` | the world config with the tile's scene, domain and output (`tile-NNN/out`) |
-//! | `<library>.mtl` | the world's material libraries, which every tile names |
+//! | `<library>.mtl` | the world's material libraries, which every tile names, with the textures they map beside them |
 //! | `tile.sh` | runs tile `$1` (an array index) or the merge |
 //! | `submit.sh` | `sbatch --array` over the tiles, then the merge `afterok` (docs/tiles.md) |
 

@@ -80,7 +80,7 @@ pub struct ObjFile {
     /// `vt` statements `(u, v)`, in file order (OBJ's convention: `v` up).
     pub texcoords: Vec<[f32; 2]>,
     /// Each triangle's `vt` indices (`u32::MAX`: none), parallel to
-    /// `triangles`; empty when the file has no `vt`.
+    /// `triangles`; empty when the file has no `vt` or no face names one.
     pub triangle_texcoords: Vec<[u32; 3]>,
     /// The texture maps the materials name, to be loaded.
     pub maps: Vec<MapSpec>,
@@ -298,25 +298,25 @@ fn parse_batches(
             })
             .collect::<Option<_>>()?;
         for ((piece, triangles), texcoord_base) in parsed.into_iter().zip(resolved).zip(texcoord_bases) {
+            let before = obj.triangles.len();
             obj.positions.extend(piece.positions);
             obj.triangles.extend(triangles);
             obj.texcoords.extend(piece.texcoords);
             bad_texcoords += piece.bad_texcoords;
-            obj.triangle_texcoords.extend(piece.triangle_texcoords.iter().map(|t| {
-                t.map(|i| match i {
+            for (k, t) in piece.triangle_texcoords.iter().enumerate() {
+                let t = t.map(|i| match i {
                     NO_TEXCOORD => u32::MAX,
                     i if i >= 0 => u32::try_from(i).unwrap_or(u32::MAX),
                     i => u32::try_from(texcoord_base + (i - RELATIVE)).unwrap_or(u32::MAX),
-                })
-            }));
+                });
+                push_texcoords(&mut obj.triangle_texcoords, before + k, t);
+            }
             for libs in &piece.mtllib {
                 let libs = libs.iter().map(String::as_str);
                 materials.load(&mut obj, libs, library).ok()?;
             }
         }
-        let bytes =
-            obj.positions.len() as f64 * 24.0 + obj.triangles.len() as f64 * BYTES_PER_TRIANGLE;
-        if bytes > limits::memory_budget() as f64
+        if read_bytes(&obj) > limits::memory_budget() as f64
             || obj.triangles.len() > super::wide_bvh::MAX_PRIMITIVES
         {
             return None;
@@ -575,8 +575,7 @@ pub fn parse(
             }
         }
         if n.is_multiple_of(CHECK_EVERY) {
-            let bytes =
-                obj.positions.len() as f64 * 24.0 + obj.triangles.len() as f64 * BYTES_PER_TRIANGLE;
+            let bytes = read_bytes(&obj);
             limits::check_memory(
                 "scene",
                 &format!(
@@ -652,13 +651,10 @@ pub fn parse(
                     corners.push(resolved as u32);
                 }
                 for k in 1..corners.len() - 1 {
+                    let t = [corner_texcoords[0], corner_texcoords[k], corner_texcoords[k + 1]];
+                    push_texcoords(&mut obj.triangle_texcoords, obj.triangles.len(), t);
                     obj.triangles
                         .push(([corners[0], corners[k], corners[k + 1]], current));
-                    obj.triangle_texcoords.push([
-                        corner_texcoords[0],
-                        corner_texcoords[k],
-                        corner_texcoords[k + 1],
-                    ]);
                 }
             }
             Statement::UseMtl(m) => current = materials.used(m),
@@ -671,13 +667,38 @@ pub fn parse(
     Ok(obj)
 }
 
+/// Memory what is read so far takes, and will take until the BVH is
+/// built: 24 bytes a vertex, [`BYTES_PER_TRIANGLE`] a triangle, and its
+/// texture indices (12) and the `vt` (8 each) where the file has them.
+fn read_bytes(obj: &ObjFile) -> f64 {
+    obj.positions.len() as f64 * 24.0
+        + obj.triangles.len() as f64 * BYTES_PER_TRIANGLE
+        + obj.triangle_texcoords.len() as f64 * 12.0
+        + obj.texcoords.len() as f64 * 8.0
+}
+
+/// Records triangle `index`'s texture indices `t` in `all`, which holds
+/// none until the first triangle that has one (a file without texture
+/// coordinates spends no memory on them), then one per triangle.
+fn push_texcoords(all: &mut Vec<[u32; 3]>, index: usize, t: [u32; 3]) {
+    if all.is_empty() && t == [u32::MAX; 3] {
+        return;
+    }
+    all.resize(index, [u32::MAX; 3]);
+    all.push(t);
+}
+
 /// What both readers do once the file is read: texture indices that name
-/// no `vt` become none, and the repairs are counted in one warning; a
-/// file without `vt` keeps no texture indices.
+/// no `vt` become none, and the repairs are counted in one warning; the
+/// indices are one per triangle, or none at all when no `vt` is read or
+/// no face names one.
 fn check_texcoords(obj: &mut ObjFile, name: &Path, bad: usize) {
     if obj.texcoords.is_empty() {
         obj.triangle_texcoords = Vec::new();
         return;
+    }
+    if !obj.triangle_texcoords.is_empty() {
+        obj.triangle_texcoords.resize(obj.triangles.len(), [u32::MAX; 3]);
     }
     let n = obj.texcoords.len();
     let mut unnamed = 0usize;
