@@ -163,7 +163,8 @@ pub struct LightSet {
     area: Vec<AreaLight>,
     /// Emission textures of the textured emitters.
     maps: Vec<EmissionMap>,
-    /// Normalized prefix sums of the area lights' `area × luminance(Ke)`.
+    /// Normalized prefix sums of the area lights' `area × luminance(Ke)`
+    /// (`Ke ×` its texture's mean for a textured emitter).
     cdf: Vec<f32>,
     points: Vec<PointLight>,
     spots: Vec<SpotLight>,

@@ -782,6 +782,30 @@ mod tests {
     }
 
     #[test]
+    fn a_textured_triangle_reads_its_texels_where_a_point_falls() {
+        // Left texel black, right texel white, clamped; the triangle's
+        // corners at u = 0, 1, 0.
+        let t = texture::Texture::from_srgb8("t".into(), 2, 1, vec![[0; 3], [255; 3]]);
+        let mut m = Material::fallback();
+        m.diffuse = [0.5; 3];
+        m.diffuse_map = Some(texture::TextureMap {
+            wrap: [texture::Wrap::Clamp; 2],
+            ..texture::TextureMap::new(0)
+        });
+        let tri = [Vec3::ZERO, Vec3::X, Vec3::Z];
+        let uv = [Vec2::new(0.0, 0.5), Vec2::new(1.0, 0.5), Vec2::new(0.0, 0.5)];
+        let s = Scene::from_textured_triangles("t".into(), [(tri, 0, uv)], vec![m.clone()], vec![Arc::new(t.clone())])
+            .unwrap();
+        let at = |x: f32| s.diffuse_at(&s.materials[0], s.texcoord_at(0, Vec3::new(x, 0.0, 0.1)))[0];
+        assert_eq!(at(0.1), 0.0);
+        assert_eq!(at(0.8), 0.5);
+        assert!((at(0.5) - 0.25).abs() < 1e-6, "{}", at(0.5));
+        // A map that names no texture is refused.
+        let e = Scene::from_textured_triangles("t".into(), [(tri, 0, uv)], vec![m], vec![]).unwrap_err();
+        assert!(e.to_string().contains("names no texture"), "{e}");
+    }
+
+    #[test]
     fn quads_negative_indices_and_missing_mtl() {
         let dir = tempfile::tempdir().unwrap();
         let p = write(
