@@ -29,7 +29,7 @@
  * probes' maps, and pp_blend_weights gives, for a point and its unit
  * normal, the probes and the normalized weights of the validation
  * renders' irradiance gather (McGuire et al. 2017 section 5.2), exactly
- * as `trace::gather::blend_weights` gives them (WEIGHTS, below):
+ * as `probeplace::blend_weights` gives them (WEIGHTS, below):
  *
  *     pp_lightfield field;
  *     e = pp_lightfield_load_file("out/cornell/lightfield.bin", &field);
@@ -89,7 +89,7 @@
  * precision, one subtraction, one division and one floor per axis, each
  * rounded to float, then the walk in integers.
  *
- * WEIGHTS. pp_blend_weights gives `trace::gather::blend_weights`'s bits.
+ * WEIGHTS. pp_blend_weights gives `probeplace::blend_weights`'s bits.
  * Each term's weight is spatial x max(n . w, PP_MIN_NORMAL_WEIGHT) x
  * visibility, w the unit direction from the point toward the probe ("a
  * clamped dot product of the shading point's surface normal and the
@@ -310,7 +310,7 @@ size_t pp_blend_terms(const pp_lightfield *field, const pp_lattice *lattice);
 
 /* The probes and normalized weights of the validation renders' diffuse
  * blend at the world-space `point` with unit `normal` (McGuire et al. 2017
- * section 5.2; trace::gather::blend_weights, bit for bit; WEIGHTS, in
+ * section 5.2; probeplace::blend_weights, bit for bit; WEIGHTS, in
  * the opening comment).
  * Give exactly one selection: `svo` (the run's tree: the SVO selection,
  * which reads only its leaf size) or `lattice` (from

@@ -1,6 +1,6 @@
 """The probes and weights of the validation renders' diffuse blend
 (McGuire et al. 2017 §5.2), from the files a run writes: what
-``probeplace::trace::gather::blend_weights`` answers, bit for bit.
+``probeplace::blend_weights`` answers, bit for bit.
 
 For a point p with unit normal n the blend weighs each of its terms (a
 probe) by
@@ -232,7 +232,7 @@ def blend_terms(field: LightField, selection: "Svo | Lattice") -> int:
 def blend_weights(field: LightField, selection: "Svo | Lattice", points, normals):
     """The probes and normalized weights the validation renders' diffuse
     blend reads at each point with its unit normal (module docs):
-    ``trace::gather::blend_weights``, bit for bit.
+    ``probeplace::blend_weights``, bit for bit.
 
     ``selection`` is the run's :class:`~probeplace.svo.Svo` (the SVO
     selection of the Hi-Z render, and of the bi-level render of probes off
