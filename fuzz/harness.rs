@@ -451,21 +451,7 @@ fn gltf_seeds() -> Vec<(&'static str, Vec<u8>)> {
     t.material_json(m)["pbrMetallicRoughness"]["baseColorTexture"] = json!({"index": texture,
         "extensions": {"KHR_texture_transform": {"offset": [0.5, 0.0], "rotation": 0.3, "scale": [2.0, 2.0]}}});
     t.material_json(m)["emissiveTexture"] = json!({"index": texture});
-    let pos = t.positions(
-        &[
-            [0.0, 0.0, 0.0],
-            [1.0, 0.0, 0.0],
-            [1.0, 0.0, -1.0],
-            [0.0, 0.0, -1.0],
-        ],
-        Positions::Float,
-    );
-    let uv = t.texcoords(&[[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]);
-    let ix = t.indices(&[0, 1, 2, 0, 2, 3]);
-    let mesh = t.mesh_json(
-        "quad",
-        vec![json!({"attributes": {"POSITION": pos, "TEXCOORD_0": uv}, "indices": ix, "material": m})],
-    );
+    let mesh = t.textured_quad(m);
     let n = t.node(json!({"mesh": mesh}));
     t.scene(&[n]);
     vec![

@@ -68,7 +68,7 @@ pub struct Vertex {
     pub n: Vec3,
     /// Direction back along the ray.
     pub wo: Vec3,
-    /// Index into the scene's materials (and [`Renderer::bsdfs`]).
+    /// Index into the scene's materials.
     pub material: usize,
     /// The BSDF here: the material's, its diffuse albedo times its colour
     /// texture's texel where it has one ([`crate::scene::texture`]).
@@ -122,17 +122,6 @@ impl<'a> Renderer<'a> {
     /// Indirect bounces after the first surface.
     pub fn bounces(&self) -> u32 {
         self.bounces
-    }
-
-    /// The BSDF of each of the scene's materials, in material order.
-    pub fn bsdfs(&self) -> &[Bsdf] {
-        &self.bsdfs
-    }
-
-    /// Emission `Ke` of material `material` (both sides), untextured: a
-    /// hit's own is [`Vertex::emission`].
-    pub fn emission(&self, material: usize) -> Vec3 {
-        self.emission[material]
     }
 
     /// Direct light at `v` from the point, spot and directional lights only

@@ -766,13 +766,7 @@ impl Reader<'_> {
                 }
             },
             Some(uri) if uri.starts_with("data:") => {
-                let (head, body) = uri.split_once(',').unwrap_or((uri, ""));
-                if !head.ends_with(";base64") {
-                    return Err(self.fail(format!("buffer {b}: a data URI that is not base64")));
-                }
-                base64::engine::general_purpose::STANDARD
-                    .decode(body.trim())
-                    .map_err(|e| self.fail(format!("buffer {b}: its base64 data URI is malformed: {e}")))?
+                data_uri(uri).map_err(|e| self.fail(format!("buffer {b}: {e}")))?
             }
             Some(uri) if uri.contains("://") => {
                 return Err(self.fail(format!(
@@ -1012,7 +1006,7 @@ impl Reader<'_> {
             }
         }
         let path = self.path;
-        let (loaded, mut warnings) = texture::load_images(images.len(), |k| {
+        let mut loaded = texture::load_images(images.len(), |k| {
             let i = images[k];
             let image = &root.images[i];
             let name = match (&image.name, &image.uri) {
@@ -1022,14 +1016,9 @@ impl Reader<'_> {
             };
             (name, self.image_bytes(i))
         });
-        out.warnings.append(&mut warnings);
-        let mut index: Vec<Option<u32>> = Vec::with_capacity(loaded.len());
-        for t in loaded {
-            index.push(t.map(|t| {
-                out.textures.push(t);
-                (out.textures.len() - 1) as u32
-            }));
-        }
+        out.warnings.append(&mut loaded.warnings);
+        out.textures = loaded.textures;
+        let index = loaded.index;
         let mut sets: Vec<Option<u32>> = vec![None; root.materials.len()];
         let mut mixed: Vec<String> = Vec::new();
         for (i, emissive, info) in uses {
@@ -1097,15 +1086,7 @@ impl Reader<'_> {
         }
         match image.uri.as_deref() {
             None => Err("neither a uri nor a buffer view".into()),
-            Some(uri) if uri.starts_with("data:") => {
-                let (head, body) = uri.split_once(',').unwrap_or((uri, ""));
-                if !head.ends_with(";base64") {
-                    return Err("a data URI that is not base64".into());
-                }
-                base64::engine::general_purpose::STANDARD
-                    .decode(body.trim())
-                    .map_err(|e| format!("its base64 data URI is malformed: {e}"))
-            }
+            Some(uri) if uri.starts_with("data:") => data_uri(uri),
             Some(uri) if uri.contains("://") => Err("a URL; probeplace reads only files beside the glTF".into()),
             Some(uri) => {
                 let name = percent_decode(uri).ok_or("its uri is malformed")?;
@@ -1198,6 +1179,18 @@ impl Reader<'_> {
             material,
         }))
     }
+}
+
+/// The bytes of a `data:` URI (RFC 2397), which glTF allows only in
+/// base64; `Err` says why not, in words.
+fn data_uri(uri: &str) -> std::result::Result<Vec<u8>, String> {
+    let (head, body) = uri.split_once(',').unwrap_or((uri, ""));
+    if !head.ends_with(";base64") {
+        return Err("a data URI that is not base64".into());
+    }
+    base64::engine::general_purpose::STANDARD
+        .decode(body.trim())
+        .map_err(|e| format!("its base64 data URI is malformed: {e}"))
 }
 
 /// A URI reference's percent-escapes decoded (RFC 3986 §2.1); `None` when

@@ -543,7 +543,7 @@ fn obj_textures(
         }
     }
     let limit = crate::limits::memory_budget();
-    let (images, mut more) = texture::load_images(files.len(), |i| {
+    let mut images = texture::load_images(files.len(), |i| {
         let file = files[i];
         let name = file.display().to_string();
         if !file.exists() {
@@ -555,18 +555,10 @@ fn obj_textures(
         });
         (name, bytes)
     });
-    warnings.append(&mut more);
-    let mut textures = Vec::new();
-    let mut index: Vec<Option<u32>> = Vec::with_capacity(images.len());
-    for image in images {
-        index.push(image.map(|t| {
-            textures.push(t);
-            (textures.len() - 1) as u32
-        }));
-    }
+    warnings.append(&mut images.warnings);
     for m in maps {
         let file = files.iter().position(|f| *f == m.file.as_path()).unwrap_or(0);
-        let Some(texture) = index[file] else {
+        let Some(texture) = images.index[file] else {
             continue;
         };
         let [su, sv] = m.scale;
@@ -589,7 +581,7 @@ fn obj_textures(
             slot.diffuse_map = Some(map);
         }
     }
-    textures
+    images.textures
 }
 
 /// The scene format of `path`: glTF 2.0 for a `.gltf` or `.glb` name (any

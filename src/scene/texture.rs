@@ -346,14 +346,15 @@ pub fn decode(bytes: &[u8], name: String) -> Result<Texture, String> {
 /// decoded sizes fit the scene's texture budget (a quarter of the memory
 /// budget), and decoded in parallel.
 ///
-/// Contract: one entry per image, `None` for each that was not loaded;
-/// the warnings name each such file (the first [`LISTED`] of each kind,
-/// then a count). Deterministic: which images fit does not depend on the
-/// thread count. Never an error: a scene loads without its textures.
+/// Contract: the textures loaded, in image order, and for each image its
+/// index among them (`None`: not loaded, what a material map then lacks);
+/// the warnings name each image not loaded (the first [`LISTED`] of each
+/// kind, then a count). Deterministic: which images fit does not depend on
+/// the thread count. Never an error: a scene loads without its textures.
 pub fn load_images(
     count: usize,
     mut fetch: impl FnMut(usize) -> (String, Result<Vec<u8>, String>),
-) -> (Vec<Option<Arc<Texture>>>, Vec<String>) {
+) -> LoadedImages {
     let budget = crate::limits::memory_budget() / 4;
     let mut used = 0u64;
     let mut failed: Vec<String> = Vec::new();
@@ -385,10 +386,14 @@ pub fn load_images(
             (i, name, t)
         })
         .collect();
-    let mut out: Vec<Option<Arc<Texture>>> = vec![None; count];
+    let mut textures = Vec::new();
+    let mut index: Vec<Option<u32>> = vec![None; count];
     for (i, name, t) in decoded {
         match t {
-            Ok(t) => out[i] = Some(Arc::new(t)),
+            Ok(t) => {
+                index[i] = Some(textures.len() as u32);
+                textures.push(Arc::new(t));
+            }
             Err(why) => failed.push(format!("{name}: {why}")),
         }
     }
@@ -414,7 +419,21 @@ pub fn load_images(
             crate::input::bytes_text(budget)
         ));
     }
-    (out, warnings)
+    LoadedImages {
+        textures,
+        index,
+        warnings,
+    }
+}
+
+/// What [`load_images`] gives.
+pub struct LoadedImages {
+    /// The textures decoded, in image order.
+    pub textures: Vec<Arc<Texture>>,
+    /// Per image, its index in `textures` (`None`: not loaded).
+    pub index: Vec<Option<u32>>,
+    /// One per image not loaded (the first few of each kind, then a count).
+    pub warnings: Vec<String>,
 }
 
 /// Barycentric coordinates `(b1, b2)` of point `p` in triangle `t`
@@ -554,12 +573,12 @@ mod tests {
 
     #[test]
     fn missing_and_broken_images_warn_once_each_and_load_nothing() {
-        let (out, warnings) = load_images(3, |i| match i {
+        let LoadedImages { textures, index, warnings } = load_images(3, |i| match i {
             0 => ("gone.png".into(), Err("not found".into())),
             1 => ("junk.png".into(), Ok(b"junk".to_vec())),
             _ => ("ok.png".into(), Err("not found".into())),
         });
-        assert!(out.iter().all(Option::is_none));
+        assert!(textures.is_empty() && index.iter().all(Option::is_none));
         assert_eq!(warnings.len(), 3, "{warnings:?}");
         assert!(warnings[0].starts_with("gone.png: not found"), "{warnings:?}");
     }

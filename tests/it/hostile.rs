@@ -1053,6 +1053,32 @@ fn hostile_gltf_files_are_refused_in_one_line_naming_what_is_wrong() {
             },
             "names vertex 999",
         ),
+        (
+            "a colour texture that does not exist",
+            glb_of(doc(&|d| {
+                d["materials"] = serde_json::json!([
+                    {"name": "m", "pbrMetallicRoughness": {"baseColorTexture": {"index": 4}}}
+                ])
+            })),
+            "baseColorTexture: texture 4 does not exist",
+        ),
+        (
+            "an emission texture whose image does not exist",
+            glb_of(doc(&|d| {
+                d["textures"] = serde_json::json!([{"source": 2}]);
+                d["materials"] = serde_json::json!([{"emissiveTexture": {"index": 0}}]);
+            })),
+            "texture 0's image 2 does not exist",
+        ),
+        (
+            "a texture whose sampler does not exist",
+            glb_of(doc(&|d| {
+                d["images"] = serde_json::json!([{"uri": "x.png"}]);
+                d["textures"] = serde_json::json!([{"source": 0, "sampler": 7}]);
+                d["materials"] = serde_json::json!([{"emissiveTexture": {"index": 0}}]);
+            })),
+            "texture 0's sampler 7 does not exist",
+        ),
     ];
     for (what, bytes, needle) in cases {
         let e = refused_gltf("bad.glb", &bytes);

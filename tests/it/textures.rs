@@ -310,7 +310,6 @@ fn a_textured_obj_converted_to_gltf_renders_alike_with_its_transform_and_wrap() 
 fn gltf_images_read_from_a_buffer_view_a_data_uri_a_file_and_a_jpeg() {
     use base64::Engine;
     let dir = tempfile::tempdir().unwrap();
-    let quad_uvs = [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]];
     let grey = |v: u8| png_rgb(2, 2, &[v; 12]);
     let mut jpeg = Vec::new();
     jpeg_encoder::Encoder::new(&mut jpeg, 100)
@@ -333,21 +332,7 @@ fn gltf_images_read_from_a_buffer_view_a_data_uri_a_file_and_a_jpeg() {
         let t = b.texture(image, None);
         let m = b.material(&format!("m{k}"), [1.0; 3], 0.0, 1.0, [0.0; 3]);
         b.material_json(m)["pbrMetallicRoughness"]["baseColorTexture"] = json!({"index": t});
-        let pos = b.positions(
-            &[
-                [0.0, 0.0, 0.0],
-                [1.0, 0.0, 0.0],
-                [1.0, 0.0, -1.0],
-                [0.0, 0.0, -1.0],
-            ],
-            probeplace::fixtures::gltf_writer::Positions::Float,
-        );
-        let uv = b.texcoords(&quad_uvs);
-        let ix = b.indices(&[0, 1, 2, 0, 2, 3]);
-        let mesh = b.mesh_json(
-            "quad",
-            vec![json!({"attributes": {"POSITION": pos, "TEXCOORD_0": uv}, "indices": ix, "material": m})],
-        );
+        let mesh = b.textured_quad(m);
         roots.push(b.node(json!({"mesh": mesh, "translation": [2.0 * k as f64, 0.0, 0.0]})));
     }
     b.scene(&roots);
