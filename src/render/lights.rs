@@ -74,12 +74,11 @@ struct AreaLight {
 /// [`AreaLight::map`] of an untextured emitter.
 const NO_MAP: u32 = u32::MAX;
 
-/// An emitter's emission texture: the map, its image, and the triangle's
-/// texture coordinates.
+/// An emitter's emission texture: the map (into [`LightSet::textures`])
+/// and the triangle's texture coordinates.
 #[derive(Debug, Clone)]
 struct EmissionMap {
     map: TextureMap,
-    textures: [Arc<Texture>; 1],
     texcoords: [glam::Vec2; 3],
 }
 
@@ -163,6 +162,8 @@ pub struct LightSet {
     area: Vec<AreaLight>,
     /// Emission textures of the textured emitters.
     maps: Vec<EmissionMap>,
+    /// The scene's textures, which `maps` index (shared, not copied).
+    textures: Vec<Arc<Texture>>,
     /// Normalized prefix sums of the area lights' `area × luminance(Ke)`
     /// (`Ke ×` its texture's mean for a textured emitter).
     cdf: Vec<f32>,
@@ -198,17 +199,17 @@ impl LightSet {
                 m.emission
                     .map(|v| if v.is_finite() { v.max(0.0) } else { 0.0 }),
             );
-            let texture = m.emission_map.map(|map| (map, &scene.textures[map.texture as usize]));
-            let mean = texture.map_or(Vec3::ONE, |(_, t)| t.mean());
+            let mean = m
+                .emission_map
+                .map_or(Vec3::ONE, |map| scene.textures[map.texture as usize].mean());
             let tri_area = 0.5 * (tri[1] - tri[0]).cross(tri[2] - tri[0]).length();
             let weight = tri_area as f64 * luminance(emission * mean) as f64;
             if weight > 0.0 && weight.is_finite() {
                 let centre = (tri[0] + tri[1] + tri[2]) / 3.0;
-                let map = match texture {
-                    Some((map, t)) => {
+                let map = match m.emission_map {
+                    Some(map) => {
                         maps.push(EmissionMap {
-                            map: TextureMap { texture: 0, ..map },
-                            textures: [t.clone()],
+                            map,
                             texcoords: scene.texcoords.get(i).copied().unwrap_or_default(),
                         });
                         (maps.len() - 1) as u32
@@ -250,6 +251,7 @@ impl LightSet {
         let mut set = LightSet {
             area,
             maps,
+            textures: scene.textures.clone(),
             cdf,
             points: Vec::new(),
             spots: Vec::new(),
@@ -406,7 +408,7 @@ impl LightSet {
                 let emission = match self.maps.get(light.map as usize) {
                     Some(m) => {
                         let uv = interpolate(&m.texcoords, barycentric(&light.vertices, y));
-                        light.emission * m.map.sample(&m.textures, uv)
+                        light.emission * m.map.sample(&self.textures, uv)
                     }
                     None => light.emission,
                 };
