@@ -17,15 +17,24 @@
 //!   is convex), is below the level's min distance, the ray passes in front:
 //!   go on (at coarse levels this skips 4ᵏ fine texels at once);
 //! - else, with f(t) the signed distance to the surfel's plane (positive on
-//!   the probe's side): a ray that enters in front (f(t_a) ≥ −τ) and ends
-//!   behind (f(t_b) ≤ 0) **hits** where f = 0; one that stays in front goes
-//!   on; one that enters more than τ behind has passed **behind** a surface
-//!   the probe cannot see past: the probe cannot tell (**unknown**).
+//!   the probe's side): a ray that enters in front (f(t_a) > 0) and ends
+//!   behind (f(t_b) ≤ 0) **hits** where f = 0, and so does one that enters
+//!   less than τ behind (f(t_a) ≥ −τ) and goes deeper (f(t_b) < f(t_a)), at
+//!   t_a; one that stays in front goes on; one that enters more than τ
+//!   behind has passed **behind** a surface the probe cannot see past: the
+//!   probe cannot tell (**unknown**).
 //!
 //! τ = 2s/n, about one texel's width at the surfel's distance s, absorbs the
 //! step between neighbouring surfels of a curved surface. Because the plane
 //! faces the probe, crossing it from front to back means meeting its front
-//! face; McGuire's back-face discrimination comes for free. Where the
+//! face; McGuire's back-face discrimination comes for free, and it holds
+//! inside τ too: a ray within τ behind a plane and moving towards its front
+//! is *leaving* a surface, not meeting one. Glossy rays start on a surface,
+//! which the maps store to half precision and, on a faceted one, as the
+//! plane of a neighbouring facet: their origin often lies a little behind a
+//! surfel, and counting that as a hit at t = 0 read the shading point's own
+//! radiance, as the probe sees it, for about 3% of the glossy rays in
+//! CornellBox-Glossy (docs/method.md, "Rays that hit their own origin"). Where the
 //! surface bends at a texel's edge the neighbouring surfels join the test
 //! (see `surfel_test`). The coarse test is exactly the fine test's first
 //! branch on bounds of the fine values, so the hierarchical march returns
@@ -237,7 +246,11 @@ fn surfel_test(
     let tau = 2.0 * s / n as f32;
     let eps = 1e-3 * s;
     let (ta, tb) = span;
-    let mut hit = if fa >= -tau && fb <= 0.0 {
+    // A plane is met by a ray that crosses it from front to back, or that
+    // enters within τ behind it and goes deeper; not by one moving towards
+    // its front, which is leaving a surface (module docs).
+    let meets = |fa: f32, fb: f32| fb <= 0.0 && (fa > 0.0 || (fa >= -tau && fb < fa));
+    let mut hit = if meets(fa, fb) {
         Some(if fa <= 0.0 {
             ta
         } else {
@@ -247,6 +260,11 @@ fn surfel_test(
         None
     };
     let mut shielded = false;
+    // Across a convex edge the solid lies behind both planes: while the ray
+    // is in front of a convex neighbour's plane it is outside the surface,
+    // whatever the own plane says. `gate`: the first t at which the ray is
+    // behind every such neighbour's plane (`None`: not within the span).
+    let mut gate = Some(ta);
     for (dx, dy) in [(-1i64, 0i64), (1, 0), (0, -1), (0, 1)] {
         let (nx, ny) = octahedral::wrap_texel(x as i64 + dx, y as i64 + dy, n);
         let k = field.index(probe, nx, ny);
@@ -260,7 +278,7 @@ fn surfel_test(
         let ga = nk.dot(q.0 - ck);
         let gb = nk.dot(q.1 - ck);
         if own_of_k >= -eps && k_of_own >= -eps {
-            if ga >= -tau && gb <= 0.0 {
+            if meets(ga, gb) {
                 let tk = if ga <= 0.0 {
                     ta
                 } else {
@@ -270,12 +288,15 @@ fn surfel_test(
             }
         } else if own_of_k < eps && k_of_own < eps && ga >= 0.0 {
             shielded = true;
-            if let (Some(t0), Some(t1)) = (onset(fa, fb, ta, tb), onset(ga, gb, ta, tb)) {
+            let t1 = onset(ga, gb, ta, tb);
+            gate = gate.zip(t1).map(|(g, t)| g.max(t));
+            if let (Some(t0), Some(t1)) = (onset(fa, fb, ta, tb), t1) {
                 let tk = t0.max(t1);
                 hit = Some(hit.map_or(tk, |h: f32| h.min(tk)));
             }
         }
     }
+    let hit = hit.zip(gate).map(|(h, g)| h.max(g));
     match hit {
         Some(t) => Texel::Hit(t.clamp(ta, tb)),
         None if fa < -tau && !shielded => Texel::Behind,

@@ -102,6 +102,12 @@ fn onset(fa: f32, fb: f32, ta: f32, tb: f32) -> f32 {
     return HUGE;
 }
 
+// trace::single::surfel_test's `meets`: the ray crosses the plane from
+// front to back, or enters within tau behind it and goes deeper.
+fn meets(fa: f32, fb: f32, tau: f32) -> bool {
+    return fb <= 0.0 && (fa > 0.0 || (fa >= -tau && fb < fa));
+}
+
 // trace::single::surfel_test
 fn surfel_test(probe: u32, x: i32, y: i32, q0: vec3f, q1: vec3f, ta: f32, tb: f32) -> TexelResult {
     let n = params.n;
@@ -113,7 +119,7 @@ fn surfel_test(probe: u32, x: i32, y: i32, q0: vec3f, q1: vec3f, ta: f32, tb: f3
     let tau = 2.0 * s / f32(n);
     let eps = 1e-3 * s;
     var hit = HUGE;
-    if fa >= -tau && fb <= 0.0 {
+    if meets(fa, fb, tau) {
         if fa <= 0.0 {
             hit = ta;
         } else {
@@ -121,6 +127,7 @@ fn surfel_test(probe: u32, x: i32, y: i32, q0: vec3f, q1: vec3f, ta: f32, tb: f3
         }
     }
     var shielded = false;
+    var gate = ta;
     let offsets = array<vec2i, 4>(vec2i(-1, 0), vec2i(1, 0), vec2i(0, -1), vec2i(0, 1));
     for (var j = 0; j < 4; j++) {
         let w = wrap_texel(x + offsets[j].x, y + offsets[j].y, n);
@@ -135,7 +142,7 @@ fn surfel_test(probe: u32, x: i32, y: i32, q0: vec3f, q1: vec3f, ta: f32, tb: f3
         let ga = dot(nk, q0 - ck);
         let gb = dot(nk, q1 - ck);
         if own_of_k >= -eps && k_of_own >= -eps {
-            if ga >= -tau && gb <= 0.0 {
+            if meets(ga, gb, tau) {
                 var tk = ta;
                 if ga > 0.0 {
                     tk = ta + (tb - ta) * ga / (ga - gb);
@@ -146,11 +153,13 @@ fn surfel_test(probe: u32, x: i32, y: i32, q0: vec3f, q1: vec3f, ta: f32, tb: f3
             shielded = true;
             let t0 = onset(fa, fb, ta, tb);
             let t1 = onset(ga, gb, ta, tb);
+            gate = max(gate, t1);
             if t0 < HUGE && t1 < HUGE {
                 hit = min(hit, max(t0, t1));
             }
         }
     }
+    hit = max(hit, gate);
     if hit < HUGE {
         return TexelResult(TEXEL_HIT, clamp(hit, ta, tb));
     }
