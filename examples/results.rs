@@ -579,115 +579,104 @@ fn compare_summary(compares: &[Value]) -> String {
     md
 }
 
-/// The diffuse evaluation of every comparison (docs/method.md, "Diffuse
-/// light"): ours against each rival on `hiz+svo` rows (the SH blend is
-/// the same for a grid's two rows) at its count, by SH L2 over Delaunay
-/// tetrahedra, with intervals; then how often ours meets the issue's bars.
-fn diffuse_summary(compares: &[Value]) -> String {
+/// The diffuse benchmark of every comparison (docs/method.md, "Diffuse
+/// light"): ours against each rival at equal count by SH L2 over Delaunay
+/// tetrahedra on the scene's own materials, with intervals; the count ours
+/// needs for the equal-count grid's error; then how often ours meets the
+/// bars of issue 68. `plots` gets each comparison's curve of error
+/// against count (`diffuse-NAME.svg`, for docs/), and the returned
+/// markdown links them.
+fn diffuse_summary(compares: &[Value], plots: &mut Vec<(String, String)>, tag: &str) -> String {
     let columns = [
         ("config", false),
-        ("ours", true),
+        ("ours", false),
         ("rival", false),
         ("probes", true),
-        ("indirect, surface", false),
-        ("indirect, free", false),
+        ("baked, surface", false),
         ("total, surface", false),
-        ("total, free", false),
-        ("leaks", false),
-        ("ours: indirect surface error, leaks", false),
+        ("baked, free", false),
+        ("leaks, surface", false),
+        ("ours: baked surface error, leaks", false),
     ];
     let mut t = Table::new(&columns);
-    let (mut scenes, mut half_grid, mut leak_quarter) = (0, 0, 0);
-    let mut floors: Vec<String> = Vec::new();
-    let (mut below_half, mut floor_scenes) = (0, 0);
+    let (mut scenes, mut grid_bar, mut rivals_bar, mut leak_bar, mut count_bar) = (0, 0, 0, 0, 0);
+    let mut equal_error: Vec<String> = Vec::new();
+    let mut curves: Vec<String> = Vec::new();
     for c in compares {
-        let Some(x) = ours_comparison(c) else {
+        let Some(d) = at(c, "diffuse").filter(|d| !d.is_null()) else {
             continue;
         };
-        let placements = array(c, "placements");
-        let diffuse_of = |name: &str| {
-            placements
-                .iter()
-                .find(|p| text(p, "name") == name && text(p, "tracer") == "hiz+svo")
-                .and_then(|p| at(p, "diffuse"))
-        };
-        let Some(ours) = diffuse_of(OURS_DEFAULT).filter(|d| !d.is_null()) else {
+        let comparisons = array(d, "comparisons");
+        if comparisons.is_empty() {
             continue;
-        };
-        scenes += 1;
-        // The lowest indirect surface error any placement of the run reached
-        // (every grid of the sweep, every rival, ours at every count), over
-        // the equal-count grid's: how far below that grid the blend allows
-        // any placement to go.
-        let equal_grid = array(x, "ratios")
-            .iter()
-            .find(|r| text(r, "tracer") == "hiz+svo" && text(r, "family") == "grid")
-            .and_then(|r| {
-                let name = text(r, "against");
-                let p = diffuse_of(&name)?;
-                Some((name, num(p, "sh_tetrahedra.surface_indirect")?))
-            });
-        let lowest = placements
-            .iter()
-            .filter(|p| text(p, "tracer") == "hiz+svo")
-            .filter_map(|p| {
-                let e = at(p, "diffuse").and_then(|d| num(d, "sh_tetrahedra.surface_indirect"))?;
-                Some((e, text(p, "name"), num(p, "probes")))
-            })
-            .min_by(|a, b| a.0.total_cmp(&b.0).then_with(|| a.1.cmp(&b.1)));
-        if let (Some((grid, g)), Some((e, name, probes))) = (equal_grid, lowest) {
-            if g > 0.0 {
-                floor_scenes += 1;
-                if e <= 0.5 * g {
-                    below_half += 1;
-                }
-                floors.push(format!(
-                    "- `{}`: {} of `{grid}`'s {} (`{name}`, {} probes)",
-                    config_name(c),
-                    ratio(Some(e / g)),
-                    pct(Some(g), 1),
-                    int(probes)
-                ));
-            }
         }
-        let ours_cell = format!(
-            "{} · {}",
-            pct(num(ours, "sh_tetrahedra.surface_indirect"), 1),
-            pct(num(ours, "sh_tetrahedra.leak_fraction"), 1)
-        );
-        for r in array(x, "ratios")
-            .iter()
-            .filter(|r| text(r, "tracer") == "hiz+svo" && text(r, "family") != "ours")
-        {
-            let d = at(r, "diffuse");
-            let cell = |key: &str| interval(d.and_then(|d| at(d, key)));
-            if text(r, "family") == "grid" {
-                // The bars of issue 44: at most half the grid's indirect
-                // surface error with the interval excluding 1, and at most
-                // a quarter of its leaks.
-                let value = d.and_then(|d| num(d, "surface_indirect.value"));
-                let lo = d.and_then(|d| num(d, "surface_indirect.lo"));
-                if value.is_some_and(|v| v >= 2.0) && lo.is_some_and(|lo| lo > 1.0) {
-                    half_grid += 1;
+        scenes += 1;
+        let name = config_name(c);
+        let placements = array(d, "placements");
+        let row_of = |n: &str| placements.iter().find(|p| text(p, "name") == n);
+        let mut rivals_met = true;
+        for x in comparisons {
+            let ours = row_of(&text(x, "ours"));
+            let ours_cell = format!(
+                "{} · {}",
+                pct(ours.and_then(|o| num(o, "surface.baked")), 1),
+                pct(ours.and_then(|o| num(o, "surface.leaks")), 1)
+            );
+            let value = num(x, "surface_baked.value");
+            let lo = num(x, "surface_baked.lo");
+            // Ours at most a fraction `f` of the rival's error, the
+            // interval excluding 1.
+            let within = |f: f64| value.is_some_and(|v| v * f >= 1.0) && lo.is_some_and(|lo| lo > 1.0);
+            if text(x, "family") == "grid" {
+                if within(0.6) {
+                    grid_bar += 1;
                 }
-                if d.and_then(|d| num(d, "leak_fraction.value"))
-                    .is_some_and(|v| v >= 4.0)
-                {
-                    leak_quarter += 1;
+                if num(x, "surface_leaks.value").is_some_and(|v| v >= 2.0) {
+                    leak_bar += 1;
                 }
+            } else if !within(0.8) {
+                rivals_met = false;
             }
             t.rows.push(vec![
-                format!("`{}`", config_name(c)),
+                format!("`{name}`"),
+                format!("`{}`", text(x, "ours")),
+                format!("`{}` ({})", text(x, "rival"), text(x, "family")),
                 int(num(x, "probes")),
-                format!("`{}` ({})", text(r, "against"), text(r, "family")),
-                int(num(r, "probes")),
-                cell("surface_indirect"),
-                cell("free_indirect"),
-                cell("surface_total"),
-                cell("free_total"),
-                cell("leak_fraction"),
-                ours_cell.clone(),
+                interval(at(x, "surface_baked")),
+                interval(at(x, "surface_total")),
+                interval(at(x, "free_baked")),
+                interval(at(x, "surface_leaks")),
+                ours_cell,
             ]);
+        }
+        if rivals_met {
+            rivals_bar += 1;
+        }
+        if let Some(q) = at(d, "equal_error").filter(|q| !q.is_null()) {
+            let r = num(q, "count_ratio");
+            if r.is_some_and(|r| r <= 0.5) {
+                count_bar += 1;
+            }
+            equal_error.push(match (num(q, "ours_probes"), r) {
+                (Some(n), Some(r)) => format!(
+                    "- `{name}`: `{}` ({} probes, baked surface error {}) is reached with {}{n:.1} of our probes: **{}** its count",
+                    text(q, "grid"),
+                    int(num(q, "grid_probes")),
+                    pct(num(q, "grid_error"), 1),
+                    if q["bound"].as_bool() == Some(true) { "at most " } else { "" },
+                    ratio(Some(r))
+                ),
+                _ => format!(
+                    "- `{name}`: no count of ours measured reaches `{}`'s error ({})",
+                    text(q, "grid"),
+                    pct(num(q, "grid_error"), 1)
+                ),
+            });
+        }
+        if let Some(svg) = diffuse_plot(placements, &format!("baked diffuse error at surface receivers against probe count, {name}")) {
+            let file = format!("diffuse-{tag}{name}.svg");
+            curves.push(format!("![baked diffuse error against probe count, {name}]({file})"));
+            plots.push((file, svg));
         }
     }
     if scenes == 0 {
@@ -696,38 +685,153 @@ fn diffuse_summary(compares: &[Value]) -> String {
     let mut md = String::new();
     let _ = writeln!(
         md,
-        "Diffuse light as engines blend probes: each probe's light in SH L2, blended over a \
-         Delaunay tetrahedralization of the probes not in solid (Unity, Godot), at surface \
-         points the views see and points in the free space the cameras reach, against a \
-         path-traced reference (docs/method.md, \"Diffuse light\"). Each cell is the \
-         rival's mean relative error over ours (above 1: ours is better) with its 95% \
+        "Diffuse light as engines blend probes, on the scene's own materials: each \
+         probe's light in SH L2, blended over a Delaunay tetrahedralization of the probes \
+         not in solid (Unity, Godot), at surface points the views see and points in the \
+         free space the cameras reach, against a path-traced reference (docs/method.md, \
+         \"Diffuse light\"). *Baked* is what a mixed-lighting probe holds (all but the \
+         point, spot and directional lights' direct light); *total* adds that light. Each \
+         cell is the rival's mean relative error over ours at equal count (ours placed \
+         again with exactly the rival's count; above 1: ours is better) with its 95% \
          paired-bootstrap interval over views (surface) or runs of receivers (free); \
          *leaks* compares the share of receivers lit 2× too much or too little. The last \
-         column is ours alone: its mean relative indirect error at the surface receivers, \
-         and its leak share. Generated by `examples/results.rs` from the `compare.json` \
-         files.\n"
+         column is ours alone. Generated by `examples/results.rs` from the \
+         `compare.json` files.\n"
     );
     md.push_str(&t.markdown());
     let _ = writeln!(
         md,
-        "\nAt equal count, ours has at most half the uniform grid's indirect surface error, \
-         the interval excluding 1, in **{half_grid} of {scenes}** comparisons, and at most \
-         a quarter of its leaks in **{leak_quarter} of {scenes}** (issue 44's bars).\n"
+        "\nAt equal count, ours has at most 0.6× the uniform grid's baked surface error, \
+         the interval excluding 1, in **{grid_bar} of {scenes}** scenes; at most 0.8× \
+         every other rival's (relocated, greedy, adaptive) in **{rivals_bar} of {scenes}**; \
+         at most half the grid's surface leak share in **{leak_bar} of {scenes}**; and \
+         reaches the equal-count grid's error with at most half its count in \
+         **{count_bar} of {scenes}** (issue 68's bars).\n"
     );
-    if !floors.is_empty() {
-        let _ = writeln!(
-            md,
-            "The lowest indirect surface error that any placement of each run reached (every \
-             grid of the sweep, up to several times ours in count, every rival, ours at \
-             every count), as a share of the equal-count grid's: at or below half in \
-             **{below_half} of {floor_scenes}**.\n"
-        );
-        for f in &floors {
-            let _ = writeln!(md, "{f}");
+    if !equal_error.is_empty() {
+        md.push_str("The count ours needs for the equal-count grid's error (interpolated in log count along our curve):\n\n");
+        for e in &equal_error {
+            let _ = writeln!(md, "{e}");
         }
         md.push('\n');
     }
+    if !curves.is_empty() {
+        md.push_str("Error against probe count, every method (ours at several budgets, the grid sweep, each competitor at each count of the sweep):\n\n");
+        for cv in &curves {
+            let _ = writeln!(md, "{cv}\n");
+        }
+    }
     md
+}
+
+/// The colour of a family's curve in [`diffuse_plot`].
+fn family_colour(f: &str) -> &'static str {
+    match f {
+        "ours" => "#2a8a2a",
+        "grid" => "#3060c0",
+        "relocated" => "#c07020",
+        "greedy" => "#a03090",
+        "adaptive" => "#c03030",
+        _ => "#606060",
+    }
+}
+
+/// Every family's baked surface error against probe count (both log), a
+/// line and markers per family.
+fn diffuse_plot(placements: &[Value], title: &str) -> Option<String> {
+    let pts: Vec<(String, f64, f64)> = placements
+        .iter()
+        .filter_map(|p| {
+            let e = num(p, "surface.baked")?;
+            let n = num(p, "probes")?;
+            (n > 0.0 && e > 0.0).then(|| (text(p, "family"), n, e))
+        })
+        .collect();
+    if pts.len() < 2 {
+        return None;
+    }
+    let (w, h, left, right, top, bottom) = (800.0, 420.0, 80.0, 140.0, 36.0, 50.0);
+    let (mut x0, mut x1, mut y0, mut y1) = (f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY);
+    for (_, n, e) in &pts {
+        x0 = x0.min(n.log10());
+        x1 = x1.max(n.log10());
+        y0 = y0.min(e.log10());
+        y1 = y1.max(e.log10());
+    }
+    let pad = |a: f64, b: f64| {
+        if b - a < 1e-9 {
+            (a - 0.5, b + 0.5)
+        } else {
+            (a - 0.05 * (b - a), b + 0.05 * (b - a))
+        }
+    };
+    let ((x0, x1), (y0, y1)) = (pad(x0, x1), pad(y0, y1));
+    let (pw, ph) = (w - left - right, h - top - bottom);
+    let px = |n: f64| left + (n.log10() - x0) / (x1 - x0) * pw;
+    let py = |e: f64| top + (1.0 - (e.log10() - y0) / (y1 - y0)) * ph;
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{w}\" height=\"{h}\" viewBox=\"0 0 {w} {h}\" font-family=\"sans-serif\" font-size=\"12\">"
+    );
+    s.push_str("<rect width=\"100%\" height=\"100%\" fill=\"#fff\"/>\n");
+    let _ = writeln!(
+        s,
+        "<text x=\"{:.1}\" y=\"20\" text-anchor=\"middle\" font-size=\"14\">{}</text>",
+        left + pw / 2.0,
+        xml(title)
+    );
+    let _ = writeln!(
+        s,
+        "<rect x=\"{left}\" y=\"{top}\" width=\"{pw}\" height=\"{ph}\" fill=\"none\" stroke=\"#888\"/>"
+    );
+    // Ticks at 1, 2, 5 × 10^k.
+    for (axis_lo, axis_hi, vertical) in [(x0, x1, true), (y0, y1, false)] {
+        for k in (axis_lo.floor() as i32)..=(axis_hi.ceil() as i32) {
+            for m in [1.0, 2.0, 5.0] {
+                let v: f64 = m * 10f64.powi(k);
+                if !(axis_lo..=axis_hi).contains(&v.log10()) {
+                    continue;
+                }
+                let label = if v >= 1.0 { format!("{v:.0}") } else { format!("{v}") };
+                if vertical {
+                    let x = px(v);
+                    let _ = writeln!(s, "<line x1=\"{x:.1}\" y1=\"{top}\" x2=\"{x:.1}\" y2=\"{:.1}\" stroke=\"#eee\"/><text x=\"{x:.1}\" y=\"{:.1}\" text-anchor=\"middle\">{label}</text>", top + ph, top + ph + 16.0);
+                } else {
+                    let y = py(v);
+                    let _ = writeln!(s, "<line x1=\"{left}\" y1=\"{y:.1}\" x2=\"{:.1}\" y2=\"{y:.1}\" stroke=\"#eee\"/><text x=\"{:.1}\" y=\"{:.1}\" text-anchor=\"end\">{label}</text>", left + pw, left - 6.0, y + 4.0);
+                }
+            }
+        }
+    }
+    let _ = writeln!(
+        s,
+        "<text x=\"{:.1}\" y=\"{:.1}\" text-anchor=\"middle\">probes</text><text transform=\"translate(16 {:.1}) rotate(-90)\" text-anchor=\"middle\">mean relative error</text>",
+        left + pw / 2.0,
+        h - 8.0,
+        top + ph / 2.0
+    );
+    let mut ly = top + 10.0;
+    for f in ["ours", "grid", "relocated", "greedy", "adaptive"] {
+        let mut line: Vec<&(String, f64, f64)> = pts.iter().filter(|p| p.0 == f).collect();
+        if line.is_empty() {
+            continue;
+        }
+        line.sort_by(|a, b| a.1.total_cmp(&b.1).then(a.2.total_cmp(&b.2)));
+        let colour = family_colour(f);
+        if line.len() > 1 {
+            let coords: Vec<String> = line.iter().map(|p| format!("{:.1},{:.1}", px(p.1), py(p.2))).collect();
+            let _ = writeln!(s, "<polyline fill=\"none\" stroke=\"{colour}\" stroke-width=\"1.5\" points=\"{}\"/>", coords.join(" "));
+        }
+        for p in &line {
+            let _ = writeln!(s, "<circle cx=\"{:.1}\" cy=\"{:.1}\" r=\"3.5\" fill=\"{colour}\"/>", px(p.1), py(p.2));
+        }
+        let lx = left + pw + 16.0;
+        let _ = writeln!(s, "<circle cx=\"{lx:.1}\" cy=\"{ly:.1}\" r=\"4\" fill=\"{colour}\"/><text x=\"{:.1}\" y=\"{:.1}\">{f}</text>", lx + 10.0, ly + 4.0);
+        ly += 18.0;
+    }
+    s.push_str("</svg>\n");
+    Some(s)
 }
 
 /// A metric's verdict from its interval: `Some(true)` when it lies wholly
@@ -831,7 +935,8 @@ fn render(inputs: &mut Inputs) -> Files {
         md.push_str(&summary.replace("](docs/results.md)", "](results.md)"));
         md.push('\n');
     }
-    let diffuse = diffuse_summary(&inputs.compares);
+    let mut plots = Vec::new();
+    let diffuse = diffuse_summary(&inputs.compares, &mut plots, "");
     if !diffuse.is_empty() {
         md.push_str("## Diffuse light at a glance\n\n");
         md.push_str(&diffuse);
@@ -839,19 +944,18 @@ fn render(inputs: &mut Inputs) -> Files {
     inputs.lit.sort_by(|a, b| {
         natural(&config_name(a), &config_name(b)).then_with(|| a.to_string().cmp(&b.to_string()))
     });
-    let lit_diffuse = diffuse_summary(&inputs.lit);
+    let lit_diffuse = diffuse_summary(&inputs.lit, &mut plots, "lit-");
     if !lit_diffuse.is_empty() {
         md.push_str("## Lit generated scenes at seeds outside the suite\n\n");
         md.push_str(
             "Every kind of generated scene at a seed no test or default was tuned on, with \
              the generator's sun and sky (`gen_scenes --lit --seeds`; their own lamps \
-             too, where they have them), compared with the stock config: diffuse light, \
-             the columns of the table above. Their materials are matte, so the glossy \
-             measure is zero for every placement and is not shown.\n\n",
+             too, where they have them), compared with the stock config by `compare --only \
+             diffuse`: diffuse light, the columns of the table above. Their materials are \
+             matte, so there is no glossy light to measure.\n\n",
         );
         md.push_str(&lit_diffuse);
     }
-    let mut plots = Vec::new();
     if !inputs.reports.is_empty() {
         placement_section(&mut md, &inputs.reports);
         svo_section(&mut md, &inputs.reports);

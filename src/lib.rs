@@ -99,10 +99,9 @@ macro_rules! stage_modules {
     )+};
 }
 
-stage_modules!(coverage, gpu, raster, refine, render, sampling, scene, sdf, stages, trace);
+stage_modules!(coverage, diffuse, gpu, raster, reachable, refine, render, sampling, scene, sdf, stages, trace);
 
 pub mod config;
-pub(crate) mod diffuse;
 #[cfg(test)]
 mod doc_blocks;
 pub(crate) mod encode;
@@ -125,7 +124,6 @@ pub mod placement;
 pub(crate) mod probes;
 pub mod progress;
 pub mod provenance;
-pub(crate) mod reachable;
 pub(crate) mod report;
 pub(crate) mod resolution;
 pub(crate) mod stats;

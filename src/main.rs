@@ -30,6 +30,15 @@ enum Variants {
     Both,
 }
 
+/// `compare --only`.
+#[derive(Clone, Copy, ValueEnum)]
+enum OnlyArg {
+    /// Diffuse light as engines blend probes (SH L2 over tetrahedra), on the scene's own materials.
+    Diffuse,
+    /// Glossy light through the light-field tracer, on `compare.materials`.
+    Glossy,
+}
+
 /// `export --format`: the words of the library's list of formats.
 fn format_values() -> clap::builder::PossibleValuesParser {
     let values: Vec<clap::builder::PossibleValue> = jobs::export::formats()
@@ -112,6 +121,9 @@ enum Command {
         /// Trace on the CPU twin even where a GPU adapter exists.
         #[arg(long)]
         cpu: bool,
+        /// Run one benchmark only: `diffuse` (engines' SH blend, the scene's own materials) or `glossy` (our light-field tracer, `compare.materials`).
+        #[arg(long, value_enum)]
+        only: Option<OnlyArg>,
     },
     /// Write an earlier run's probes for other tools: glTF (.glb), Godot (.tscn), Unity, DDGI (docs/engines.md).
     Export {
@@ -206,6 +218,7 @@ fn main() -> ExitCode {
             from,
             grids,
             cpu,
+            only,
         } => {
             let grids = match grids.as_deref().map(jobs::compare::parse_grids) {
                 Some(Err(e)) => return fail(e),
@@ -214,6 +227,11 @@ fn main() -> ExitCode {
             job(run, from.from, |mut o| {
                 o.cpu = cpu;
                 o.grids = grids.clone();
+                o.benchmarks = match only {
+                    None => jobs::Benchmarks::Both,
+                    Some(OnlyArg::Diffuse) => jobs::Benchmarks::Diffuse,
+                    Some(OnlyArg::Glossy) => jobs::Benchmarks::Glossy,
+                };
                 jobs::compare(&o)
             })
         }

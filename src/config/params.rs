@@ -364,7 +364,7 @@ pub struct RefineParams {
     /// What the refined set is made to serve (`crate::refine::diffuse`).
     pub objective: Objective,
     /// The diffuse step's training set and stopping rule.
-    pub diffuse: DiffuseFill,
+    pub diffuse: DiffuseSearch,
 }
 
 /// What refinement makes the probe set serve.
@@ -379,33 +379,37 @@ pub enum Objective {
     Both,
 }
 
-/// `refine.diffuse`: the diffuse step of [`Objective::Both`].
+/// `refine.diffuse`: the diffuse step of [`Objective::Both`]
+/// (`crate::refine::diffuse`).
 #[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields, default)]
-pub struct DiffuseFill {
-    /// Training points on surfaces that reachable free space faces.
+pub struct DiffuseSearch {
+    /// Receivers on surfaces that reachable free space faces, half of
+    /// them held out.
     pub surface_points: Whole<65536>,
-    /// Training points in reachable free space.
+    /// Receivers in reachable free space, half of them held out.
     pub free_points: Whole<65536>,
-    /// Paths per training point's reference, and directions per probe's
-    /// SH projection.
+    /// Paths per receiver's reference, and directions per probe's SH
+    /// projection.
     pub rays: Count<65536>,
-    /// A training point whose blended irradiance is off by more than this
-    /// share of its own (with a floor at 5% of the mean) asks for a probe.
-    pub tolerance: Fraction,
-    /// Most probes the step adds, as a share of the probes coverage
-    /// placed (`max_probes` bounds the total as well).
+    /// Without `max_probes` or `min_probes`, insertion stops once the best
+    /// insertion lowers the training error by less than this share of the
+    /// error per probe (the error over the probe count): the least
+    /// elasticity of the error against the count worth a probe.
+    pub gain: NonNegative,
+    /// Without `max_probes`, the most probes the step adds, as a share of
+    /// the probes coverage placed.
     pub growth: NonNegative,
 }
 
-impl Default for DiffuseFill {
+impl Default for DiffuseSearch {
     fn default() -> Self {
-        DiffuseFill {
+        DiffuseSearch {
             surface_points: Whole(2048),
             free_points: Whole(1024),
             rays: Count(128),
-            tolerance: Fraction(0.25),
-            growth: NonNegative(1.0),
+            gain: NonNegative(0.1),
+            growth: NonNegative(2.0),
         }
     }
 }
@@ -431,7 +435,7 @@ impl Default for RefineParams {
             fill_candidates: Count(8192),
             min_clearance: None,
             objective: Objective::Both,
-            diffuse: DiffuseFill::default(),
+            diffuse: DiffuseSearch::default(),
         }
     }
 }

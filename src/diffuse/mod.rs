@@ -12,14 +12,16 @@
 //!   normals, where dynamic objects take their light.
 //! * **Reference irradiance** at each: `E = ∫ L cos dω` by cosine-weighted
 //!   path tracing with the bake's transport ([`Renderer::radiance_parts`],
-//!   the same light a probe records), as a **total** (everything arriving,
-//!   emitters and sky seen directly included) and an **indirect** part
-//!   (light reflected by a surface at least once). Point, spot and
-//!   directional lights' direct light at the receiver is left out of both:
-//!   a real-time renderer shades it analytically and probes never hold it
-//!   (McGuire et al. 2017 §1; Unity's mixed lights).
+//!   the same light a probe records), in two parts, as engines bake them:
+//!   **baked** (what a mixed-lighting probe holds, Unity's Baked Indirect:
+//!   emitters and the sky seen directly, and every reflection; not the
+//!   point, spot and directional lights' direct light, which a real-time
+//!   renderer shades analytically, McGuire et al. 2017 §1) and **total**
+//!   (the baked part and those lights' direct light: what a fully baked
+//!   probe holds, [`Renderer::delta_arrivals`]).
 //! * **Probe SH** ([`bake_sh`]): each probe's incident radiance projected
-//!   to SH L2 ([`sh`]), total and indirect.
+//!   to SH L2 ([`sh`]), its baked part by rays, the delta lights' direct
+//!   light exactly.
 //! * **Lookups**: SH blended by tetrahedral interpolation over a Delaunay
 //!   tetrahedralization of the valid probes ([`tetrahedra`]; Unity's and
 //!   Godot's blend, with probes in solid removed as their validity tests
@@ -28,9 +30,10 @@
 //!   selection.
 //! * **Errors** ([`Errors`]): per receiver the relative error of the
 //!   luminance, against a floor of [`DARK_FLOOR`] of the mean so that black
-//!   corners do not dominate, and whether it is lit 2× too much or too
-//!   little (a leak).
+//!   corners do not dominate, and whether its baked light is 2× too much
+//!   or too little (a leak).
 
+pub(crate) mod moves;
 pub mod sh;
 pub mod tetrahedra;
 
@@ -82,10 +85,12 @@ pub struct Receiver {
 /// Irradiance at a receiver, RGB.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Irradiance {
-    /// Everything a probe can carry.
+    /// All the light arriving: the baked part and the point, spot and
+    /// directional lights' direct light (a fully baked probe's).
     pub total: Vec3,
-    /// Light reflected at least once.
-    pub indirect: Vec3,
+    /// All but those lights' direct light: what a mixed-lighting probe
+    /// holds (Unity's Baked Indirect; module docs).
+    pub baked: Vec3,
 }
 
 /// The receivers of a comparison with their reference irradiance.
@@ -156,11 +161,16 @@ pub fn free_receivers(
 }
 
 /// Reference irradiance at each receiver: `rays` cosine-weighted paths
-/// (stratified on a √rays grid), `E = π/rays · Σ L`. Stream `seed` per
-/// receiver index.
+/// (stratified on a √rays grid), `E = π/rays · Σ L` for the baked part
+/// but the emissive surfaces seen directly, which as many samples of the
+/// emitters give instead ([`Renderer::sample_emitter`]: a small lamp
+/// that cosine-weighted rays find by chance made a receiver's reference
+/// noisier than any placement's error near it), and the delta lights'
+/// direct light exactly (one shadow ray each) added for the total.
+/// Stream `seed` per receiver index.
 ///
 /// Contract: deterministic whatever the thread count; finite and
-/// non-negative; `indirect ≤ total` per channel.
+/// non-negative; `baked ≤ total` per channel.
 pub fn reference(
     renderer: &Renderer,
     receivers: &[Receiver],
@@ -169,12 +179,13 @@ pub fn reference(
 ) -> Vec<Irradiance> {
     let side = (rays as f32).sqrt().ceil().max(1.0) as u32;
     let n = side * side;
+    let lift = renderer.lights().epsilon();
     receivers
         .par_iter()
         .enumerate()
         .map(|(i, r)| {
             let mut sampler = Sampler::new(seed, i as u64);
-            let (mut total, mut indirect) = (Vec3::ZERO, Vec3::ZERO);
+            let (mut baked, mut emitted) = (Vec3::ZERO, Vec3::ZERO);
             for k in 0..n {
                 let j = sampler.next_2d();
                 let u = glam::Vec2::new(
@@ -182,14 +193,20 @@ pub fn reference(
                     ((k / side) as f32 + j.y) / side as f32,
                 );
                 let d = cosine_hemisphere(r.n, u);
-                let (e, l) = renderer.radiance_parts(r.p, d, &mut sampler);
-                total += e + l;
-                indirect += l;
+                let (e, l) = renderer.radiance_parts_without_emitters(r.p, d, &mut sampler);
+                baked += e + l;
+                if let Some((wi, v)) = renderer.sample_emitter(r.p, r.n * lift, &mut sampler) {
+                    emitted += v * r.n.dot(wi).max(0.0);
+                }
             }
-            let s = std::f32::consts::PI / n as f32;
+            let baked = clean(baked * (std::f32::consts::PI / n as f32) + emitted / n as f32);
+            let mut direct = Vec3::ZERO;
+            renderer.delta_arrivals(r.p, r.n * lift, |wi, e| {
+                direct += e * r.n.dot(wi).max(0.0);
+            });
             Irradiance {
-                total: clean(total * s),
-                indirect: clean(indirect * s),
+                total: clean(baked + direct).max(baked),
+                baked,
             }
         })
         .collect()
@@ -203,11 +220,14 @@ fn clean(v: Vec3) -> Vec3 {
     }
 }
 
-/// Each probe's incident radiance projected to SH L2 ([`sh`]) from `rays`
-/// directions spread evenly over the sphere (a spherical Fibonacci set,
-/// turned by a rotation drawn from the probe's position and `seed`, so a
-/// probe at the same place gets the same rays whatever placement it is
-/// part of: common random numbers between placements).
+/// Each probe's incident radiance projected to SH L2 ([`sh`]): its baked
+/// and indirect parts from `rays` directions spread evenly over the sphere
+/// (the emissive surfaces they would see directly by as many samples of
+/// the emitters instead, as [`reference`] takes them)
+/// (a spherical Fibonacci set, turned by a rotation drawn from the probe's
+/// position and `seed`, so a probe at the same place gets the same rays
+/// whatever placement it is part of: common random numbers between
+/// placements), and the delta lights' direct light exactly.
 ///
 /// Contract: deterministic whatever the thread count; finite.
 pub fn bake_sh(renderer: &Renderer, probes: &[Vec3], rays: u32, seed: u64) -> Vec<ProbeSh> {
@@ -225,11 +245,24 @@ pub fn bake_sh(renderer: &Renderer, probes: &[Vec3], rays: u32, seed: u64) -> Ve
             let mut out = ProbeSh::default();
             for &d in &dirs {
                 let d = rot * d;
-                let (e, l) = renderer.radiance_parts(p, d, &mut sampler);
+                let (e, l) = renderer.radiance_parts_without_emitters(p, d, &mut sampler);
                 let (e, l) = (clean(e), clean(l));
-                out.total.add_sample(d, e + l, w);
+                out.baked.add_sample(d, e + l, w);
                 out.indirect.add_sample(d, l, w);
             }
+            // The emitters seen directly, by sampling them: one sample per
+            // direction.
+            let share = 1.0 / dirs.len() as f32;
+            for _ in 0..dirs.len() {
+                if let Some((wi, v)) = renderer.sample_emitter(p, Vec3::ZERO, &mut sampler) {
+                    out.baked.add_sample(wi, clean(v), share);
+                }
+            }
+            renderer.delta_arrivals(p, Vec3::ZERO, |wi, e| {
+                if e.is_finite() {
+                    out.direct.add_sample(wi, e, 1.0);
+                }
+            });
             out
         })
         .collect()
@@ -273,17 +306,7 @@ impl ShLookup {
         ShLookup { sh, blend }
     }
 
-    /// The lookup over all the probes of an open mesh
-    /// ([`tetrahedra::Incremental`], the mesh [`ShLookup::new`] builds for
-    /// them when they span space), their SH `sh` in its point order.
-    pub(crate) fn over(mesh: &tetrahedra::Incremental, sh: &[ProbeSh]) -> ShLookup {
-        ShLookup {
-            sh: sh.to_vec(),
-            blend: Blend::Tetrahedra(mesh.snapshot()),
-        }
-    }
-
-    /// Irradiance at `r`, total and indirect, clamped at zero (SH ringing).
+    /// Irradiance at `r`, total and baked, clamped at zero (SH ringing).
     pub fn irradiance(&self, r: &Receiver) -> Irradiance {
         self.irradiance_inside(r).0
     }
@@ -311,14 +334,16 @@ impl ShLookup {
 }
 
 /// The irradiance along `n` of the probes' SH `sh` blended by `weights`,
-/// total and indirect, clamped at zero (SH ringing).
+/// total and baked, clamped at zero (SH ringing).
 pub(crate) fn blend_irradiance(sh: &[ProbeSh], weights: &[(u32, f32); 4], n: Vec3) -> Irradiance {
     let mix = |f: fn(&ProbeSh) -> &ShL2| {
         ShL2::blend(weights.iter().map(|&(i, w)| (f(&sh[i as usize]), w))).irradiance(n)
     };
+    let baked = clean(mix(|s| &s.baked));
+    let direct = mix(|s| &s.direct);
     Irradiance {
-        total: clean(mix(|s| &s.total)),
-        indirect: clean(mix(|s| &s.indirect)),
+        total: clean(baked + direct),
+        baked,
     }
 }
 
@@ -332,6 +357,14 @@ pub fn dark_floor(reference: impl IntoIterator<Item = Vec3>) -> f64 {
     (DARK_FLOOR * sum / n.max(1) as f64).max(1e-12)
 }
 
+/// Whether a receiver lit `got` where `want` is its reference is lit
+/// [`LEAK_RATIO`] times too much or too little, both sides floored at
+/// `floor` (a dark corner's noise is no leak).
+pub fn leaks(got: Vec3, want: Vec3, floor: f64) -> bool {
+    let ratio = (luminance(got) as f64).max(floor) / (luminance(want) as f64).max(floor);
+    ratio >= LEAK_RATIO || ratio <= 1.0 / LEAK_RATIO
+}
+
 /// `|L(got) − L(want)| / max(L(want), floor)` in luminance: a receiver's
 /// relative error against its reference (module docs).
 pub fn relative_error(got: Vec3, want: Vec3, floor: f64) -> f64 {
@@ -343,42 +376,27 @@ pub fn relative_error(got: Vec3, want: Vec3, floor: f64) -> f64 {
 pub struct Errors {
     /// Relative error of the total irradiance's luminance per receiver.
     pub total: Vec<f64>,
-    /// The same for the indirect part; empty where the lookup has none.
-    pub indirect: Vec<f64>,
-    /// 1 where the receiver's total is off by [`LEAK_RATIO`] or more, else 0.
+    /// The same for the baked part (what a mixed-lighting probe holds).
+    pub baked: Vec<f64>,
+    /// 1 where the receiver's baked light is off by [`LEAK_RATIO`] or
+    /// more, either way, else 0.
     pub leak: Vec<f64>,
     /// Each receiver's group.
     pub group: Vec<u32>,
 }
 
 impl Errors {
-    /// `got` against `reference` at `receivers` (module docs);
-    /// `indirect`: whether `got` has an indirect part to score.
+    /// `got` against `reference` at `receivers` (module docs).
     ///
     /// Contract: the three slices have the same length.
-    pub fn measure(
-        receivers: &[Receiver],
-        reference: &[Irradiance],
-        got: &[Irradiance],
-        indirect: bool,
-    ) -> Errors {
+    pub fn measure(receivers: &[Receiver], reference: &[Irradiance], got: &[Irradiance]) -> Errors {
         let ft = dark_floor(reference.iter().map(|e| e.total));
-        let fi = dark_floor(reference.iter().map(|e| e.indirect));
+        let fb = dark_floor(reference.iter().map(|e| e.baked));
         let mut out = Errors::default();
         for ((r, want), g) in receivers.iter().zip(reference).zip(got) {
             out.total.push(relative_error(g.total, want.total, ft));
-            if indirect {
-                out.indirect
-                    .push(relative_error(g.indirect, want.indirect, fi));
-            }
-            let ratio =
-                (luminance(g.total) as f64).max(ft) / (luminance(want.total) as f64).max(ft);
-            out.leak
-                .push(if ratio >= LEAK_RATIO || ratio <= 1.0 / LEAK_RATIO {
-                    1.0
-                } else {
-                    0.0
-                });
+            out.baked.push(relative_error(g.baked, want.baked, fb));
+            out.leak.push(leaks(g.baked, want.baked, fb) as u8 as f64);
             out.group.push(r.group);
         }
         out
@@ -466,7 +484,7 @@ mod tests {
         }];
         let r = Renderer::new(&scene, &bvh, &sky, 2);
         let sh = bake_sh(&r, &[Vec3::ZERO], 1024, 3)[0];
-        let u = sh.total.unity_coefficients();
+        let u = sh.baked.unity_coefficients();
         for (c, want) in [0.25f32, 0.5, 1.0].into_iter().enumerate() {
             assert!((u[c][0] - want).abs() < 1e-3 * want, "{:?}", u[c]);
             assert!(
@@ -476,7 +494,8 @@ mod tests {
             );
         }
         assert_eq!(sh.indirect, ShL2::ZERO, "nothing reflects");
-        let e = sh.total.irradiance(Vec3::new(0.6, 0.0, 0.8));
+        assert_eq!(sh.direct, ShL2::ZERO, "no point, spot or directional light");
+        let e = sh.baked.irradiance(Vec3::new(0.6, 0.0, 0.8));
         assert!((e.z - std::f32::consts::PI).abs() < 2e-3, "{e}");
     }
 
@@ -498,22 +517,28 @@ mod tests {
         .collect();
         let reference = reference(&r, &receivers, 4096, 9);
         for (x, want) in receivers.iter().zip(&reference) {
-            assert!(luminance(want.indirect) > 0.0);
-            if x.n == Vec3::Y {
-                // Sees the lamp: emitters seen directly are part of the total.
-                assert!(
-                    luminance(want.total) > 1.02 * luminance(want.indirect),
-                    "{want:?}"
-                );
+            assert!(luminance(want.baked) > 0.0);
+            // The point light at (3, 3.5, 3) is above the first three
+            // receivers (the second sees it at a slant): its direct light
+            // is in the total, not in the baked part.
+            if x.n != Vec3::NEG_Y {
+                assert!(luminance(want.total) > 1.05 * luminance(want.baked), "{x:?}: {want:?}");
+            } else {
+                assert_eq!(want.total, want.baked, "facing away from the light");
             }
             let sh = bake_sh(&r, &[x.p], 4096, 3);
             let lookup = ShLookup::new(&[x.p], &sh, &[true]);
             let got = lookup.irradiance(x);
-            for (g, w) in [(got.total, want.total), (got.indirect, want.indirect)] {
+            for (g, w) in [(got.total, want.total), (got.baked, want.baked)] {
                 let rel = (luminance(g) - luminance(w)).abs() / luminance(w);
                 assert!(rel < 0.12, "{x:?}: {g} vs {w} ({rel:.3})");
             }
         }
+        // Facing up beside the lamp, the emitter seen directly is baked
+        // light: more than the reflected part alone.
+        let up = bake_sh(&r, &[receivers[0].p], 4096, 3)[0];
+        let reflected = luminance(up.indirect.irradiance(Vec3::Y));
+        assert!(luminance(up.baked.irradiance(Vec3::Y)) > 1.02 * reflected);
     }
 
     #[test]
@@ -527,21 +552,31 @@ mod tests {
             .collect();
         let e = |v: f32| Irradiance {
             total: Vec3::splat(v),
-            indirect: Vec3::splat(v / 2.0),
+            baked: Vec3::splat(v / 2.0),
         };
         let reference = [e(1.0), e(1.0), e(1.0), e(1.0)];
         let got = [e(1.0), e(1.5), e(2.0), e(0.25)];
-        let m = Errors::measure(&rs, &reference, &got, true);
+        let m = Errors::measure(&rs, &reference, &got);
         assert_eq!(m.total.len(), 4);
-        for (a, b) in m.total.iter().zip([0.0, 0.5, 1.0, 0.75]) {
-            assert!((a - b).abs() < 1e-5, "{:?}", m.total);
+        for errors in [&m.total, &m.baked] {
+            for (a, b) in errors.iter().zip([0.0, 0.5, 1.0, 0.75]) {
+                assert!((a - b).abs() < 1e-5, "{errors:?}");
+            }
         }
         assert_eq!(m.leak, vec![0.0, 0.0, 1.0, 1.0]);
         assert_eq!(m.by_group(&m.leak), vec![vec![0.0, 0.0], vec![1.0, 1.0]]);
         // A black reference is measured against the floor, not divided by 0.
         let dark = [e(0.0), e(1.0), e(1.0), e(1.0)];
-        let m = Errors::measure(&rs, &dark, &[e(0.0); 4], false);
-        assert!(m.total.iter().all(|x| x.is_finite()) && m.indirect.is_empty());
+        let m = Errors::measure(&rs, &dark, &[e(0.0); 4]);
+        assert!(m.total.iter().chain(&m.baked).all(|x| x.is_finite()));
+        // Leaks are judged on the baked light: lit 2× too much there, with
+        // the total right, is a leak.
+        let odd = Irradiance {
+            total: Vec3::ONE,
+            baked: Vec3::ONE,
+        };
+        let m = Errors::measure(&rs[..1], &[e(1.0)], &[odd]);
+        assert_eq!(m.leak, vec![1.0]);
     }
 
     #[test]

@@ -133,21 +133,36 @@ impl ShL2 {
     }
 }
 
-/// A probe's diffuse light: its incident radiance in SH L2, all of it and
-/// the reflected part.
+/// A probe's diffuse light: its incident radiance in SH L2, in the parts
+/// engines bake apart.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct ProbeSh {
-    /// Everything arriving.
-    pub total: ShL2,
-    /// Light reflected at least once.
+    /// What a probe of a mixed-lighting bake holds (Unity's Baked
+    /// Indirect, Godot's LightmapGI with dynamic lights): everything the
+    /// probe's rays see (emitters, the sky, light surfaces reflect), but
+    /// not the point, spot and directional lights' direct light, which
+    /// the renderer shades itself (`sh.json`'s `total`).
+    pub baked: ShL2,
+    /// Light reflected at least once (`sh.json`'s `indirect`).
     pub indirect: ShL2,
+    /// The point, spot and directional lights' direct light at the probe,
+    /// projected exactly: each a delta of irradiance `e` from direction
+    /// `wi`, coefficients `e · Y(wi)`. A fully baked probe holds
+    /// `baked + direct` ([`ProbeSh::total`]).
+    pub direct: ShL2,
+}
+
+impl ProbeSh {
+    /// All the light at the probe: what a fully baked probe holds.
+    pub fn total(&self) -> ShL2 {
+        ShL2::blend([(&self.baked, 1.0), (&self.direct, 1.0)])
+    }
 }
 
 /// A probe's diffuse light as engines store it.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ProbeLight {
-    /// Its incident radiance in SH L2, total and indirect
-    /// (`diffuse::bake_sh`).
+    /// Its incident radiance in SH L2 (`diffuse::bake_sh`).
     pub sh: ProbeSh,
     /// Path-traced irradiance (total) at the probe for a surface facing
     /// each of `diffuse::AXES`: what the SH's irradiance should be near.

@@ -185,7 +185,7 @@ pub fn encode(source: &Source) -> Result<Vec<u8>, String> {
                             "coords": coords, "state": "active", "offset": offset, "probe": i,
                         });
                         if let Some(light) = &source.light {
-                            e["sh_l2"] = super::gltf::sh_rows(&light[i].sh.total);
+                            e["sh_l2"] = super::gltf::sh_rows(&light[i].sh.baked);
                         }
                         e
                     }

@@ -211,7 +211,7 @@ pub fn encode(source: &Source, scene: Option<&Scene>) -> Vec<u8> {
             // After a bake: the probe's light as `sh.json` gives it (glTF's
             // frame is the run's world frame).
             if let Some(light) = &source.light {
-                node["extras"]["sh_l2"] = sh_rows(&light[i].sh.total);
+                node["extras"]["sh_l2"] = sh_rows(&light[i].sh.baked);
             }
             node
         })

@@ -47,7 +47,7 @@ pub fn encode(source: &Source) -> Vec<u8> {
         .light
         .iter()
         .flatten()
-        .flat_map(|l| l.sh.total.unity_coefficients().into_iter().flatten())
+        .flat_map(|l| l.sh.baked.unity_coefficients().into_iter().flatten())
         .collect();
     crate::encode::json::json_tables(
         &json!({

@@ -11,7 +11,7 @@ use crate::error::{Error, Result};
 use crate::lightfield::LightField;
 use crate::render::Reference;
 use crate::report;
-use crate::report::bake::{atlas, distance_preview, normal_preview, BakeReport, ReferenceReport};
+use crate::report::bake::{DiffuseViewSet, DiffuseViewsReport, atlas, distance_preview, normal_preview, BakeReport, ReferenceReport};
 use crate::report::sh::SH_FILE;
 use crate::stages::{self, validate, Prepared};
 use serde_json::Value;
@@ -33,6 +33,15 @@ pub(crate) const REFERENCE_FILES: [&str; 4] = [
     "reference.png",
     "reference-glossy.exr",
     "reference-glossy.png",
+];
+
+/// The diffuse views' files (with a camera).
+pub(crate) const DIFFUSE_VIEW_FILES: [&str; 5] = [
+    "diffuse-reference.png",
+    "diffuse-ours.png",
+    "diffuse-ours-error.png",
+    "diffuse-grid.png",
+    "diffuse-grid-error.png",
 ];
 
 /// Runs `probeplace bake`.
@@ -127,7 +136,30 @@ pub(crate) fn bake_stage(
     let light = watch.time("sh", || {
         stages::bake::probe_light(config, prepared, &positions)
     });
+    // The camera's view lit by the probes' blended diffuse light, and by
+    // the equal-count grid's, beside the path tracer's (the run page's
+    // diffuse figures).
+    let views = config.reference.camera.as_ref().map(|camera| {
+        watch.time("diffuse_views", || {
+            let view = stages::diffuse::lit_view(config, prepared, camera, 0, DIFFUSE_VIEW_RAYS);
+            let sh: Vec<crate::diffuse::ProbeSh> = light.iter().map(|l| l.sh).collect();
+            let mut renders = vec![view.render_set(prepared, "ours", &positions, &sh)];
+            if let Some((name, at, grid_sh)) = stages::diffuse::LitView::grid_beside(
+                config,
+                prepared,
+                positions.len(),
+                config.bake.sh_rays.0,
+                config.seed ^ stages::bake::SH_STREAMS,
+            ) {
+                renders.push(view.render_set(prepared, &name, &at, &grid_sh));
+            }
+            (view, renders)
+        })
+    });
     add_files(job, &field, reference.as_ref())?;
+    if let Some((view, renders)) = &views {
+        add_diffuse_views(job, view, renders)?;
+    }
     let rays = job.config.bake.sh_rays.0;
     job.set.add(
         SH_FILE,
@@ -149,6 +181,19 @@ pub(crate) fn bake_stage(
         tracer,
         sh_rays: rays,
         sh_axis_error: crate::report::bake::sh_axis_error(&light),
+        diffuse_views: views.as_ref().map(|(view, renders)| DiffuseViewsReport {
+            width: view.width,
+            height: view.height,
+            rays: DIFFUSE_VIEW_RAYS,
+            sets: renders
+                .iter()
+                .map(|r| DiffuseViewSet {
+                    name: r.name.clone(),
+                    probes: r.probes,
+                    mean_error: r.mean_error,
+                })
+                .collect(),
+        }),
         reference: reference.as_ref().map(|image| ReferenceReport {
             width: image.width,
             height: image.height,
@@ -163,6 +208,35 @@ pub(crate) fn bake_stage(
         serde_json::to_value(&report).map_err(|e| Error::Internal(e.to_string()))?;
     push_warnings(&mut placement.report, &warnings);
     Ok(Bake { field, reference })
+}
+
+/// Paths per pixel of the diffuse views' reference.
+const DIFFUSE_VIEW_RAYS: u32 = 64;
+
+/// Adds the diffuse views: `diffuse-reference.png`, and per set its
+/// render and error map (`diffuse-ours.png`, `diffuse-ours-error.png`,
+/// `diffuse-grid.png`, `diffuse-grid-error.png`).
+fn add_diffuse_views(
+    job: &mut Job,
+    view: &stages::diffuse::LitView,
+    renders: &[stages::diffuse::LitRender],
+) -> Result<()> {
+    let reference = view.reference();
+    let exposure = validate::auto_exposure(&reference);
+    let (w, h) = (view.width, view.height);
+    let tonemapped = |pixels: &[[f32; 3]], name: &str| {
+        encode_png(&crate::raster::tonemap(pixels, w, h, exposure), name)
+    };
+    let [reference_png, sets @ ..] = DIFFUSE_VIEW_FILES;
+    job.set.add(reference_png, tonemapped(&reference, reference_png)?);
+    for (r, files) in renders.iter().zip(sets.chunks(2)) {
+        job.set.add(files[0], tonemapped(&r.image, files[0])?);
+        job.set.add(
+            files[1],
+            encode_png(&stages::diffuse::error_map(&r.error, w, h), files[1])?,
+        );
+    }
+    Ok(())
 }
 
 /// Adds `lightfield.bin`, the map previews and the reference's images.
@@ -248,6 +322,7 @@ pub(crate) fn load(
     job.carry(&FILES);
     job.carry(&[SH_FILE]);
     job.carry(&REFERENCE_FILES);
+    job.carry(&DIFFUSE_VIEW_FILES);
     Ok(Some(Bake { field, reference }))
 }
 

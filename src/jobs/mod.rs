@@ -40,4 +40,4 @@ pub use render::render;
 pub use split::{split, SplitOptions};
 
 pub use outcome::Outcome;
-pub use run::{RunOptions, Variant};
+pub use run::{Benchmarks, RunOptions, Variant};

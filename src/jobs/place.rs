@@ -295,6 +295,12 @@ fn assemble_report(job: &Job, prepared: &Prepared, placed: &Placed, svo: SvoRepo
         coverage_train: placed.coverage_train,
         probes_in_solid: health.probes_in_solid,
         probes_in_solid_sdf: health.probes_in_solid_sdf,
+        idle_probes: prepared.reachable.as_ref().map(|reach| {
+            crate::stages::diffuse::idle_probes(prepared, reach, &probes.positions())
+                .iter()
+                .filter(|&&i| i)
+                .count()
+        }),
         probes_outside_scene: health.probes_outside_scene,
         probes_outside_domain: health.probes_outside_domain,
         probes_below_clearance: refine.as_ref().map_or(0, |r| r.probes_below_clearance),
@@ -309,6 +315,7 @@ fn assemble_report(job: &Job, prepared: &Prepared, placed: &Placed, svo: SvoRepo
             dropped_triangles: scene.dropped_triangles,
             bounds: BoundsRecord::world(&scene.bounds, scene),
             area: scene.area(),
+            emitters: crate::stages::diffuse::emitters(config, scene),
         },
         domain: BoundsRecord::world(&prepared.domain, scene),
         sdf: sdf.into(),

@@ -41,6 +41,32 @@ pub struct RunOptions {
     pub variants: Vec<Variant>,
     /// `compare`'s grids instead of the config's (or the sweep).
     pub grids: Option<Vec<GridParams>>,
+    /// `compare`'s benchmarks: both, or the one named (`--only`).
+    pub benchmarks: Benchmarks,
+}
+
+/// Which of `compare`'s benchmarks run.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum Benchmarks {
+    /// The diffuse benchmark and the glossy one.
+    #[default]
+    Both,
+    /// Diffuse light as engines blend probes, on the scene's own materials.
+    Diffuse,
+    /// Glossy light through our light-field tracer, on `compare.materials`.
+    Glossy,
+}
+
+impl Benchmarks {
+    /// Whether the diffuse benchmark runs.
+    pub fn diffuse(self) -> bool {
+        self != Benchmarks::Glossy
+    }
+
+    /// Whether the glossy benchmark runs.
+    pub fn glossy(self) -> bool {
+        self != Benchmarks::Diffuse
+    }
 }
 
 /// An earlier run's output directory (`--from`).

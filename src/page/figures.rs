@@ -277,21 +277,35 @@ pub struct RefineFigures {
 #[derive(Debug, Default, Deserialize)]
 #[serde(default)]
 pub struct DiffuseFigures {
-    /// Probes added.
-    pub probes_added: Option<Num>,
-    /// Training points on surfaces.
+    /// Probes in (coverage's).
+    pub probes_before: Option<Num>,
+    /// Probes out.
+    pub probes_after: Option<Num>,
+    /// Probes inserted.
+    pub inserted: Option<Num>,
+    /// Probes moved.
+    pub relocated: Option<Num>,
+    /// Probes removed.
+    pub removed: Option<Num>,
+    /// Training receivers on surfaces.
     pub surface_points: Option<Num>,
-    /// Training points in free space.
+    /// Training receivers in free space.
     pub free_points: Option<Num>,
+    /// Held-out receivers.
+    pub validation_points: Option<Num>,
     /// Training error before.
     pub error_before: Option<f64>,
     /// Training error after.
     pub error_after: Option<f64>,
-    /// Share above tolerance before.
-    pub above_tolerance_before: Option<f64>,
-    /// Share above tolerance after.
-    pub above_tolerance_after: Option<f64>,
-    /// Why the step stopped.
+    /// Held-out surface error before.
+    pub validation_before: Option<f64>,
+    /// Held-out surface error after.
+    pub validation_after: Option<f64>,
+    /// Held-out leak share before.
+    pub leaks_before: Option<f64>,
+    /// Held-out leak share after.
+    pub leaks_after: Option<f64>,
+    /// Why insertion stopped.
     pub stopped: Option<String>,
 }
 
@@ -387,8 +401,36 @@ pub struct BakeFigures {
     pub tracer: TracerFigures,
     /// The reference render, when the config has a camera.
     pub reference: Option<ReferenceFigures>,
+    /// The diffuse views, when the config has a camera.
+    pub diffuse_views: Option<DiffuseViewsFigures>,
     /// Wall time per step, ms.
     pub timings_ms: Option<Ordered<Num>>,
+}
+
+/// `bake.diffuse_views`.
+#[derive(Debug, Default, Deserialize)]
+#[serde(default)]
+pub struct DiffuseViewsFigures {
+    /// Pixels across.
+    pub width: Option<Num>,
+    /// Pixels down.
+    pub height: Option<Num>,
+    /// Paths per pixel of the reference.
+    pub rays: Option<Num>,
+    /// Ours, then the grid.
+    pub sets: Vec<DiffuseViewSetFigures>,
+}
+
+/// One set of `bake.diffuse_views.sets`.
+#[derive(Debug, Default, Deserialize)]
+#[serde(default)]
+pub struct DiffuseViewSetFigures {
+    /// Its name.
+    pub name: Option<String>,
+    /// Its probes.
+    pub probes: Option<Num>,
+    /// Mean relative error over the view.
+    pub mean_error: Option<f64>,
 }
 
 /// `bake.tracer`.

@@ -13,6 +13,7 @@ use crate::report::compare::{
     CompareReport, Comparison, Family, Matched, PlacementRow, Ratio, QUALITY, TRACER_BILEVEL,
     TRACER_HIZ,
 };
+use crate::report::diffuse::{DiffuseComparison, DiffuseSection};
 use crate::stages::validate::{Metric, METRICS};
 use crate::stats::Interval;
 use std::fmt::Write as _;
@@ -39,6 +40,18 @@ pub struct Figures {
     pub placements: Vec<PlacementFigures>,
     /// The 3D view: the scene and every placement's probes.
     pub view: super::view3d::View3d,
+    /// The diffuse benchmark's lit views of the first camera.
+    pub lit: Option<LitFigures>,
+}
+
+/// One view lit by the probes' blended diffuse light: the reference, and
+/// per placement shown its render and relative-error map.
+pub(crate) struct LitFigures {
+    /// The path-traced reference, PNG.
+    pub reference: Vec<u8>,
+    /// Per placement: its name, its render and its error map (PNG), and
+    /// its mean relative error over the view's pixels.
+    pub placements: Vec<(String, Vec<u8>, Vec<u8>, f64)>,
 }
 
 /// The page for `report` with `figures`.
@@ -66,8 +79,10 @@ pub fn page(report: &CompareReport, figures: &Figures) -> String {
         report.performance_metric
     );
     summary(&mut h, report);
+    if let Some(d) = &report.diffuse {
+        diffuse_section(&mut h, d, figures.lit.as_ref());
+    }
     ratios_table(&mut h, report);
-    diffuse_tables(&mut h, report);
     placements_table(&mut h, report);
     figures.view.section(
         &mut h,
@@ -331,65 +346,166 @@ fn percent(v: Option<f64>) -> String {
     v.map_or_else(|| "–".into(), |x| format!("{:.1}%", 100.0 * x))
 }
 
-/// The diffuse evaluation: ours against each rival with SH over
-/// tetrahedra, then every placement's errors by each lookup.
-fn diffuse_tables(h: &mut String, report: &CompareReport) {
-    let Some(d) = &report.diffuse else {
-        return;
-    };
-    let _ = writeln!(
-        h,
-        "<h2 id=\"diffuse\">Diffuse light, as engines blend probes</h2>\n<p>Irradiance at {} surface points the views see and {} points in the free space the cameras reach ({:.1}% of the open space is cut off from them and holds no receiver), against a path-traced reference of {} paths each ({} bounces, the bake's). <b>SH over tetrahedra</b>: each probe's light in SH L2 ({} directions), blended over a Delaunay tetrahedralization of the probes that do not stand in solid, as Unity and Godot blend light probes. <b>Gather</b>: McGuire's irradiance with Chebyshev visibility, all probes by distance (<code>hiz+svo</code> rows) or the grid cell's eight, trilinear (<code>bilevel+grid</code>, DDGI's blend). Errors are mean relative errors of the luminance (against at least 5% of the mean); a leak is a receiver lit 2× too much or too little. Ratios are the rival's error over ours (above 1: ours is better) with 95% intervals from a paired bootstrap over views (surface) and runs of receivers (free space).</p>",
-        d.surface_receivers, d.free_receivers, 100.0 * d.unreachable_fraction, d.reference_rays, d.bounces, d.probe_rays
-    );
-    h.push_str("<table id=\"diffuse-ratios\">\n<tr><th>ours</th><th>probes</th><th>rival</th><th>kind</th><th>probes</th><th>indirect, surface</th><th>indirect, free space</th><th>total, surface</th><th>total, free space</th><th>leaks</th></tr>\n");
-    for c in &report.comparisons {
-        if !ours_or_given(report, c) {
-            continue;
-        }
-        for r in c.ratios.iter().filter(|r| r.tracer == TRACER_HIZ) {
-            let Some(x) = &r.diffuse else { continue };
-            let _ = writeln!(
-                h,
-                "<tr class=\"{}\"><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
-                r.family.key(),
-                escape(&c.placement),
-                c.probes,
-                escape(&r.against),
-                r.family.label(),
-                r.probes,
-                maybe_interval(&x.surface_indirect),
-                maybe_interval(&x.free_indirect),
-                maybe_interval(&x.surface_total),
-                maybe_interval(&x.free_total),
-                maybe_interval(&x.leak_fraction),
-            );
+/// The diffuse benchmark: what it measured with, ours against each rival
+/// at equal count, the count ours needs for the grid's error, the curve of
+/// error against count, every placement's figures, and the lit views.
+fn diffuse_section(h: &mut String, d: &DiffuseSection, lit: Option<&LitFigures>) {
+    let s = &d.setup;
+    let e = &s.emitters;
+    let mut lights: Vec<String> = e
+        .emissive_materials
+        .iter()
+        .map(|m| {
+            format!(
+                "emissive material <code>{}</code> (Ke {:.3} {:.3} {:.3}, {} triangles)",
+                escape(&m.name),
+                m.emission[0],
+                m.emission[1],
+                m.emission[2],
+                m.triangles
+            )
+        })
+        .collect();
+    for (n, what) in [
+        (e.point_lights, "point"),
+        (e.spot_lights, "spot"),
+        (e.directional_lights, "directional"),
+    ] {
+        if n > 0 {
+            lights.push(format!("{n} {what} light(s)"));
         }
     }
-    h.push_str("</table>\n<table id=\"diffuse-placements\">\n<tr><th>placement</th><th>tracer</th><th>probes</th><th>invalid</th><th>in sealed space</th><th>SH: indirect, surface</th><th>SH: indirect, free</th><th>SH: total, surface</th><th>SH: total, free</th><th>SH: leaks</th><th>gather: total, surface</th><th>gather: total, free</th><th>gather: leaks</th></tr>\n");
-    for r in &report.placements {
-        let Some(x) = &r.diffuse else { continue };
-        let (a, g) = (&x.sh_tetrahedra, &x.gather);
+    if e.sky {
+        lights.push("a sky".into());
+    }
+    if lights.is_empty() {
+        lights.push("nothing: every probe is black".into());
+    }
+    let _ = writeln!(
+        h,
+        "<h2 id=\"diffuse\">Diffuse light, as engines blend probes</h2>\n<p>On the scene's own materials, as engines bake probe light. Irradiance at {} surface points the views see and {} points in the free space the cameras reach ({:.1}% of the open space is cut off from them and holds no receiver), against a path-traced reference of {} paths each ({} bounces, the bake's). Each probe's light in SH L2 ({} directions) is blended over a Delaunay tetrahedralization of the probes that do not stand in solid, as Unity and Godot blend light probes. <b>Baked</b> light is what a mixed-lighting probe holds (everything but the point, spot and directional lights' direct light, which the renderer shades itself); <b>total</b> adds that direct light. Errors are mean relative errors of the luminance (against at least 5% of the mean); a leak is a receiver whose baked light is 2× too much or too little. Ratios are the rival's error over ours at equal count (above 1: ours is better) with 95% intervals from a paired bootstrap over views (surface) and runs of receivers (free space).</p>\n<p>Lit by: {}. The blend's own limit, a probe at every surface receiver: {} baked surface error.</p>",
+        s.surface_receivers,
+        s.free_receivers,
+        100.0 * s.unreachable_fraction,
+        s.reference_rays,
+        s.bounces,
+        s.probe_rays,
+        lights.join("; "),
+        percent(s.limit)
+    );
+    h.push_str("<table id=\"diffuse-ratios\">\n<tr><th>ours</th><th>rival</th><th>kind</th><th>probes</th><th>baked, surface</th><th>total, surface</th><th>baked, free space</th><th>total, free space</th><th>leaks, surface</th><th>leaks, free space</th><th>verdict</th></tr>\n");
+    for c in &d.comparisons {
         let _ = writeln!(
             h,
-            "<tr class=\"{}\"><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
-            r.family.key(),
-            escape(&r.name),
-            r.tracer,
-            r.probes,
-            x.invalid_probes,
-            x.unreachable_probes,
-            percent(a.surface_indirect),
-            percent(a.free_indirect),
-            percent(a.surface_total),
-            percent(a.free_total),
-            percent(a.leak_fraction),
-            percent(g.surface_total),
-            percent(g.free_total),
-            percent(g.leak_fraction),
+            "<tr class=\"{}\"><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
+            c.family.key(),
+            escape(&c.ours),
+            escape(&c.rival),
+            c.family.label(),
+            c.probes,
+            maybe_interval(&c.surface_baked),
+            maybe_interval(&c.surface_total),
+            maybe_interval(&c.free_baked),
+            maybe_interval(&c.free_total),
+            maybe_interval(&c.surface_leaks),
+            maybe_interval(&c.free_leaks),
+            diffuse_verdict(c),
         );
     }
     h.push_str("</table>\n");
+    if let Some(q) = &d.equal_error {
+        let _ = match (q.ours_probes, q.count_ratio) {
+            (Some(n), Some(r)) => writeln!(
+                h,
+                "<p id=\"equal-error\"><b>Equal error.</b> {} reaches the error of {} ({} probes, baked surface error {}) with {}{:.1} probes: <b>{:.2}×</b> the grid's count.</p>",
+                escape(&q.ours),
+                escape(&q.grid),
+                q.grid_probes,
+                percent(Some(q.grid_error)),
+                if q.bound { "at most " } else { "" },
+                n,
+                r
+            ),
+            _ => writeln!(
+                h,
+                "<p id=\"equal-error\"><b>Equal error.</b> No count of {} measured reaches the error of {} ({} probes, baked surface error {}).</p>",
+                escape(&q.ours),
+                escape(&q.grid),
+                q.grid_probes,
+                percent(Some(q.grid_error))
+            ),
+        };
+    }
+    h.push_str("<div class=\"plots\">\n");
+    let points: Vec<Point> = d
+        .placements
+        .iter()
+        .filter_map(|r| {
+            let y = r.surface.baked?;
+            (y.is_finite() && y > 0.0).then_some(Point {
+                family: r.family,
+                name: &r.name,
+                tracer: "",
+                probes: r.probes,
+                y,
+            })
+        })
+        .collect();
+    h.push_str(&plot_of(
+        "Baked diffuse error at surface receivers (lower is better)",
+        "probes",
+        "mean relative error",
+        true,
+        &points,
+        Join::EveryFamily,
+    ));
+    h.push_str("</div>\n");
+    h.push_str("<table id=\"diffuse-placements\">\n<tr><th>placement</th><th>kind</th><th>probes</th><th>in solid</th><th>in sealed space</th><th>idle</th><th>baked, surface</th><th>total, surface</th><th>leaks, surface</th><th>baked, free</th><th>total, free</th><th>leaks, free</th></tr>\n");
+    for r in &d.placements {
+        let _ = writeln!(
+            h,
+            "<tr class=\"{}\"><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
+            r.family.key(),
+            escape(&r.name),
+            r.family.label(),
+            r.probes,
+            r.invalid_probes,
+            r.unreachable_probes,
+            r.idle_probes,
+            percent(r.surface.baked),
+            percent(r.surface.total),
+            percent(r.surface.leaks),
+            percent(r.free.baked),
+            percent(r.free.total),
+            percent(r.free.leaks),
+        );
+    }
+    h.push_str("</table>\n");
+    if let Some(l) = lit {
+        h.push_str("<h3 id=\"diffuse-views\">The first view lit by each placement's blended diffuse light</h3>\n<p>Each pixel: its emission and the point, spot and directional lights' direct light, plus its albedo times the baked irradiance, from the path tracer (reference) or from the probes' SH blended over tetrahedra. Error maps: the relative error of the baked irradiance, black at 0, through red and yellow to white at 100% and more.</p>\n<div class=\"row\">\n");
+        figure(h, &l.reference, "reference", "reference");
+        h.push_str("</div>\n");
+        for (name, render, error, mean) in &l.placements {
+            let _ = writeln!(
+                h,
+                "<div class=\"row\"><h4>{} <small>mean relative error over the view {}</small></h4>",
+                escape(name),
+                percent(Some(*mean))
+            );
+            figure(h, render, &format!("{name}: lit by its probes"), "render");
+            figure(h, error, &format!("{name}: relative error"), "error");
+            h.push_str("</div>\n");
+        }
+    }
+}
+
+/// What a diffuse comparison's surface interval says.
+fn diffuse_verdict(c: &DiffuseComparison) -> &'static str {
+    match (c.win, c.loss) {
+        (true, _) => "ours wins",
+        (_, true) => "ours loses",
+        _ => "no clear difference",
+    }
 }
 
 /// Every ratio of our placements against their rivals, with intervals.
@@ -551,8 +667,24 @@ const BOTTOM: f64 = 45.0;
 const TOP: f64 = 30.0;
 const RIGHT: f64 = 170.0;
 
-/// A point of a plot: its row, its probe count (x) and its value (y).
-type PlotPoint<'a> = (&'a PlacementRow, f64, f64);
+/// A point of a plot: its placement, its probe count (x) and its value (y).
+struct Point<'a> {
+    family: Family,
+    name: &'a str,
+    /// The tracer of a glossy row; empty for the diffuse benchmark's.
+    tracer: &'a str,
+    probes: usize,
+    y: f64,
+}
+
+/// Which points a plot joins by lines.
+#[derive(Clone, Copy, PartialEq)]
+enum Join {
+    /// The grid sweep on each tracer (the glossy plots).
+    GridByTracer,
+    /// Every family's points, by count (the diffuse curves).
+    EveryFamily,
+}
 
 /// A scatter plot of `y(row)` against probe count (log scale), the grid
 /// sweep joined by a line; `log_y` puts y on a log scale too.
@@ -564,11 +696,33 @@ fn plot(
     report: &CompareReport,
     y: impl Fn(&PlacementRow) -> f64,
 ) -> String {
-    let points: Vec<PlotPoint> = report
+    let points: Vec<Point> = report
         .placements
         .iter()
-        .map(|r| (r, r.probes.max(1) as f64, y(r)))
-        .filter(|(_, _, v)| v.is_finite() && (!log_y || *v > 0.0))
+        .map(|r| Point {
+            family: r.family,
+            name: &r.name,
+            tracer: r.tracer,
+            probes: r.probes,
+            y: y(r),
+        })
+        .collect();
+    plot_of(title, x_label, y_label, log_y, &points, Join::GridByTracer)
+}
+
+/// A scatter plot of `points` (probe count on a log scale), joined as
+/// `join` says; `log_y` puts y on a log scale too.
+fn plot_of(
+    title: &str,
+    x_label: &str,
+    y_label: &str,
+    log_y: bool,
+    points: &[Point],
+    join: Join,
+) -> String {
+    let points: Vec<&Point> = points
+        .iter()
+        .filter(|p| p.y.is_finite() && (!log_y || p.y > 0.0))
         .collect();
     let mut s = String::new();
     plot_header(&mut s, title);
@@ -577,13 +731,13 @@ fn plot(
         return s;
     }
     let frame = PlotFrame {
-        xs: Axis::new(points.iter().map(|p| p.1), true),
-        ys: Axis::new(points.iter().map(|p| p.2), log_y),
+        xs: Axis::new(points.iter().map(|p| p.probes.max(1) as f64), true),
+        ys: Axis::new(points.iter().map(|p| p.y), log_y),
     };
     plot_axes(&mut s, &frame, x_label, y_label);
-    plot_grid_sweep(&mut s, &frame, &points);
-    plot_points(&mut s, &frame, &points);
-    plot_legend(&mut s, &points);
+    plot_lines(&mut s, &frame, &points, join);
+    plot_points(&mut s, &frame, &points, join);
+    plot_legend(&mut s, &points, join);
     s.push_str("</svg>\n");
     s
 }
@@ -664,55 +818,69 @@ fn plot_axes(s: &mut String, frame: &PlotFrame, x_label: &str, y_label: &str) {
     );
 }
 
-/// The line joining the grid sweep's points in order of probe count, where
-/// the sweep has more than one point.
-fn plot_grid_sweep(s: &mut String, frame: &PlotFrame, points: &[PlotPoint]) {
-    for (tracer, dash) in [
-        (TRACER_HIZ, ""),
-        (TRACER_BILEVEL, " stroke-dasharray=\"5 3\""),
-    ] {
-        let mut grid: Vec<&PlotPoint> = points
+/// The lines joining the points `join` names, in order of probe count,
+/// where a line has more than one point.
+fn plot_lines(s: &mut String, frame: &PlotFrame, points: &[&Point], join: Join) {
+    let lines: Vec<(Family, &str, &str)> = match join {
+        Join::GridByTracer => vec![
+            (Family::Grid, TRACER_HIZ, ""),
+            (Family::Grid, TRACER_BILEVEL, " stroke-dasharray=\"5 3\""),
+        ],
+        Join::EveryFamily => Family::all().into_iter().map(|f| (f, "", "")).collect(),
+    };
+    for (family, tracer, dash) in lines {
+        let mut on: Vec<&&Point> = points
             .iter()
-            .filter(|p| p.0.family == Family::Grid && p.0.tracer == tracer)
+            .filter(|p| p.family == family && p.tracer == tracer)
             .collect();
-        grid.sort_by(|a, b| a.1.total_cmp(&b.1));
-        if grid.len() > 1 {
-            let line: Vec<String> = grid
+        on.sort_by(|a, b| a.probes.cmp(&b.probes).then(a.y.total_cmp(&b.y)));
+        if on.len() > 1 {
+            let line: Vec<String> = on
                 .iter()
-                .map(|p| format!("{:.1},{:.1}", frame.px(p.1), frame.py(p.2)))
+                .map(|p| format!("{:.1},{:.1}", frame.px(p.probes.max(1) as f64), frame.py(p.y)))
                 .collect();
+            let what = match join {
+                Join::GridByTracer => format!("grids on {tracer}"),
+                Join::EveryFamily => family.label().to_string(),
+            };
             let _ = writeln!(
                 s,
-                "<polyline fill=\"none\" stroke=\"{}\" stroke-width=\"1.5\"{dash} points=\"{}\"><title>grids on {tracer}</title></polyline>",
-                Family::Grid.marker().0,
-                line.join(" ")
+                "<polyline fill=\"none\" stroke=\"{}\" stroke-width=\"1.5\"{dash} points=\"{}\"><title>{}</title></polyline>",
+                family.marker().0,
+                line.join(" "),
+                escape(&what)
             );
         }
     }
 }
 
-/// A marker per point with a tooltip, and beside every point not of the
-/// grid sweep its placement's name.
-fn plot_points(s: &mut String, frame: &PlotFrame, points: &[PlotPoint]) {
-    for (r, x, v) in points {
-        let (color, shape) = r.family.marker();
-        let (cx, cy) = (frame.px(*x), frame.py(*v));
+/// A marker per point with a tooltip, and beside every point not on a
+/// line its placement's name.
+fn plot_points(s: &mut String, frame: &PlotFrame, points: &[&Point], join: Join) {
+    for p in points {
+        let (color, shape) = p.family.marker();
+        let (cx, cy) = (frame.px(p.probes.max(1) as f64), frame.py(p.y));
+        let tracer = if p.tracer.is_empty() {
+            String::new()
+        } else {
+            format!(" ({})", p.tracer)
+        };
         let _ = writeln!(
             s,
-            "{}<title>{} ({}): {} probes, {}</title></g>",
+            "{}<title>{}{}: {} probes, {}</title></g>",
             marker(shape, color, cx, cy),
-            escape(&r.name),
-            r.tracer,
-            r.probes,
-            sci(*v)
+            escape(p.name),
+            tracer,
+            p.probes,
+            sci(p.y)
         );
-        if r.family != Family::Grid {
+        if join == Join::GridByTracer && p.family != Family::Grid {
             let _ = writeln!(
                 s,
                 "<text x=\"{:.1}\" y=\"{:.1}\" font-size=\"10\" fill=\"{color}\">{}</text>",
                 cx + 7.0,
                 cy - 6.0,
-                escape(&r.name)
+                escape(p.name)
             );
         }
     }
@@ -720,10 +888,10 @@ fn plot_points(s: &mut String, frame: &PlotFrame, points: &[PlotPoint]) {
 
 /// The legend right of the plot area: a marker and label for each family
 /// that has points.
-fn plot_legend(s: &mut String, points: &[PlotPoint]) {
+fn plot_legend(s: &mut String, points: &[&Point], join: Join) {
     let mut ly = TOP + 10.0;
     for f in Family::all() {
-        if !points.iter().any(|p| p.0.family == f) {
+        if !points.iter().any(|p| p.family == f) {
             continue;
         }
         let (color, shape) = f.marker();
@@ -734,8 +902,8 @@ fn plot_legend(s: &mut String, points: &[PlotPoint]) {
             marker(shape, color, lx, ly),
             lx + 10.0,
             ly + 4.0,
-            escape(&match f {
-                Family::Grid => format!("{} (dashed: bilevel)", f.label()),
+            escape(&match (f, join) {
+                (Family::Grid, Join::GridByTracer) => format!("{} (dashed: bilevel)", f.label()),
                 _ => f.label().to_string(),
             })
         );

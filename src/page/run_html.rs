@@ -305,45 +305,54 @@ fn placement_tables(h: &mut String, r: &RunFigures) {
     figures_table(h, "refine-table", "Refinement", rows);
 }
 
-/// What the diffuse step added, when it ran (`report.json`'s `diffuse`;
-/// its errors are training scores).
+/// What the diffuse step did, when it ran (`report.json`'s `diffuse`):
+/// its training scores and its figures on receivers it never saw.
 fn diffuse_table(h: &mut String, r: &RunFigures) {
     let Some(d) = &r.diffuse else {
         return;
     };
     let rows = vec![
         row(
-            "probes added",
-            num(d.probes_added),
-            "probes the diffuse step added after coverage, where SH blended over tetrahedra missed the diffuse light",
+            "probes",
+            format!(
+                "{} → {} ({} inserted, {} moved, {} removed)",
+                num(d.probes_before),
+                num(d.probes_after),
+                num(d.inserted),
+                num(d.relocated),
+                num(d.removed)
+            ),
+            "coverage's probes in, the diffuse step's out: probes inserted, moved and removed where the engines' blend of their SH (tetrahedra) lit the training receivers better",
         ),
         row(
-            "training points",
+            "receivers",
             format!(
-                "{} on surfaces, {} in free space",
+                "{} on surfaces, {} in free space; {} held out",
                 num(d.surface_points),
-                num(d.free_points)
+                num(d.free_points),
+                num(d.validation_points)
             ),
-            "the points the step fitted, drawn from the seed",
+            "the receivers the step scored, and those it never saw, drawn from the seed",
+        ),
+        row(
+            "held-out error",
+            format!("{} → {}", pct(d.validation_before), pct(d.validation_after)),
+            "mean relative error of the blended baked light at the held-out surface receivers, before and after",
+        ),
+        row(
+            "held-out leaks",
+            format!("{} → {}", pct(d.leaks_before), pct(d.leaks_after)),
+            "share of the held-out surface receivers lit 2× too much or too little, before and after",
         ),
         row(
             "training error",
             format!("{} → {}", pct(d.error_before), pct(d.error_after)),
-            "mean relative irradiance error of the blend at the training points, before and after: a training score",
-        ),
-        row(
-            "above tolerance",
-            format!(
-                "{} → {}",
-                pct(d.above_tolerance_before),
-                pct(d.above_tolerance_after)
-            ),
-            "share of the training points off by more than refine.diffuse.tolerance",
+            "the objective at the training receivers (relative error plus one per leak), before and after: a training score",
         ),
         row(
             "stopped",
             escape(&text(&d.stopped)),
-            "tolerance, budget (growth or max_probes), no gain, no candidate or no light",
+            "why insertion stopped: budget (max_probes or growth), gain, no gain, no candidate or no light",
         ),
     ];
     figures_table(h, "diffuse-table", "Diffuse step", rows);
@@ -543,6 +552,31 @@ fn bake_table(h: &mut String, r: &RunFigures) {
             "the path-traced reference of the config's camera",
         ));
     }
+    if let Some(v) = &b.diffuse_views {
+        let sets: Vec<String> = v
+            .sets
+            .iter()
+            .map(|x| {
+                format!(
+                    "{} ({} probes) {}",
+                    escape(&text(&x.name)),
+                    num(x.probes),
+                    pct(x.mean_error)
+                )
+            })
+            .collect();
+        rows.push(row(
+            "diffuse views",
+            format!(
+                "{}×{}, {} paths a pixel; mean relative error {}",
+                num(v.width),
+                num(v.height),
+                num(v.rays),
+                sets.join(", ")
+            ),
+            "the camera's view lit by the probes' SH blended over tetrahedra, against the path tracer's baked light (diffuse-*.png): ours and the uniform grid of about our count",
+        ));
+    }
     figures_table(h, "bake-table", "Light-field bake (lightfield.bin)", rows);
 }
 
@@ -667,6 +701,26 @@ fn images(h: &mut String, r: &RunFigures, set: &OutputSet) -> Result<usize> {
         (
             "reference-glossy.png".into(),
             "<b>reference-glossy.png</b>: its glossy indirect part (light the glossy lobe reflects after at least one bounce), at the same exposure; the errors are measured on it.".into(),
+        ),
+        (
+            "diffuse-reference.png".into(),
+            "<b>diffuse-reference.png</b>: the camera's view lit as a renderer with probes lights it: each pixel's emission and the point, spot and directional lights' direct light, plus its albedo times the baked irradiance (every light but those), here path-traced. Compare the two renders below with it.".into(),
+        ),
+        (
+            "diffuse-ours.png".into(),
+            "<b>diffuse-ours.png</b>: the same view with the baked irradiance from this run's probes' SH blended over tetrahedra, as Unity and Godot blend light probes.".into(),
+        ),
+        (
+            "diffuse-ours-error.png".into(),
+            format!("<b>diffuse-ours-error.png</b>: its relative error of the baked irradiance per pixel, {} from 0 (black) through red and yellow to 100% and more (white). Look for bright patches: light leaking through walls, shadows washed out.", gradient("#000 0%,#f00 33.3%,#ff0 66.7%,#fff 100%")),
+        ),
+        (
+            "diffuse-grid.png".into(),
+            "<b>diffuse-grid.png</b>: the same view lit by the uniform grid of about this run's probe count (its name and count in the bake table), blended alike.".into(),
+        ),
+        (
+            "diffuse-grid-error.png".into(),
+            "<b>diffuse-grid-error.png</b>: the grid's relative error, on the same scale.".into(),
         ),
     ];
     if let Some(variants) = r.render.as_ref().and_then(|x| x.variants.as_ref()) {

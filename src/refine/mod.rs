@@ -146,6 +146,10 @@ pub struct Refined {
     /// Wall time of refinement's steps, for `report.json`'s `timings_ms`
     /// ([`STEPS`]): where a long refinement spends it.
     pub steps: Stopwatch,
+    /// Each final probe's column of the training coverage matrix (the
+    /// coverable samples it sees), in probe order: what the diffuse step
+    /// keeps coverage's floor by.
+    pub(crate) columns: Vec<prune::Bits>,
 }
 
 /// The steps [`Refined::steps`] times, in order: the views and sweeps
@@ -449,7 +453,12 @@ pub fn refine(
     let rules = Rules {
         pinned: probes.fixed,
         budget: controls.max_probes,
-        minimum: controls.min_probes,
+        // With the diffuse objective, its step spends `min_probes` where
+        // the blended light needs probes (crate::refine::diffuse).
+        minimum: match params.objective {
+            crate::config::Objective::Both => None,
+            crate::config::Objective::Coverage => controls.min_probes,
+        },
     };
     let fill_and_prune = |tiers: &[Vec<Vec3>]| {
         matrix.fill_and_prune(
@@ -528,6 +537,7 @@ pub fn refine(
         report,
         atlas_image,
         steps,
+        columns: fp.kept_cols,
     })
 }
 

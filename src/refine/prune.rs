@@ -1033,6 +1033,33 @@ impl<'r> CoverMatrix<'r> {
         &self.reference.samples[self.coverable[i]]
     }
 
+    /// Those of the coverable `samples` a probe at `viewer` sees.
+    pub(super) fn seen_among(&self, viewer: Vec3, samples: &[usize]) -> Vec<usize> {
+        let mut blocker = Blocker::default();
+        samples
+            .iter()
+            .copied()
+            .filter(|&i| self.reference.sees_from(self.bvh, viewer, self.sample(i), &mut blocker))
+            .collect()
+    }
+
+    /// Whether a probe at `viewer` sees every one of the coverable
+    /// `samples` (indices into the coverable ones) but at most `spare`
+    /// (stops once it misses more).
+    pub(super) fn sees_all_but(&self, viewer: Vec3, samples: &[usize], spare: usize) -> bool {
+        let mut blocker = Blocker::default();
+        let mut missed = 0;
+        for &i in samples {
+            if !self.reference.sees_from(self.bvh, viewer, self.sample(i), &mut blocker) {
+                missed += 1;
+                if missed > spare {
+                    return false;
+                }
+            }
+        }
+        true
+    }
+
     /// Views coverable sample `i` needs.
     pub(super) fn needs(&self, i: usize) -> u32 {
         self.need[i]

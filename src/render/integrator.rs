@@ -132,6 +132,33 @@ impl<'a> Renderer<'a> {
             .direct_delta(self.bvh, v.p, v.n, v.wo, &v.bsdf)
     }
 
+    /// One sample of the emissive triangles' light arriving at `p`
+    /// ([`LightSet::sample_emitter`]), shadow ray from `p + offset`.
+    pub fn sample_emitter(&self, p: Vec3, offset: Vec3, sampler: &mut Sampler) -> Option<(Vec3, Vec3)> {
+        self.lights.sample_emitter(self.bvh, p, offset, sampler)
+    }
+
+    /// [`Renderer::radiance_parts`] with the emission of an emissive
+    /// surface hit left out of the first part (the sky kept): for an
+    /// estimate that takes the emitters' light by sampling them
+    /// ([`Renderer::sample_emitter`]) instead, each light counted once.
+    ///
+    /// Contract: as [`Renderer::radiance_parts`], drawing the same samples.
+    pub fn radiance_parts_without_emitters(
+        &self,
+        origin: Vec3,
+        dir: Vec3,
+        sampler: &mut Sampler,
+    ) -> (Vec3, Vec3) {
+        self.parts(origin, dir, false, sampler)
+    }
+
+    /// The point, spot and directional lights' light arriving at `p`
+    /// ([`LightSet::delta_arrivals`]), shadow rays from `p + offset`.
+    pub fn delta_arrivals(&self, p: Vec3, offset: Vec3, arrive: impl FnMut(Vec3, Vec3)) {
+        self.lights.delta_arrivals(self.bvh, p, offset, arrive)
+    }
+
     /// One path sample of the radiance arriving at `origin` from direction
     /// `dir`, i.e. leaving the first surface hit along `origin + t·dir`
     /// towards `origin`: its emission `Ke` (both sides), the direct light
@@ -154,6 +181,12 @@ impl<'a> Renderer<'a> {
     /// Contract: as [`Renderer::radiance`], whose value is the sum, from
     /// the same sampler draws.
     pub fn radiance_parts(&self, origin: Vec3, dir: Vec3, sampler: &mut Sampler) -> (Vec3, Vec3) {
+        self.parts(origin, dir, true, sampler)
+    }
+
+    /// [`Renderer::radiance_parts`], the first surface's emission counted
+    /// when `emitters`.
+    fn parts(&self, origin: Vec3, dir: Vec3, emitters: bool, sampler: &mut Sampler) -> (Vec3, Vec3) {
         let Some(v) = self.intersect(origin, dir) else {
             return (self.lights.sky(), Vec3::ZERO);
         };
@@ -163,7 +196,7 @@ impl<'a> Renderer<'a> {
                 reflected += self.trace(self.spawn(&v), wi, weight, self.bounces, sampler);
             }
         }
-        (v.emission, reflected)
+        (if emitters { v.emission } else { Vec3::ZERO }, reflected)
     }
 
     /// One sample of a camera ray's radiance, split as Wang et al. 2019 §5.1

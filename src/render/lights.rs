@@ -455,6 +455,105 @@ impl LightSet {
         sum
     }
 
+    /// One sample of the emissive triangles' light arriving at `p`,
+    /// drawn as [`LightSet::direct`] draws its area-light sample (a
+    /// triangle by power, a point on it by solid angle near it and by area
+    /// farther off): the unit direction `wi` towards the sampled point and
+    /// the radiance arriving from it over that direction's density in
+    /// solid angle (zero when the point is hidden, shadow ray from
+    /// `p + offset`). Its mean over samples of `value · g(wi)` estimates
+    /// `∫ L_e g dω` over the sphere, without the variance of rays that
+    /// must hit a small emitter by chance: the irradiance along a normal
+    /// (`g = max(0, n·wi)`) or an SH projection (`g = Y(wi)`).
+    /// `None` without emissive triangles.
+    ///
+    /// Contract: draws three values from `sampler`; allocation-free.
+    pub fn sample_emitter(
+        &self,
+        bvh: &SceneBvh,
+        p: Vec3,
+        offset: Vec3,
+        sampler: &mut Sampler,
+    ) -> Option<(Vec3, Vec3)> {
+        if self.area.is_empty() {
+            return None;
+        }
+        let eps = self.epsilon;
+        let u = sampler.next_f32();
+        let uv = sampler.next_2d();
+        let i = self
+            .cdf
+            .partition_point(|&c| c <= u)
+            .min(self.area.len() - 1);
+        let light = &self.area[i];
+        let (y, wi, weight) = match light.by_solid_angle(p, uv) {
+            Some((y, wi, omega)) => (y, wi, omega / light.select),
+            None => {
+                let y = point_in_triangle(&light.vertices, uv.x, uv.y);
+                let to = y - p;
+                let d2 = to.length_squared();
+                let wi = to / d2.sqrt();
+                let cos_light = light.normal.dot(wi).abs();
+                (y, wi, cos_light / (d2 * light.pdf_area))
+            }
+        };
+        if !(weight > 0.0 && weight.is_finite()) || bvh.occluded(p + offset, y, eps) {
+            return Some((wi, Vec3::ZERO));
+        }
+        let emission = match self.maps.get(light.map as usize) {
+            Some(m) => {
+                let uv = interpolate(&m.texcoords, barycentric(&light.vertices, y));
+                light.emission * m.map.sample(&self.textures, uv)
+            }
+            None => light.emission,
+        };
+        Some((wi, emission * weight))
+    }
+
+    /// The point, spot and directional lights' light arriving at `p`, one
+    /// call of `arrive(wi, e)` per light that reaches it: `wi` the unit
+    /// direction towards the light, `e` the irradiance it gives a surface
+    /// facing it head-on (`I / d²`, the spot's fall-off applied; a
+    /// directional light's irradiance). Shadow rays start at `p + offset`
+    /// (a surface point's lift along its normal; zero in free space).
+    /// What a fully baked probe or receiver holds of them and a
+    /// mixed-lighting one leaves to the renderer (crate::diffuse).
+    ///
+    /// Contract: deterministic (no samples drawn); allocation-free.
+    pub fn delta_arrivals(
+        &self,
+        bvh: &SceneBvh,
+        p: Vec3,
+        offset: Vec3,
+        mut arrive: impl FnMut(Vec3, Vec3),
+    ) {
+        let eps = self.epsilon;
+        let origin = p + offset;
+        let mut point = |at: Vec3, intensity: Vec3| {
+            let to = at - p;
+            let d2 = to.length_squared();
+            if d2 > 0.0 && d2.is_finite() && !bvh.occluded(origin, at, eps) {
+                arrive(to / d2.sqrt(), intensity / d2);
+            }
+        };
+        for light in &self.points {
+            point(light.position, light.intensity);
+        }
+        for light in &self.spots {
+            let from_light = (p - light.position).normalize_or_zero();
+            let k = light.falloff(from_light.dot(light.axis));
+            if k > 0.0 {
+                point(light.position, light.intensity * k);
+            }
+        }
+        for light in &self.directionals {
+            let wi = light.to_light;
+            if !bvh.occluded(origin, self.beyond_scene(origin, wi), eps) {
+                arrive(wi, light.irradiance);
+            }
+        }
+    }
+
     /// Light reflected at `p` from a point source of intensity `intensity` at `at`.
     #[allow(clippy::too_many_arguments)]
     fn delta(

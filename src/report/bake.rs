@@ -39,11 +39,44 @@ pub struct BakeReport {
     /// against the path-traced reference at the probe
     /// ([`sh_axis_error`]): what band 2 and the sampling lose.
     pub sh_axis_error: Option<f64>,
+    /// The camera's view lit by the probes' blended diffuse light and by
+    /// the equal-count grid's (`diffuse-*.png`); `null` without a camera.
+    pub diffuse_views: Option<DiffuseViewsReport>,
     /// The reference image; `null` without a camera.
     pub reference: Option<ReferenceReport>,
     /// Wall time per step in milliseconds: `geometry`, `radiance`,
     /// `pyramid`, `irradiance`, `tracer_check`, `reference`.
     pub timings_ms: BTreeMap<String, f64>,
+}
+
+/// The diffuse views of `bake`: the camera's view, each pixel lit by its
+/// emission, the point, spot and directional lights' direct light and
+/// its albedo times a baked irradiance, from the path tracer
+/// (`diffuse-reference.png`) or from a probe set's SH blended over
+/// tetrahedra as engines blend it (ours, and the uniform grid of about
+/// our count).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct DiffuseViewsReport {
+    /// Pixels across (the reference's, at most 192).
+    pub width: u32,
+    /// Pixels down.
+    pub height: u32,
+    /// Paths per pixel of the reference's baked irradiance.
+    pub rays: u32,
+    /// Ours first, then the grid.
+    pub sets: Vec<DiffuseViewSet>,
+}
+
+/// One probe set of the diffuse views.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct DiffuseViewSet {
+    /// `ours`, or the grid's method (`grid:NxMxK`).
+    pub name: String,
+    /// Its probes.
+    pub probes: usize,
+    /// Mean relative error of the baked irradiance over the view's surface
+    /// pixels.
+    pub mean_error: f64,
 }
 
 /// The mean, over probes and the six axes, of `|E_sh − E_ref| / max(E_ref,
@@ -57,7 +90,7 @@ pub fn sh_axis_error(light: &[crate::stages::bake::ProbeLight]) -> Option<f64> {
         .flat_map(|l| {
             AXES.iter()
                 .zip(l.irradiance_axes)
-                .map(|(&n, e)| (l.sh.total.irradiance(n).max(glam::Vec3::ZERO), e))
+                .map(|(&n, e)| (l.sh.baked.irradiance(n).max(glam::Vec3::ZERO), e))
         })
         .collect();
     let floor = dark_floor(pairs.iter().map(|p| p.1));

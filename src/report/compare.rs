@@ -3,8 +3,6 @@
 //! (Figs. 8–12, Tables 1–2): equal probe count, equal quality and equal
 //! performance.
 
-use crate::placement::method::Role;
-use crate::placement::registry::METHODS;
 use crate::stages::validate::{Blocks, Metric, PerMetric};
 use crate::stats::{paired_ratio_over_views, Interval, RESAMPLES};
 use rayon::prelude::*;
@@ -18,80 +16,7 @@ pub const TRACER_HIZ: &str = "hiz+svo";
 /// eight probes.
 pub const TRACER_BILEVEL: &str = "bilevel+grid";
 
-/// Which kind of placement a row is.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Family {
-    /// Ours: a skeleton placement refined (Wang et al. 2019 §3).
-    Ours,
-    /// A uniform grid of the sweep (McGuire et al. 2017).
-    Grid,
-    /// A competitor of the list of methods (`Role::Competitor`: RTXGI's
-    /// relocated grid, Silvennoinen & Lehtinen's greedy placement, Unity's
-    /// adaptive probe volumes), by its `--method` word.
-    Competitor(&'static str),
-    /// A probe set made elsewhere (`--probes FILE.json`), scored as given.
-    Given,
-}
-
-impl Family {
-    /// The name in `compare.json` and `compare.csv`.
-    pub fn key(self) -> &'static str {
-        match self {
-            Family::Ours => "ours",
-            Family::Grid => "grid",
-            Family::Competitor(word) => word,
-            Family::Given => "given",
-        }
-    }
-
-    /// The competitor's entry of the list of methods.
-    fn method(self) -> Option<&'static crate::placement::method::Entry> {
-        match self {
-            Family::Competitor(word) => METHODS.iter().find(|m| m.word == word),
-            _ => None,
-        }
-    }
-
-    /// The name in tables.
-    pub fn label(self) -> &'static str {
-        match self {
-            Family::Ours => "ours",
-            Family::Grid => "uniform grid",
-            Family::Competitor(word) => self.method().map_or(word, |m| m.label),
-            Family::Given => "given (--probes)",
-        }
-    }
-
-    /// Colour and marker in the plots.
-    pub fn marker(self) -> (&'static str, &'static str) {
-        match self {
-            Family::Ours => ("#2a8a2a", "circle"),
-            Family::Grid => ("#3060c0", "square"),
-            Family::Competitor(_) => self.method().map_or(("#808080", "circle"), |m| m.marker),
-            Family::Given => ("#202020", "circle"),
-        }
-    }
-
-    /// Every family in the order of tables and legends: ours, the grids,
-    /// the competitors in the list's order, a given set.
-    pub fn all() -> Vec<Family> {
-        let mut out = vec![Family::Ours, Family::Grid];
-        out.extend(
-            METHODS
-                .iter()
-                .filter(|m| m.role == Role::Competitor)
-                .map(|m| Family::Competitor(m.word)),
-        );
-        out.push(Family::Given);
-        out
-    }
-}
-
-impl Serialize for Family {
-    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
-        s.serialize_str(self.key())
-    }
-}
+pub use super::family::Family;
 
 /// The quality figure the matches use, and the paired figure the
 /// summaries quote: the filtered glossy MSE.
@@ -169,172 +94,6 @@ pub struct PlacementRow {
     /// written).
     #[serde(skip)]
     pub blocks: Vec<Blocks>,
-    /// Diffuse light at the receivers ([`crate::diffuse`]); `null` when
-    /// `compare.diffuse` measures no receiver.
-    pub diffuse: Option<DiffuseRow>,
-}
-
-/// One lookup's mean relative irradiance errors ([`crate::diffuse::Errors`])
-/// and its leaks; `null` where it has no such receivers or part.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct DiffuseLookup {
-    /// Total irradiance at the surface receivers.
-    pub surface_total: Option<f64>,
-    /// Indirect irradiance at the surface receivers.
-    pub surface_indirect: Option<f64>,
-    /// Total irradiance at the free-space receivers.
-    pub free_total: Option<f64>,
-    /// Indirect irradiance at the free-space receivers.
-    pub free_indirect: Option<f64>,
-    /// Share of every receiver lit [`crate::diffuse::LEAK_RATIO`] times too
-    /// much or too little (total irradiance).
-    pub leak_fraction: Option<f64>,
-}
-
-impl DiffuseLookup {
-    fn of(m: &crate::stages::diffuse::Measured) -> DiffuseLookup {
-        use crate::diffuse::mean;
-        let leaks: Vec<f64> = m.surface.leak.iter().chain(&m.free.leak).copied().collect();
-        DiffuseLookup {
-            surface_total: mean(&m.surface.total),
-            surface_indirect: mean(&m.surface.indirect),
-            free_total: mean(&m.free.total),
-            free_indirect: mean(&m.free.indirect),
-            leak_fraction: mean(&leaks),
-        }
-    }
-}
-
-/// A placement's diffuse light as engines blend it.
-#[derive(Debug, Clone, Serialize)]
-pub struct DiffuseRow {
-    /// SH L2 per probe blended over a Delaunay tetrahedralization of the
-    /// valid probes (Unity's light probes, Godot's LightmapGI): the same
-    /// for both rows of a grid.
-    pub sh_tetrahedra: DiffuseLookup,
-    /// McGuire et al. 2017 §5.2's irradiance gather with Chebyshev
-    /// visibility, by the row's selection: every probe by inverse square
-    /// distance (`hiz+svo`), or trilinear over the grid cell's eight
-    /// (`bilevel+grid`, DDGI's blend). Total light only.
-    pub gather: DiffuseLookup,
-    /// Probes the SH blend drops as standing in solid.
-    pub invalid_probes: usize,
-    /// Probes in open space that no camera reaches (sealed voids,
-    /// [`crate::reachable`]).
-    pub unreachable_probes: usize,
-    /// The errors per receiver the intervals resample (not written).
-    #[serde(skip)]
-    pub errors: crate::stages::diffuse::Measured,
-}
-
-impl PartialEq for DiffuseRow {
-    fn eq(&self, o: &Self) -> bool {
-        self.sh_tetrahedra == o.sh_tetrahedra
-            && self.gather == o.gather
-            && self.invalid_probes == o.invalid_probes
-            && self.unreachable_probes == o.unreachable_probes
-    }
-}
-
-impl DiffuseRow {
-    /// The row of a placement measured as `m`, with the gather `gather`.
-    pub fn new(
-        m: &crate::stages::diffuse::DiffuseMeasure,
-        gather: &crate::stages::diffuse::Measured,
-    ) -> DiffuseRow {
-        DiffuseRow {
-            sh_tetrahedra: DiffuseLookup::of(&m.sh),
-            gather: DiffuseLookup::of(gather),
-            invalid_probes: m.invalid_probes,
-            unreachable_probes: m.unreachable_probes,
-            errors: m.sh.clone(),
-        }
-    }
-}
-
-/// A rival's diffuse errors over ours with the SH tetrahedral lookup, each
-/// with its 95% paired-bootstrap interval over receiver groups (views for
-/// surface receivers, runs of [`crate::diffuse::FREE_GROUP`] in free
-/// space); above 1, ours has the lower error. `null` where a set is empty,
-/// ours has no error there, or a resample has none (rare leaks).
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct DiffuseRatio {
-    /// Indirect irradiance at surface receivers.
-    pub surface_indirect: Option<Interval>,
-    /// Total irradiance at surface receivers.
-    pub surface_total: Option<Interval>,
-    /// Indirect irradiance at free-space receivers.
-    pub free_indirect: Option<Interval>,
-    /// Total irradiance at free-space receivers.
-    pub free_total: Option<Interval>,
-    /// Leaking receivers, surface and free together.
-    pub leak_fraction: Option<Interval>,
-    /// The surface indirect interval lies wholly above 1.
-    pub win: bool,
-    /// It lies wholly below 1.
-    pub loss: bool,
-}
-
-/// The diffuse ratios of `rival` over `ours`, when both have them.
-fn diffuse_ratio(rival: &PlacementRow, ours: &PlacementRow, seed: u64) -> Option<DiffuseRatio> {
-    let (a, b) = (
-        &rival.diffuse.as_ref()?.errors,
-        &ours.diffuse.as_ref()?.errors,
-    );
-    let interval = |x: &crate::diffuse::Errors,
-                    y: &crate::diffuse::Errors,
-                    f: fn(&crate::diffuse::Errors) -> &Vec<f64>| {
-        let (num, den) = (x.by_group(f(x)), y.by_group(f(y)));
-        let paired = !den.is_empty()
-            && num.len() == den.len()
-            && num.iter().zip(&den).all(|(p, q)| p.len() == q.len());
-        let sum: f64 = den.iter().flatten().sum();
-        // Rare events (a few leaking receivers) can resample to a zero
-        // denominator: no interval then, rather than an infinite one.
-        (paired && sum > 0.0)
-            .then(|| paired_ratio_over_views(&num, &den, RESAMPLES, seed))
-            .filter(|i| i.value.is_finite() && i.lo.is_finite() && i.hi.is_finite())
-    };
-    let leaks = |e: &crate::stages::diffuse::Measured| {
-        let mut all = e.surface.clone();
-        all.leak.extend(&e.free.leak);
-        let offset = all.group.iter().max().map_or(0, |g| g + 1);
-        all.group.extend(e.free.group.iter().map(|g| g + offset));
-        all
-    };
-    let surface_indirect = interval(&a.surface, &b.surface, |e| &e.indirect);
-    Some(DiffuseRatio {
-        win: surface_indirect.is_some_and(|i| i.lo > 1.0),
-        loss: surface_indirect.is_some_and(|i| i.hi < 1.0),
-        surface_indirect,
-        surface_total: interval(&a.surface, &b.surface, |e| &e.total),
-        free_indirect: interval(&a.free, &b.free, |e| &e.indirect),
-        free_total: interval(&a.free, &b.free, |e| &e.total),
-        leak_fraction: interval(&leaks(a), &leaks(b), |e| &e.leak),
-    })
-}
-
-/// The diffuse evaluation's set-up, in `compare.json`.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct DiffuseSetup {
-    /// Surface receivers (primary hits of the views).
-    pub surface_receivers: usize,
-    /// Receivers in reachable free space.
-    pub free_receivers: usize,
-    /// Paths per receiver's reference.
-    pub reference_rays: u32,
-    /// Directions per probe's SH projection.
-    pub probe_rays: u32,
-    /// Indirect bounces of the references and the probes (the bake's).
-    pub bounces: u32,
-    /// Share of the open voxels no camera reaches (sealed voids, regions
-    /// cut off by geometry): no free receiver stands there.
-    pub unreachable_fraction: f64,
-    /// Mean luminance of the reference irradiance, total and indirect, at
-    /// the surface receivers.
-    pub surface_reference_mean: [f64; 2],
-    /// The same at the free receivers.
-    pub free_reference_mean: [f64; 2],
 }
 
 /// A grid picked by one of the three matches.
@@ -370,9 +129,6 @@ pub struct Ratio {
     pub win: bool,
     /// Every interval lies wholly below 1: the rival wins on every one.
     pub loss: bool,
-    /// The diffuse errors, SH over tetrahedra (`null` without the
-    /// diffuse evaluation).
-    pub diffuse: Option<DiffuseRatio>,
 }
 
 /// The three matches for one placement.
@@ -426,8 +182,9 @@ pub struct CameraRecord {
     pub fov_degrees: f32,
     /// Chosen from the scene (`compare.views`) rather than given.
     pub chosen: bool,
-    /// Mean of the reference's glossy indirect component, per channel.
-    pub reference_glossy_mean: [f64; 3],
+    /// Mean of the reference's glossy indirect component, per channel
+    /// (`null` without the glossy benchmark, which renders it).
+    pub reference_glossy_mean: Option<[f64; 3]>,
 }
 
 /// `compare.json`.
@@ -466,8 +223,10 @@ pub struct CompareReport {
     pub placements: Vec<PlacementRow>,
     /// The three matches for every placement that is not a sweep grid.
     pub comparisons: Vec<Comparison>,
-    /// The diffuse evaluation's receivers and rays (`null` without it).
-    pub diffuse: Option<DiffuseSetup>,
+    /// The diffuse benchmark: every placement's diffuse light as engines
+    /// blend it, on the scene's own materials (`null` when it did not run:
+    /// `--only glossy`, or no receiver asked for).
+    pub diffuse: Option<super::diffuse::DiffuseSection>,
     /// Problems worth knowing.
     pub warnings: Vec<String>,
     /// Wall time per step (ms).
@@ -620,7 +379,6 @@ fn ratio_against(rival: &PlacementRow, ours: &PlacementRow, seed: u64) -> Ratio 
         win: intervals.0.iter().all(|(_, i)| i.lo > 1.0),
         loss: intervals.0.iter().all(|(_, i)| i.hi < 1.0),
         intervals,
-        diffuse: diffuse_ratio(rival, ours, seed),
     }
 }
 
@@ -661,29 +419,12 @@ pub fn summary(report: &CompareReport) -> Vec<String> {
                 (Some(m), Some(r)) => format!("{} has {r:.2}× the error", m.grid),
                 _ => "no grid".into(),
             };
-            let diffuse = c
-                .ratios
-                .iter()
-                .filter(|r| r.family == Family::Grid && r.tracer == TRACER_HIZ)
-                .find_map(|r| {
-                    let i = r.diffuse.as_ref()?.surface_indirect?;
-                    Some(format!(
-                        "; diffuse (SH over tetrahedra): {} has {:.2}× [{:.2}, {:.2}] the indirect surface error",
-                        r.against, i.value, i.lo, i.hi
-                    ))
-                })
-                .unwrap_or_default();
             format!(
-                "{}: {} probes, filtered glossy MSE {:.3e}; equal count: {count}; equal quality: {quality}; equal {}: {perf}{diffuse}",
+                "{}: {} probes, filtered glossy MSE {:.3e}; equal count: {count}; equal quality: {quality}; equal {}: {perf}",
                 c.placement, c.probes, c.error, report.performance_metric
             )
         })
         .collect()
-}
-
-/// A figure for a table cell: blank when absent.
-fn cell(v: Option<f64>) -> String {
-    v.map(|x| format!("{x:.6}")).unwrap_or_default()
 }
 
 /// `compare.csv`: one line per placement and camera, a header first; one
@@ -694,30 +435,10 @@ pub fn to_csv(report: &CompareReport) -> String {
         .map(|m| m.key)
         .collect();
     let mut out = format!(
-        "placement,family,tracer,camera,chosen,probes,coverage,probes_in_solid,probe_bytes,svo_bytes,{},gpu_ms,sh_surface_total,sh_surface_indirect,sh_free_total,sh_free_indirect,sh_leak_fraction,gather_surface_total,gather_free_total,gather_leak_fraction,invalid_probes,unreachable_probes\n",
+        "placement,family,tracer,camera,chosen,probes,coverage,probes_in_solid,probe_bytes,svo_bytes,{},gpu_ms\n",
         keys.join(",")
     );
     for p in &report.placements {
-        // The placement's diffuse figures, the same on each camera's line.
-        let diffuse = match &p.diffuse {
-            Some(d) => {
-                let (s, g) = (&d.sh_tetrahedra, &d.gather);
-                [
-                    cell(s.surface_total),
-                    cell(s.surface_indirect),
-                    cell(s.free_total),
-                    cell(s.free_indirect),
-                    cell(s.leak_fraction),
-                    cell(g.surface_total),
-                    cell(g.free_total),
-                    cell(g.leak_fraction),
-                    d.invalid_probes.to_string(),
-                    d.unreachable_probes.to_string(),
-                ]
-                .join(",")
-            }
-            None => ",,,,,,,,,".to_string(),
-        };
         for (i, c) in p.cameras.iter().enumerate() {
             let gpu = c.gpu_ms.map(|v| format!("{v:.3}")).unwrap_or_default();
             let figures: Vec<String> = Metric::ALL
@@ -726,7 +447,7 @@ pub fn to_csv(report: &CompareReport) -> String {
                 .collect();
             let _ = writeln!(
                 out,
-                "{},{},{},{i},{},{},{:.6},{},{},{},{},{gpu},{diffuse}",
+                "{},{},{},{i},{},{},{:.6},{},{},{},{},{gpu}",
                 p.name,
                 p.family.key(),
                 p.tracer,
@@ -767,7 +488,6 @@ mod tests {
             cameras: vec![],
             stats: BTreeMap::new(),
             blocks: vec![],
-            diffuse: None,
         }
     }
 

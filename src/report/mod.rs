@@ -12,6 +12,8 @@
 
 pub mod bake;
 pub mod compare;
+pub mod diffuse;
+pub mod family;
 pub mod preview;
 pub mod render;
 pub mod sh;
@@ -166,6 +168,9 @@ pub struct SceneRecord {
     pub bounds: BoundsRecord,
     /// Total surface area (one side).
     pub area: f64,
+    /// What lights it: its emissive materials, and the point, spot,
+    /// directional and sky lights of the config and the file.
+    pub emitters: crate::stages::diffuse::Emitters,
 }
 
 /// SDF facts in `report.json`.
@@ -258,6 +263,11 @@ pub struct Report {
     pub probes_in_solid: usize,
     /// Probes in voxels the run's SDF classifies solid.
     pub probes_in_solid_sdf: usize,
+    /// Probes that serve nothing a viewer sees: outside the reached free
+    /// space, and no ray of theirs crosses it (`null` when all free space
+    /// counts: `reachable: Everywhere`, or no camera or point to reach
+    /// from).
+    pub idle_probes: Option<usize>,
     /// Probes in voxels outside the scene.
     pub probes_outside_scene: usize,
     /// Probes outside the domain box.

@@ -1,5 +1,7 @@
 //! `sh.json`: each probe's diffuse light as engines store it (`bake`):
-//! SH L2 of its incident radiance, total and indirect, and the
+//! SH L2 of its incident radiance (`total`: what a mixed-lighting probe
+//! holds, every light but the point, spot and directional lights' direct
+//! light; and its `indirect` part, reflected at least once), and the
 //! path-traced irradiance at the probe along the six axes.
 //!
 //! The coefficients are plain projections `L_lm = ∫ L Y_lm dω` on the real
@@ -31,7 +33,7 @@ pub fn encode(provenance: &Provenance, rays: u32, light: &[ProbeLight]) -> Vec<u
         .iter()
         .map(|l| {
             json!({
-                "total": rows(&l.sh.total),
+                "total": rows(&l.sh.baked),
                 "indirect": rows(&l.sh.indirect),
                 "irradiance_axes": l.irradiance_axes.map(|e| e.to_array()),
             })
@@ -109,8 +111,9 @@ pub fn decode(
         .map(|(i, p)| {
             Ok(ProbeLight {
                 sh: ProbeSh {
-                    total: sh(&p.total, i)?,
+                    baked: sh(&p.total, i)?,
                     indirect: sh(&p.indirect, i)?,
+                    direct: ShL2::ZERO,
                 },
                 irradiance_axes: p.irradiance_axes.map(Vec3::from),
             })
@@ -129,8 +132,9 @@ mod tests {
         }
         ProbeLight {
             sh: ProbeSh {
-                total: sh,
+                baked: sh,
                 indirect: ShL2::ZERO,
+                direct: ShL2::ZERO,
             },
             irradiance_axes: [Vec3::splat(k); 6],
         }

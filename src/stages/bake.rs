@@ -21,7 +21,7 @@ use glam::Vec3;
 const BAKE_STREAMS: u64 = 0x1F_BA4E;
 
 /// Seed offset of the SH projections' and their references' streams.
-const SH_STREAMS: u64 = 0x5_4A12;
+pub(crate) const SH_STREAMS: u64 = 0x5_4A12;
 
 /// Free points whose random rays check the tracer in every bake.
 pub const TRACER_CHECK_RAYS: usize = 4096;
@@ -206,8 +206,13 @@ pub fn probe_light(config: &Config, prepared: &Prepared, positions: &[Vec3]) -> 
     sh.into_iter()
         .zip(reference.chunks(crate::diffuse::AXES.len()))
         .map(|(sh, e)| ProbeLight {
-            sh,
-            irradiance_axes: std::array::from_fn(|k| e[k].total),
+            // `sh.json` holds what a mixed-lighting bake stores: the delta
+            // lights' direct light is the renderer's.
+            sh: crate::diffuse::ProbeSh {
+                direct: crate::diffuse::ShL2::ZERO,
+                ..sh
+            },
+            irradiance_axes: std::array::from_fn(|k| e[k].baked),
         })
         .collect()
 }

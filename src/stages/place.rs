@@ -145,6 +145,7 @@ pub fn place(
         probes.probes.len(),
         Some((&input, &probes.positions())),
     )?;
+    let mut refined_columns = None;
     let (probes, refined) = if refine_it {
         let placed = probes.probes.len();
         let out = timings.try_time("refine", || {
@@ -157,6 +158,7 @@ pub fn place(
         report.probes_before_budget = out.report.probes_before_budget;
         report.probes_before_minimum = out.report.probes_before_minimum;
         report.demand_met = Some(out.report.coverage_final);
+        refined_columns = Some(out.columns);
         (out.probes, Some((out.report, out.atlas_image)))
     } else {
         match controls.max_probes {
@@ -177,8 +179,8 @@ pub fn place(
         }
     };
     let (probes, diffuse) = if refine_it && config.refine.objective == Objective::Both {
-        let budget = controls.max_probes.unwrap_or(limits::MAX_PROBES);
-        check_diffuse(config, &prepared.scene, probes.probes.len(), budget)?;
+        let columns = refined_columns.take().unwrap_or_default();
+        check_diffuse(config, &prepared.scene, probes.probes.len(), &controls)?;
         let renderer = prepared.renderer(config);
         // Probes for diffuse light stand as near surfaces as the coverage
         // measure's reference points (one voxel), or the user's pin.
@@ -186,17 +188,25 @@ pub fn place(
             .refine
             .min_clearance
             .map_or(placement::grid_min_clearance(&prepared.sdf), |c| c.0);
+        let matrix = refine::prune::CoverMatrix::new(fitted, &prepared.bvh)
+            .with_need(|i, p| controls.need(i, p));
+        let target = config.refine.coverage_target.0 as f64;
+        let cover = (columns.len() == probes.probes.len()).then_some((&matrix, columns, target));
         let (p, r, steps) = timings.time("diffuse", || {
-            refine::diffuse::insert(
+            refine::diffuse::optimize(
                 &config.refine.diffuse,
                 probes,
                 &input,
                 &renderer,
                 min_clearance,
-                budget,
+                &controls,
+                cover,
             )
         });
         timings.absorb(&steps);
+        if r.probes_after > r.probes_before && controls.min_probes.is_some() {
+            report.probes_before_minimum = Some(r.probes_before);
+        }
         (p, Some(r))
     } else {
         (probes, None)
@@ -284,22 +294,31 @@ fn check_count(n: usize) -> Result<()> {
 }
 
 /// Refuses a diffuse step ([`refine::diffuse`]) that would take longer than
-/// the work limit: its training points' path-traced references and free
-/// points' SH, and the SH of every probe it may hold (the placed ones and
-/// at most `growth` times as many more, within `budget`), `rays` paths
-/// each, of `1 + bake.bounces` vertices, each vertex casting a shadow ray
-/// to every point, spot and directional light, the config's and the scene
-/// file's ([`super::bake::lit_by_scene`]).
-fn check_diffuse(config: &Config, scene: &crate::scene::Scene, placed: usize, budget: usize) -> Result<()> {
+/// the work limit: its receivers' path-traced references, and the SH of
+/// every probe it may hold and of as many candidates again (the placed
+/// ones and at most `growth` times as many more, within the `controls`'
+/// budget), `rays` paths each, of `1 + bake.bounces` vertices, each vertex
+/// casting a shadow ray to every point, spot and directional light, the
+/// config's and the scene file's ([`super::bake::lit_by_scene`]).
+fn check_diffuse(
+    config: &Config,
+    scene: &crate::scene::Scene,
+    placed: usize,
+    controls: &Controls,
+) -> Result<()> {
     let d = &config.refine.diffuse;
-    let most = (placed as f64 * (1.0 + d.growth.0 as f64)).min(budget.max(placed) as f64);
+    let most = controls
+        .max_probes
+        .unwrap_or_else(|| (placed as f64 * (1.0 + d.growth.0 as f64)) as usize)
+        .max(controls.min_probes.unwrap_or(0))
+        .max(placed) as f64;
     let points = (d.surface_points.0 + d.free_points.0) as f64;
-    let paths = (points + most) * d.rays.0 as f64;
+    let paths = (points + 2.0 * most) * d.rays.0 as f64;
     let lit = super::bake::lit_by_scene(config, scene);
     limits::check_work(
         "refine.diffuse.rays",
         &format!(
-            "the diffuse step ({} training points and up to {} probes at {} paths each, {} lights)",
+            "the diffuse step ({} receivers and up to {} probes and as many candidates at {} paths each, {} lights)",
             points, most, d.rays.0, lit.lights.len()
         ),
         paths * (1.0 + config.bake.bounces.0 as f64) * super::bake::light_factor(&lit),

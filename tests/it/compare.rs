@@ -190,100 +190,118 @@ fn ours_beats_the_engines_grid_and_greedy_with_intervals() {
     }
 }
 
-/// Every placement the issue names, with every figure, for each camera. At
-/// test quality.
-/// The diffuse evaluation: its set-up, every placement's errors by both
-/// lookups, the ratios' intervals, the CSV columns and the page's tables.
+/// The diffuse benchmark, on the scene's own materials: its set-up and
+/// emitters, every method at several counts (the curve), ours at each
+/// rival's count with the ratios' intervals, the equal-error count,
+/// `diffuse.csv` and the page's section with its lit views.
 #[test]
 fn diffuse_light_is_measured_for_every_placement() {
     let Shared { dir, report: r } = cornell_glossy_test_quality();
     let d = &r["diffuse"];
+    let s = &d["setup"];
+    assert_eq!(s["materials"], "scene", "{s}");
     assert_eq!(
-        d["surface_receivers"], 258,
-        "256 shared among 3 views, rounded up: {d}"
+        s["surface_receivers"], 258,
+        "256 shared among 3 views, rounded up: {s}"
     );
-    assert_eq!(d["free_receivers"], 128);
-    let unreachable = d["unreachable_fraction"].as_f64().unwrap();
-    assert!((0.0..0.5).contains(&unreachable), "{d}");
+    assert_eq!(s["free_receivers"], 128);
+    let unreachable = s["unreachable_fraction"].as_f64().unwrap();
+    assert!((0.0..0.5).contains(&unreachable), "{s}");
     for set in ["surface_reference_mean", "free_reference_mean"] {
-        let (total, indirect) = (d[set][0].as_f64().unwrap(), d[set][1].as_f64().unwrap());
+        let (total, baked) = (
+            s[set]["total"].as_f64().unwrap(),
+            s[set]["baked"].as_f64().unwrap(),
+        );
+        // The spot light's direct light is in the total, not baked.
+        assert!(baked > 0.0 && baked < total, "{set}: {s}");
+    }
+    assert_eq!(s["emitters"]["spot_lights"], 1, "{s}");
+    let placements = d["placements"].as_array().unwrap();
+    for family in ["ours", "grid", "relocated", "greedy", "adaptive"] {
+        let n = placements.iter().filter(|p| p["family"] == family).count();
+        assert!(n >= 2, "{family}: {n} counts, no curve");
+    }
+    for p in placements {
+        let name = &p["name"];
+        for set in ["surface", "free"] {
+            for key in ["total", "baked", "leaks"] {
+                let e = p[set][key]
+                    .as_f64()
+                    .unwrap_or_else(|| panic!("{name}: {set} {key}"));
+                assert!(e.is_finite() && e >= 0.0, "{name}: {set} {key} {e}");
+            }
+            assert!(p[set]["leaks"].as_f64().unwrap() <= 1.0);
+        }
+        let probes = p["probes"].as_u64().unwrap();
+        for key in ["invalid_probes", "unreachable_probes", "idle_probes"] {
+            assert!(p[key].as_u64().unwrap() <= probes, "{name}: {key}");
+        }
+    }
+    let comparisons = d["comparisons"].as_array().unwrap();
+    for family in ["grid", "relocated", "greedy", "adaptive"] {
         assert!(
-            total > 0.0 && indirect > 0.0 && indirect <= total,
-            "{set}: {d}"
+            comparisons.iter().any(|c| c["family"] == family),
+            "no comparison with {family}"
         );
     }
-    let placements = r["placements"].as_array().unwrap();
-    for p in placements {
-        let x = &p["diffuse"];
-        let name = &p["name"];
-        for key in [
-            "surface_total",
-            "surface_indirect",
-            "free_total",
-            "free_indirect",
-        ] {
-            let e = x["sh_tetrahedra"][key]
-                .as_f64()
-                .unwrap_or_else(|| panic!("{name}: {key}"));
-            assert!(e.is_finite() && e >= 0.0, "{name}: {key} {e}");
-        }
-        for lookup in ["sh_tetrahedra", "gather"] {
-            let leak = x[lookup]["leak_fraction"].as_f64().unwrap();
-            assert!((0.0..=1.0).contains(&leak), "{name}: {lookup} leaks {leak}");
-        }
-        // The gather's maps hold no indirect split.
-        assert!(x["gather"]["surface_indirect"].is_null());
-        assert!(x["gather"]["surface_total"].as_f64().unwrap() >= 0.0);
-        assert!(x["invalid_probes"].as_u64().unwrap() <= p["probes"].as_u64().unwrap());
-        assert!(x["unreachable_probes"].as_u64().unwrap() <= p["probes"].as_u64().unwrap());
-        // A grid's two rows share the SH blend; their gathers differ in
-        // selection.
-        if p["family"] == "grid" {
-            let twin = placements
-                .iter()
-                .find(|q| q["name"] == p["name"] && q["tracer"] != p["tracer"])
-                .unwrap();
-            assert_eq!(x["sh_tetrahedra"], twin["diffuse"]["sh_tetrahedra"]);
-        }
-    }
-    let c = comparison(r, "sdf-skeleton");
-    for ratio in c["ratios"].as_array().unwrap() {
-        let x = &ratio["diffuse"];
-        for key in [
-            "surface_indirect",
-            "surface_total",
-            "free_indirect",
-            "free_total",
-        ] {
-            let i = &x[key];
+    for c in comparisons {
+        // Ours at exactly the rival's count.
+        let ours = placements.iter().find(|p| p["name"] == c["ours"]).unwrap();
+        assert_eq!(ours["probes"], c["probes"], "{c}");
+        assert_eq!(ours["family"], "ours");
+        for key in ["surface_baked", "surface_total", "free_baked", "free_total"] {
+            let i = &c[key];
             let (v, lo, hi) = (
                 i["value"].as_f64().unwrap(),
                 i["lo"].as_f64().unwrap(),
                 i["hi"].as_f64().unwrap(),
             );
-            assert!(
-                lo <= v && v <= hi && lo > 0.0,
-                "{}: {key} {i}",
-                ratio["against"]
-            );
+            assert!(lo <= v && v <= hi && lo > 0.0, "{}: {key} {i}", c["rival"]);
         }
-        let lo = x["surface_indirect"]["lo"].as_f64().unwrap();
-        let hi = x["surface_indirect"]["hi"].as_f64().unwrap();
-        assert_eq!(x["win"], lo > 1.0);
-        assert_eq!(x["loss"], hi < 1.0);
+        let lo = c["surface_baked"]["lo"].as_f64().unwrap();
+        let hi = c["surface_baked"]["hi"].as_f64().unwrap();
+        assert_eq!(c["win"], lo > 1.0);
+        assert_eq!(c["loss"], hi < 1.0);
     }
-    let csv = std::fs::read_to_string(dir.join("compare.csv")).unwrap();
+    let q = &d["equal_error"];
+    let grid = placements.iter().find(|p| p["name"] == q["grid"]).unwrap();
+    assert_eq!(grid["family"], "grid");
+    assert_eq!(q["grid_error"], grid["surface"]["baked"]);
+    if let Some(n) = q["ours_probes"].as_f64() {
+        let ratio = q["count_ratio"].as_f64().unwrap();
+        assert!((ratio - n / q["grid_probes"].as_f64().unwrap()).abs() < 1e-12);
+    }
+    let csv = std::fs::read_to_string(dir.join("diffuse.csv")).unwrap();
     let header: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
-    let col = header
-        .iter()
-        .position(|h| *h == "sh_surface_indirect")
-        .unwrap();
+    let col = header.iter().position(|h| *h == "surface_baked").unwrap();
+    assert_eq!(csv.lines().count(), placements.len() + 1);
     for line in csv.lines().skip(1) {
         let v: f64 = line.split(',').nth(col).unwrap().parse().unwrap();
         assert!(v.is_finite(), "{line}");
     }
     let html = std::fs::read_to_string(dir.join("report.html")).unwrap();
-    assert!(html.contains("id=\"diffuse-ratios\"") && html.contains("id=\"diffuse-placements\""));
+    for id in ["diffuse-ratios", "diffuse-placements", "equal-error", "diffuse-views"] {
+        assert!(html.contains(&format!("id=\"{id}\"")), "no #{id}");
+    }
+}
+
+/// `--only diffuse` runs the diffuse benchmark alone: no glossy row, no
+/// reference image; `--only glossy` the glossy one alone.
+#[test]
+fn only_one_benchmark_runs_when_asked() {
+    shared_scenes();
+    let config = test_quality("configs/two-rooms.ron", &[]);
+    let dir = tempfile::tempdir().unwrap();
+    let r = run_compare(config.arg(), dir.path(), &["--only", "diffuse", "--cpu"]);
+    assert!(r["placements"].as_array().unwrap().is_empty(), "{}", r["placements"]);
+    assert!(!r["diffuse"]["comparisons"].as_array().unwrap().is_empty());
+    assert!(r["cameras"][0]["reference_glossy_mean"].is_null());
+    assert!(dir.path().join("diffuse.csv").is_file());
+    let dir = tempfile::tempdir().unwrap();
+    let r = run_compare(config.arg(), dir.path(), &["--only", "glossy", "--cpu"]);
+    assert!(r["diffuse"].is_null(), "{}", r["diffuse"]);
+    assert!(!r["placements"].as_array().unwrap().is_empty());
+    assert!(!dir.path().join("diffuse.csv").exists());
 }
 
 #[test]
@@ -482,7 +500,10 @@ fn report_html_opens_in_headless_chromium() {
         .filter(|p| p["family"] != "grid" || &p["name"] == nearest)
         .filter(|p| !p["name"].as_str().unwrap().contains('@'))
         .count();
-    let expected = shown + placements + headline * 3 * shown;
+    // The diffuse benchmark's lit views: the reference, then ours and each
+    // equal-count rival, a render and an error map each.
+    let lit = 1 + 2 * (1 + r["diffuse"]["comparisons"].as_array().unwrap().len());
+    let expected = shown + placements + headline * 3 * shown + lit;
     assert_eq!(loaded.decoded_images("compare report.html"), expected);
     assert!(dom.matches("<svg").count() >= 2, "the two plots");
     for name in ["sdf-skeleton", "medial-axis"] {

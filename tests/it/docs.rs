@@ -355,6 +355,43 @@ fn compare_json_and_csv_match_their_docs() {
             );
         }
     }
+    // The diffuse benchmark's fields, and diffuse.csv's header.
+    let diffuse = "### The diffuse benchmark";
+    let d = &report["diffuse"];
+    same_fields("compare.json diffuse", &table(&formats, diffuse, 0), d, &[]);
+    same_fields(
+        "compare.json diffuse.setup",
+        &table_after(&formats, diffuse, "Set-up:"),
+        &d["setup"],
+        &[],
+    );
+    for p in d["placements"].as_array().unwrap() {
+        same_fields(
+            &format!("compare.json diffuse placement {}", p["name"]),
+            &table_after(&formats, diffuse, "Per placement:"),
+            p,
+            &[],
+        );
+    }
+    for c in d["comparisons"].as_array().unwrap() {
+        same_fields(
+            &format!("compare.json diffuse comparison {}", c["rival"]),
+            &table_after(&formats, diffuse, "Per comparison:"),
+            c,
+            &[],
+        );
+    }
+    let csv = std::fs::read_to_string(dir.join("diffuse.csv")).unwrap();
+    let documented = section(&formats, "## `diffuse.csv`").join(" ");
+    let columns = ticked(&documented)
+        .into_iter()
+        .find(|s| s.contains(", "))
+        .expect("the documented columns");
+    assert_eq!(
+        columns.replace(' ', ""),
+        csv.lines().next().unwrap(),
+        "diffuse.csv's columns"
+    );
     // The documented header is the header written, in order.
     let csv = std::fs::read_to_string(dir.join("compare.csv")).unwrap();
     let header = csv.lines().next().unwrap();

@@ -70,10 +70,11 @@ fn archive_cornell_box_matches_our_measured_fixture() {
 /// Sponza and the Holodeck converted to glTF by the test kit's converter
 /// (what `examples/obj_to_gltf.rs` runs) place as their OBJ does (issue
 /// 48): the same triangles within float rounding, the same coverage
-/// within the two runs' intervals, and a probe count within 5%. The
-/// conversion keeps each material's diffuse colour and emission; its `Ks`
-/// becomes a dielectric's 4%, which changes the light the diffuse step
-/// sees, hence not byte-identical placements.
+/// within the two runs' intervals, and coverage's probe count within 5%.
+/// The conversion keeps each material's diffuse colour and emission; its
+/// `Ks` becomes a dielectric's 4%, which changes the light the diffuse
+/// step optimizes for (it follows the light transport), hence not
+/// byte-identical placements, and final counts that may differ more.
 #[test]
 fn sponza_and_the_holodeck_as_gltf_place_as_their_obj() {
     for config in ["sponza", "holodeck"] {
@@ -101,12 +102,12 @@ fn sponza_and_the_holodeck_as_gltf_place_as_their_obj() {
         let r = place(ov.path(), &dir.path().join("out"), &[]);
         assert_eq!(r["probes_in_solid"], 0, "{config}");
         let (n, m) = (
-            r["probe_count"].as_f64().unwrap(),
-            obj["probe_count"].as_f64().unwrap(),
+            r["refine"]["probes_final"].as_f64().unwrap(),
+            obj["refine"]["probes_final"].as_f64().unwrap(),
         );
         assert!(
             (n - m).abs() <= 0.05 * m,
-            "{config}: {n} probes from glTF, {m} from OBJ"
+            "{config}: coverage placed {n} probes from glTF, {m} from OBJ"
         );
         let (c, d) = (
             r["coverage"].as_f64().unwrap(),

@@ -37,11 +37,14 @@
 //! blocks ([`crate::stats::paired_ratio_over_views`]), and is a win only
 //! when the interval excludes 1.
 
+mod diffuse;
+mod placing;
+
 use super::bake;
 use super::outcome::Outcome;
+use placing::{candidate_of, reuse, Candidate, Over};
 use super::run::{Job, RunOptions};
 use crate::config::{CameraParams, Config, GridParams, Materials, Placement};
-use crate::coverage::CoverageReference;
 use crate::encode::png::encode_png;
 use crate::error::{Error, Result};
 use crate::gpu::{Context, SelectionKind};
@@ -52,7 +55,6 @@ use crate::placement::grid::nearest_grid;
 use crate::placement::method::Role;
 use crate::placement::registry::METHODS;
 use crate::placement::{self, ProbeSet};
-use crate::progress::Progress;
 use crate::report;
 use crate::report::compare::{
     comparisons, performance_metric, to_csv, CameraRecord, CameraRow, CompareReport, Family,
@@ -60,11 +62,10 @@ use crate::report::compare::{
 };
 use crate::stages::bake::Work;
 use crate::stages::validate::{self, Blocks, Tracer, ValidationView};
-use crate::stages::{self, Placed, Prepared};
+use crate::stages::{self, Prepared};
 use crate::svo::Svo;
 use crate::trace::{single::March, Lattice};
 use glam::Vec3;
-use std::collections::BTreeMap;
 
 /// Pixel size of each of the two placement views in the report.
 const VIEW_SIZE: u32 = 320;
@@ -99,6 +100,7 @@ fn ours() -> impl Iterator<Item = &'static str> {
 /// files, timings (and `gpu_ms` on a GPU) aside.
 pub fn compare(options: &RunOptions) -> Result<Outcome> {
     let mut job = Job::new(options)?;
+    let benchmarks = options.benchmarks;
     let cameras: Vec<CameraParams> = job
         .config
         .reference
@@ -109,8 +111,10 @@ pub fn compare(options: &RunOptions) -> Result<Outcome> {
         .collect();
     // Grids given by name are checked before any work; a sweep once our
     // count is known.
-    let named = options.grids.as_ref().unwrap_or(&job.config.compare.grids);
-    check_grids(&job.config, named).map_err(|e| job.config_error(e))?;
+    let named: Vec<GridParams> = options.grids.clone().unwrap_or_else(|| job.config.compare.grids.clone());
+    if benchmarks.glossy() {
+        check_grids(&job.config, &named).map_err(|e| job.config_error(e))?;
+    }
     let chosen = job.config.compare.views.0 as usize;
     if cameras.is_empty() && chosen == 0 {
         return Err(job.config_error(Error::User(
@@ -119,24 +123,30 @@ pub fn compare(options: &RunOptions) -> Result<Outcome> {
     }
     // One reference alone is bounded as `bake`'s is; the views' together
     // may take the comparison's budget.
-    validate::check_reference(&job.config, 1, 1.0).map_err(|e| job.config_error(e))?;
-    validate::check_reference(&job.config, cameras.len() + chosen, COMPARE_WORK_FACTOR)
-        .map_err(|e| job.config_error(e))?;
+    if benchmarks.glossy() {
+        validate::check_reference(&job.config, 1, 1.0).map_err(|e| job.config_error(e))?;
+        validate::check_reference(&job.config, cameras.len() + chosen, COMPARE_WORK_FACTOR)
+            .map_err(|e| job.config_error(e))?;
+    }
     // The receivers' references, and the SH of a thousand probes (more
     // than the placements of a comparison usually hold together).
-    stages::diffuse::check(&job.config, 1000, COMPARE_WORK_FACTOR)
-        .map_err(|e| job.config_error(e))?;
+    if benchmarks.diffuse() {
+        stages::diffuse::check(&job.config, 1000, COMPARE_WORK_FACTOR)
+            .map_err(|e| job.config_error(e))?;
+    }
     let mut prepared = job.prepare()?;
     // Again with the lights the scene file brought, which cast shadow rays
     // as the config's do.
     if !prepared.scene.lights.is_empty() {
         let lit = stages::bake::lit_by_scene(&job.config, &prepared.scene);
-        validate::check_reference(&lit, cameras.len() + chosen, COMPARE_WORK_FACTOR)
-            .map_err(|e| job.config_error(e))?;
-        stages::diffuse::check(&lit, 1000, COMPARE_WORK_FACTOR).map_err(|e| job.config_error(e))?;
-    }
-    if let Materials::AllGlossy(alpha) = job.config.compare.materials {
-        crate::render::material::all_glossy(&mut prepared.scene.materials, alpha.0);
+        if benchmarks.glossy() {
+            validate::check_reference(&lit, cameras.len() + chosen, COMPARE_WORK_FACTOR)
+                .map_err(|e| job.config_error(e))?;
+        }
+        if benchmarks.diffuse() {
+            stages::diffuse::check(&lit, 1000, COMPARE_WORK_FACTOR)
+                .map_err(|e| job.config_error(e))?;
+        }
     }
     let mut warnings = prepared.scene.warnings.clone();
     let coverage = prepared.coverage_reference(
@@ -172,15 +182,87 @@ pub fn compare(options: &RunOptions) -> Result<Outcome> {
             "compare.views: no view qualifies (no free space over a floor sees coverable surface); give `reference.camera` or `compare.cameras`".into(),
         )));
     }
+    // Ours on the scene's own materials: what the diffuse benchmark
+    // measures, and the glossy one too when its materials are the scene's.
+    let scene_config = job.config.clone();
+    let own = Over {
+        config: &scene_config,
+        prepared: &prepared,
+        coverage: &coverage,
+        progress: job.progress,
+    };
+    let own_materials = job.config.compare.materials == Materials::Scene;
+    let mut ours = if benchmarks.diffuse() || own_materials {
+        Some(place_ours(&mut job, &own, Materials::Scene)?)
+    } else {
+        None
+    };
+    // The diffuse benchmark: the space the config's cameras reach (chosen
+    // views are not seeds: they are drawn from the free voxels, which keep
+    // to that space when the config restricts placement to it), the
+    // receivers the views see, and every placement's SH blended there.
+    let diffuse = match (benchmarks.diffuse(), &ours) {
+        (true, Some((placed, _))) => {
+            let given: Vec<CameraParams> = cameras.iter().filter(|c| !c.1).map(|c| c.0).collect();
+            let bench = job.watch.time("diffuse reference", || {
+                let hits: Vec<crate::render::probes::GBuffer> = cameras
+                    .iter()
+                    .enumerate()
+                    .map(|(i, c)| stages::diffuse::view_hits(&job.config, own.prepared, &c.0, i))
+                    .collect();
+                let hits: Vec<&crate::render::probes::GBuffer> = hits.iter().collect();
+                stages::diffuse::bench(&job.config, own.prepared, &hits, &given)
+            });
+            match bench {
+                Some(bench) => {
+                    let lit = job.watch.time("diffuse figures", || {
+                        stages::diffuse::lit_view(
+                            &job.config,
+                            own.prepared,
+                            &cameras[0].0,
+                            0,
+                            LIT_VIEW_RAYS,
+                        )
+                    });
+                    let sets: Vec<(&'static str, &ProbeSet)> =
+                        placed.iter().map(|(m, c, _)| (*m, &c.probes)).collect();
+                    let named = (options.grids.is_some() || !job.config.compare.grids.is_empty())
+                        .then_some(named.as_slice());
+                    Some(diffuse::run(&mut job, &own, &bench, &sets, named, Some(&lit))?)
+                }
+                None => None,
+            }
+        }
+        _ => None,
+    };
+    if let Some(d) = &diffuse {
+        warnings.extend(d.warnings.iter().cloned());
+    }
+    if !benchmarks.glossy() {
+        let context = None;
+        return write(job, Glossy::none(&prepared, warnings), diffuse, &[], &cameras, context);
+    }
+    // The glossy benchmark, on `compare.materials`: ours placed again when
+    // they are not the scene's (the diffuse step follows the materials).
+    if let Materials::AllGlossy(alpha) = job.config.compare.materials {
+        crate::render::material::all_glossy(&mut prepared.scene.materials, alpha.0);
+        ours = None;
+    }
+    let glossy_config = job.config.clone();
+    let over = Over {
+        config: &glossy_config,
+        prepared: &prepared,
+        coverage: &coverage,
+        progress: job.progress,
+    };
+    let (ours, ours_count) = match ours {
+        Some(o) => o,
+        None => {
+            let materials = job.config.compare.materials;
+            place_ours(&mut job, &over, materials)?
+        }
+    };
     let views = views(&mut job, &prepared, &cameras)?;
-    // The diffuse evaluation's receivers, their reference, and the space
-    // the config's cameras reach (chosen views are not seeds: they are
-    // drawn from the free voxels, which keep to that space when the config
-    // restricts placement to it).
-    let given: Vec<CameraParams> = cameras.iter().filter(|c| !c.1).map(|c| c.0).collect();
-    let diffuse = job.watch.time("diffuse reference", || {
-        stages::diffuse::bench(&job.config, &prepared, &views, &given)
-    });
     let context = if job.cpu {
         None
     } else {
@@ -192,12 +274,9 @@ pub fn compare(options: &RunOptions) -> Result<Outcome> {
         config: job.config.clone(),
         config_path: job.config_path.clone(),
         config_text: job.provenance.config_text.clone(),
-        prepared: &prepared,
-        coverage: &coverage,
+        over: &over,
         views: &views,
-        diffuse: diffuse.as_ref(),
         context: context.as_ref(),
-        progress: job.progress,
         gpu_used: true,
         warnings,
         rows: Vec::new(),
@@ -205,10 +284,8 @@ pub fn compare(options: &RunOptions) -> Result<Outcome> {
         sets: Vec::new(),
         measured: Vec::new(),
     };
-    // Ours placed first: the rivals are sized to their count, and every
-    // bake of the comparison is planned (and fitted to the work limit)
-    // before the first one runs.
-    let (ours, ours_count) = bench.place_ours(&mut job)?;
+    // Every bake of the comparison is planned (and fitted to the work
+    // limit) before the first one runs; the rivals are sized to ours.
     let (grids, sweep) = bench.grid_choice(options.grids.as_ref(), ours_count);
     let ours_counts: Vec<usize> = ours.iter().map(|(_, c, _)| c.probes.probes.len()).collect();
     let plan = plan(
@@ -225,10 +302,6 @@ pub fn compare(options: &RunOptions) -> Result<Outcome> {
         |n| stages::place::check_probes(&job.config, &prepared, n),
     )
     .map_err(|e| job.config_error(e))?;
-    // The diffuse evaluation's probe projections, for the probes planned
-    // (checked for a thousand before any work).
-    stages::diffuse::check(&job.config, plan.probes, COMPARE_WORK_FACTOR)
-        .map_err(|e| job.config_error(e))?;
     bench.warnings.extend(plan.warnings(&bench.config));
     if let Some(lowered) = plan.lowered {
         bench.config.bake = lowered.bake;
@@ -238,46 +311,91 @@ pub fn compare(options: &RunOptions) -> Result<Outcome> {
     let grid_rows = bench.grids(&mut job, &plan.grids, ours_count)?;
     bench.ours_at_grid_count(&mut job, &grid_rows, ours_count)?;
     bench.competitors(&mut job, &grid_rows, ours_count)?;
-    write(job, bench, &views, &cameras, context.as_ref())
+    let glossy = Glossy {
+        gpu_used: bench.gpu_used,
+        rows: bench.rows,
+        figures: bench.figures,
+        sets: bench.sets,
+        warnings: bench.warnings,
+        prepared: &prepared,
+    };
+    write(job, glossy, diffuse, &views, &cameras, context.as_ref())
 }
 
-/// Assembles `compare.json`, `compare.csv` and `report.html` and commits them.
+/// Paths per pixel of the diffuse figures' reference view.
+const LIT_VIEW_RAYS: u32 = 96;
+
+/// Ours, placed and refined whatever the config says (§3.3) over `over`,
+/// or reused from `--from` (when its `materials` are the scene's), not yet
+/// measured, with the time each took, the config's method first (the one
+/// the comparison headlines); and the probe count the others are matched
+/// to (that method's).
+fn place_ours(job: &mut Job, over: &Over, materials: Materials) -> Result<(Vec<Unmeasured>, usize)> {
+    let first = ours_default(&over.config.placement);
+    let mut out = Vec::new();
+    for method in std::iter::once(first).chain(ours().filter(|m| *m != first)) {
+        let t = std::time::Instant::now();
+        let found = if materials == Materials::Scene {
+            reuse(job, method, over.prepared, job.config.compare.materials)?
+        } else {
+            None
+        };
+        let candidate = match found {
+            Some(c) => c,
+            None => over.refined(job, method, None)?,
+        };
+        out.push((method, candidate, t.elapsed().as_secs_f64() * 1e3));
+    }
+    let count = out[0].1.probes.probes.len();
+    Ok((out, count))
+}
+
+/// What the glossy benchmark measured (nothing with `--only diffuse`).
+struct Glossy<'a> {
+    gpu_used: bool,
+    rows: Vec<PlacementRow>,
+    figures: Vec<PlacementFigures>,
+    sets: Vec<view3d::ProbeSet>,
+    warnings: Vec<String>,
+    prepared: &'a Prepared,
+}
+
+impl<'a> Glossy<'a> {
+    /// No glossy benchmark: the warnings so far alone.
+    fn none(prepared: &'a Prepared, warnings: Vec<String>) -> Glossy<'a> {
+        Glossy {
+            gpu_used: false,
+            rows: Vec::new(),
+            figures: Vec::new(),
+            sets: Vec::new(),
+            warnings,
+            prepared,
+        }
+    }
+}
+
+/// Assembles `compare.json`, `compare.csv`, `diffuse.csv` and
+/// `report.html` and commits them.
 fn write(
     mut job: Job,
-    bench: Bench,
+    glossy: Glossy,
+    diffuse: Option<diffuse::Measured>,
     views: &[ValidationView],
     cameras: &[(CameraParams, bool)],
     context: Option<&Context>,
 ) -> Result<Outcome> {
-    let adapter = match (context, bench.gpu_used) {
+    let adapter = match (context, glossy.gpu_used) {
         (Some(ctx), true) => ctx.adapter.clone(),
         _ => "cpu twin".to_string(),
     };
     let config = &job.config;
-    let rows = bench.rows;
+    let rows = glossy.rows;
     let metric = performance_metric(&adapter, &rows);
-    let diffuse = bench.diffuse.map(|d| {
-        let r = &d.receivers;
-        let mean = |v: &[crate::diffuse::Irradiance]| {
-            let n = v.len().max(1) as f64;
-            let lum = |x: glam::Vec3| crate::render::lights::luminance(x) as f64;
-            [
-                v.iter().map(|e| lum(e.total)).sum::<f64>() / n,
-                v.iter().map(|e| lum(e.indirect)).sum::<f64>() / n,
-            ]
-        };
-        crate::report::compare::DiffuseSetup {
-            surface_receivers: r.surface.len(),
-            free_receivers: r.free.len(),
-            reference_rays: config.compare.diffuse.reference_rays.0,
-            probe_rays: config.compare.diffuse.probe_rays.0,
-            bounces: config.bake.bounces.0,
-            unreachable_fraction: d.reachable.excluded_fraction(),
-            surface_reference_mean: mean(&r.surface_reference),
-            free_reference_mean: mean(&r.free_reference),
-        }
-    });
     let comparisons = comparisons(&rows, metric, config.seed);
+    let (section, lit) = match diffuse {
+        Some(d) => (Some(d.section), d.figures),
+        None => (None, None),
+    };
     let report = CompareReport {
         format: "probeplace.compare",
         version: 1,
@@ -295,21 +413,21 @@ fn write(
             Materials::Scene => "scene".into(),
             Materials::AllGlossy(a) => format!("all-glossy:{}", a.0),
         },
-        cameras: views
+        cameras: cameras
             .iter()
-            .zip(cameras)
-            .map(|(v, (_, chosen))| CameraRecord {
-                position: v.camera.position.0,
-                look_at: v.camera.look_at.0,
-                fov_degrees: v.camera.fov_degrees,
+            .enumerate()
+            .map(|(i, (camera, chosen))| CameraRecord {
+                position: camera.position.0,
+                look_at: camera.look_at.0,
+                fov_degrees: camera.fov_degrees,
                 chosen: *chosen,
-                reference_glossy_mean: v.reference.glossy_mean(),
+                reference_glossy_mean: views.get(i).map(|v| v.reference.glossy_mean()),
             })
             .collect(),
         placements: rows,
         comparisons,
-        diffuse,
-        warnings: bench.warnings,
+        diffuse: section,
+        warnings: glossy.warnings,
         timings_ms: job.watch.to_map(),
     };
     let figures = Figures {
@@ -318,10 +436,15 @@ fn write(
             .take(FIGURE_VIEWS)
             .map(|v| png(&v.reference.full, v, "reference"))
             .collect::<Result<_>>()?,
-        placements: bench.figures,
-        view: view3d::View3d::new(&bench.prepared.scene, &bench.prepared.domain, bench.sets),
+        placements: glossy.figures,
+        view: view3d::View3d::new(&glossy.prepared.scene, &glossy.prepared.domain, glossy.sets),
+        lit,
     };
     job.set.add("compare.csv", to_csv(&report).into_bytes());
+    if let Some(d) = &report.diffuse {
+        job.set
+            .add("diffuse.csv", crate::report::diffuse::to_csv(d).into_bytes());
+    }
     job.set
         .add("report.html", html::page(&report, &figures).into_bytes());
     let value = serde_json::to_value(&report).map_err(|e| Error::Internal(e.to_string()))?;
@@ -422,15 +545,6 @@ fn views(
     Ok(views)
 }
 
-/// A placement to measure: its probes and what an earlier run already
-/// built for them.
-struct Candidate {
-    probes: ProbeSet,
-    stats: BTreeMap<String, f64>,
-    svo: Svo,
-    field: Option<LightField>,
-}
-
 /// One of ours placed, not yet measured: its method, its probes, and the
 /// milliseconds its placement took.
 type Unmeasured = (&'static str, Candidate, f64);
@@ -479,8 +593,6 @@ struct Plan {
     left_out: Vec<GridParams>,
     /// The bake settings, when lowered.
     lowered: Option<Lowered>,
-    /// The probes of all placements together.
-    probes: usize,
 }
 
 impl Plan {
@@ -554,7 +666,6 @@ fn plan(
     // In the sweep's order, by probe count.
     grids.sort_by_key(|g| planned.grids.iter().position(|o| o == g));
     Ok(Plan {
-        probes: planned.counts(&grids).iter().sum(),
         grids,
         left_out,
         lowered,
@@ -675,12 +786,10 @@ struct Bench<'a> {
     /// The config file and its text, which errors about its fields name.
     config_path: std::path::PathBuf,
     config_text: String,
-    prepared: &'a Prepared,
-    coverage: &'a CoverageReference,
+    /// What ours and the rivals are placed over.
+    over: &'a Over<'a>,
     views: &'a [ValidationView],
-    diffuse: Option<&'a stages::diffuse::Bench>,
     context: Option<&'a Context>,
-    progress: Progress,
     /// Whether every placement so far was traced on the GPU.
     gpu_used: bool,
     warnings: Vec<String>,
@@ -699,7 +808,6 @@ struct Bench<'a> {
 struct Measurement {
     /// The light field's bytes.
     probe_bytes: u64,
-    diffuse: Option<stages::diffuse::DiffuseMeasure>,
     /// The renders on each tracer, Wang's first.
     traced: Traced,
     /// Why the CPU twin traced, when the GPU was refused.
@@ -726,7 +834,6 @@ impl Measured {
             svo,
             measurement: Measurement {
                 traced: measurement.traced[..1].to_vec(),
-                diffuse: measurement.diffuse.clone(),
                 why_cpu: measurement.why_cpu.clone(),
                 ..*measurement
             },
@@ -760,28 +867,7 @@ impl Measured {
 }
 
 impl Bench<'_> {
-    /// Ours, placed and refined whatever the config says (§3.3), or
-    /// reused from `--from`, not yet measured, with the time each took;
-    /// and the probe count the others are matched to (the config's
-    /// method's).
-    fn place_ours(&mut self, job: &mut Job) -> Result<(Vec<Unmeasured>, usize)> {
-        let mut ours_count = 0;
-        let mut out = Vec::new();
-        for method in ours() {
-            let t = std::time::Instant::now();
-            let candidate = match reuse(job, method, self.prepared)? {
-                Some(found) => found,
-                None => self.place_refined(job, method, None)?,
-            };
-            if ours_count == 0 || method == self.config.placement.name() {
-                ours_count = candidate.probes.probes.len();
-            }
-            out.push((method, candidate, t.elapsed().as_secs_f64() * 1e3));
-        }
-        Ok((out, ours_count))
-    }
-
-    /// Measures ours ([`Bench::place_ours`]); a light field reused from
+    /// Measures ours ([`place_ours`]); a light field reused from
     /// `--from` is baked again when the comparison's bake samples were
     /// lowered, so that every placement is baked alike.
     fn measure_ours(&mut self, job: &mut Job, ours: Vec<Unmeasured>) -> Result<()> {
@@ -820,7 +906,8 @@ impl Bench<'_> {
         // An extra row: a stage that cannot take it (refinement's work at
         // that count) is a finding, not a reason to lose the comparison.
         match self
-            .place_refined(job, method, Some(n))
+            .over
+            .refined(job, method, Some(n))
             .and_then(|c| self.measure(&name, Family::Ours, c, false))
         {
             Err(Error::User(e)) => self.warnings.push(format!("compare: {name}: {e}")),
@@ -833,16 +920,16 @@ impl Bench<'_> {
     /// The probe set of `--probes FILE.json`, scored as given (coverage,
     /// SVO, bake, render), beside ours.
     fn given(&mut self, job: &mut Job) -> Result<()> {
-        let Some(probes) = job.given_probes(&self.prepared.scene)? else {
+        let Some(probes) = job.given_probes(&self.over.prepared.scene)? else {
             return Ok(());
         };
         let t = std::time::Instant::now();
         let placed = stages::place(
             &self.config,
-            self.prepared,
-            self.coverage,
+            self.over.prepared,
+            self.over.coverage,
             Some(probes),
-            &self.progress,
+            &self.over.progress,
         )
         .map_err(|e| job.config_error(e))?;
         self.measure("file", Family::Given, candidate_of(placed), true)?;
@@ -863,7 +950,7 @@ impl Bench<'_> {
             (Some(g), _) => (g.clone(), false),
             (None, false) => (self.config.compare.grids.clone(), false),
             (None, true) => (
-                placement::grid::grid_sweep(&self.prepared.domain, ours_count),
+                placement::grid::grid_sweep(&self.over.prepared.domain, ours_count),
                 true,
             ),
         }
@@ -883,7 +970,7 @@ impl Bench<'_> {
             let t = std::time::Instant::now();
             let method = Placement::Grid(*g);
             let name = method.name();
-            let placed = self.place_plain(method)?;
+            let placed = self.over.plain(method)?;
             out.push((placed.probes.probes.len(), *g));
             let mut candidate = candidate_of(placed);
             candidate.stats.clear();
@@ -904,8 +991,9 @@ impl Bench<'_> {
         ours_count: usize,
     ) -> Result<()> {
         let input = self
+            .over
             .prepared
-            .placement_input(self.config.seed, &self.progress);
+            .placement_input(self.config.seed, &self.over.progress);
         let competitors: Vec<(Placement, Family)> = METHODS
             .iter()
             .filter(|m| m.role == Role::Competitor)
@@ -920,7 +1008,8 @@ impl Bench<'_> {
             // Every probe switched off, no candidate voxel, or more probes
             // than planned for at our count: a finding, not a failure.
             match self
-                .place_plain(method)
+                .over
+                .plain(method)
                 .and_then(|placed| self.measure(&name, family, candidate_of(placed), true))
             {
                 Err(Error::User(e)) => self.warnings.push(format!("compare: {name}: {e}")),
@@ -929,39 +1018,6 @@ impl Bench<'_> {
             job.watch.record(&name, t.elapsed().as_secs_f64() * 1e3);
         }
         Ok(())
-    }
-
-    /// Our `method` placed and refined whatever the config says (§3.3),
-    /// with `exactly` that many probes when given (`min_probes` and
-    /// `max_probes` both), and refinement's final coverage among its stats.
-    fn place_refined(&self, job: &Job, method: &str, exactly: Option<usize>) -> Result<Candidate> {
-        let mut c = self.config.clone();
-        c.placement = Placement::parse_cli(method, &self.config.placement)?;
-        c.refine.enabled = true;
-        if let Some(n) = exactly {
-            c.min_probes = Some(crate::config::Count(n as u32));
-            c.max_probes = c.min_probes;
-        }
-        let placed = stages::place(&c, self.prepared, self.coverage, None, &self.progress)
-            .map_err(|e| job.config_error_of(e, &c.placement))?;
-        let mut stats = stats_of(&placed.probes);
-        if let Some((r, _)) = &placed.refined {
-            stats.insert("refine_coverage_final".into(), r.coverage_final);
-        }
-        Ok(Candidate {
-            probes: placed.probes,
-            stats,
-            svo: placed.svo.0,
-            field: None,
-        })
-    }
-
-    /// `method` placed without refinement.
-    fn place_plain(&self, method: Placement) -> Result<Placed> {
-        let mut c = self.config.clone();
-        c.placement = method;
-        c.refine.enabled = false;
-        stages::place(&c, self.prepared, self.coverage, None, &self.progress)
     }
 
     /// Coverage, SVO, bake and the render from every view of a placement:
@@ -984,12 +1040,13 @@ impl Bench<'_> {
             bvh,
             sdf,
             ..
-        } = self.prepared;
+        } = self.over.prepared;
         let probes = &candidate.probes;
         let positions = probes.positions();
         let (cov, holes) = self
+            .over
             .coverage
-            .evaluate_with_holes(bvh, &positions, &self.progress);
+            .evaluate_with_holes(bvh, &positions, &self.over.progress);
         let free = crate::coverage::probes_free(bvh, sdf.voxel_size, &positions);
         let health = crate::coverage::probe_health_of(&free, sdf, domain, &positions);
         let views_png = encode_png(
@@ -1014,7 +1071,6 @@ impl Bench<'_> {
             .find(|m| m.serves(family, &positions, &octree, figures));
         let Measurement {
             probe_bytes,
-            diffuse,
             traced,
             why_cpu,
         } = match earlier {
@@ -1025,7 +1081,6 @@ impl Bench<'_> {
                     family,
                     &candidate.field,
                     &positions,
-                    &free,
                     &svo,
                     figures,
                 )?;
@@ -1038,7 +1093,7 @@ impl Bench<'_> {
                 .push(format!("compare: {name}: {e}; traced on the CPU twin"));
         }
         let svo_bytes = svo.bytes();
-        for (tracer_name, kind, rendered) in traced {
+        for (tracer_name, _kind, rendered) in traced {
             let cameras: Vec<CameraRow> = rendered.iter().map(|r| r.metrics.clone()).collect();
             self.rows.push(PlacementRow {
                 name: name.to_string(),
@@ -1057,13 +1112,6 @@ impl Bench<'_> {
                 cameras,
                 stats: stats.clone(),
                 blocks: rendered.iter().map(|r| r.blocks.clone()).collect(),
-                diffuse: diffuse.as_ref().map(|d| {
-                    let gather = match (kind, &d.gather_grid) {
-                        (SelectionKind::Grid, Some(g)) => g,
-                        _ => &d.gather_svo,
-                    };
-                    crate::report::compare::DiffuseRow::new(d, gather)
-                }),
             });
             let (mut renders, mut errors, mut flips) = (Vec::new(), Vec::new(), Vec::new());
             for r in rendered.into_iter().filter_map(|r| r.figures) {
@@ -1090,17 +1138,15 @@ impl Bench<'_> {
     }
 
     /// [`Bench::measure`]'s work that depends on the probes and octree
-    /// alone: the bake (unless `field` was reused), the diffuse
-    /// evaluation, and the renders from every view on each tracer the
-    /// `family` is measured on, Wang's first.
-    #[allow(clippy::too_many_arguments)]
+    /// alone: the bake (unless `field` was reused) and the renders from
+    /// every view on each tracer the `family` is measured on, Wang's
+    /// first.
     fn bake_and_render(
         &mut self,
         name: &str,
         family: Family,
         field: &Option<LightField>,
         positions: &[Vec3],
-        free: &[bool],
         svo: &Svo,
         figures: bool,
     ) -> Result<Measurement> {
@@ -1110,7 +1156,7 @@ impl Bench<'_> {
             None => {
                 stages::bake::check_with(&self.config, positions.len(), Work::Maps)
                     .map_err(|e| e.in_config(&self.config_path, &self.config_text))?;
-                baked = stages::bake(&self.config, self.prepared, positions, &self.progress).field;
+                baked = stages::bake(&self.config, self.over.prepared, positions, &self.over.progress).field;
                 &baked
             }
         };
@@ -1125,18 +1171,6 @@ impl Bench<'_> {
         if lattice.is_some() {
             tracers.push((TRACER_BILEVEL, SelectionKind::Grid, March::BiLevel));
         }
-        let diffuse = self.diffuse.map(|bench| {
-            stages::diffuse::measure(
-                &self.config,
-                self.prepared,
-                bench,
-                positions,
-                free,
-                field,
-                svo,
-                lattice.as_ref(),
-            )
-        });
         let (tracer, why) = Tracer::new(self.context, field, Some(svo), lattice.as_ref());
         if !tracer.on_gpu() {
             self.gpu_used = false;
@@ -1153,7 +1187,6 @@ impl Bench<'_> {
             .collect::<Result<Traced>>()?;
         Ok(Measurement {
             probe_bytes: field.bytes() as u64,
-            diffuse,
             traced,
             why_cpu: why,
         })
@@ -1228,65 +1261,6 @@ fn ours_default(config: &Placement) -> &'static str {
         .expect("the registry lists a method of ours")
 }
 
-/// A fresh placement as a candidate.
-fn candidate_of(placed: Placed) -> Candidate {
-    Candidate {
-        stats: stats_of(&placed.probes),
-        probes: placed.probes,
-        svo: placed.svo.0,
-        field: None,
-    }
-}
-
-/// Our `method`'s probes, SVO and light field from `--from DIR`, when that
-/// run placed them refined with this method; its files are carried.
-fn reuse(job: &mut Job, method: &str, prepared: &Prepared) -> Result<Option<Candidate>> {
-    let Some(e) = &job.earlier else {
-        return Ok(None);
-    };
-    let Some(report) = e.report.clone() else {
-        return Ok(None);
-    };
-    // Ours are refined: the earlier run's method is ours with `+refine`.
-    let refined = format!("{method}+refine");
-    if report["method"].as_str() != Some(refined.as_str()) || report["refine"].is_null() {
-        return Ok(None);
-    }
-    let Some(placement) = super::place::load(job, prepared)? else {
-        return Ok(None);
-    };
-    let bake = bake::load(job, prepared, &placement)?;
-    job.carry(&["report.json"]);
-    let mut stats = BTreeMap::new();
-    for key in ["placement_stats", "placement_params"] {
-        if let Some(m) = report[key].as_object() {
-            stats.extend(m.iter().filter_map(|(k, v)| Some((k.clone(), v.as_f64()?))));
-        }
-    }
-    if let Some(f) = report["refine"]["coverage_final"].as_f64() {
-        stats.insert("refine_coverage_final".into(), f);
-    }
-    Ok(Some(Candidate {
-        probes: placement.probes,
-        stats,
-        svo: placement.svo,
-        // A bake of the scene's own materials does not serve all-glossy ones.
-        field: bake
-            .filter(|_| job.config.compare.materials == Materials::Scene)
-            .map(|b| b.field),
-    }))
-}
-
-/// `ProbeSet::stats` and `params` as report numbers.
-fn stats_of(probes: &ProbeSet) -> BTreeMap<String, f64> {
-    probes
-        .stats
-        .iter()
-        .map(|(k, v)| (k.to_string(), *v as f64))
-        .chain(probes.params.iter().map(|(k, v)| (k.to_string(), *v)))
-        .collect()
-}
-
 /// `pixels` tone mapped at the view's exposure, as PNG.
 fn png(pixels: &[[f32; 3]], view: &ValidationView, what: &str) -> Result<Vec<u8>> {
     let (w, h) = (view.reference.width, view.reference.height);
@@ -1326,7 +1300,6 @@ mod tests {
             svo: vec![1, 2, 3],
             measurement: Measurement {
                 probe_bytes: 9,
-                diffuse: None,
                 traced: vec![(TRACER_HIZ, SelectionKind::Svo, vec![rendered(figures)])],
                 why_cpu: Some("too many probes".into()),
             },
