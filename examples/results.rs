@@ -46,7 +46,7 @@ done
 cargo run --release --example generality -- out/generality
 cargo run --release --example gen_scenes -- out/lit --lit --seeds 71
 for c in out/lit/*-71.ron; do
-    ./target/release/probeplace compare \"$c\" --cpu --out \"out/lit/$(basename \"$c\" .ron)\" --quiet
+    ./target/release/probeplace compare \"$c\" --only diffuse --out \"out/lit/$(basename \"$c\" .ron)\" --quiet
 done
 cargo run --release --example results -- out/results out/compare out/generality --lit out/lit
 ";

@@ -408,8 +408,8 @@ impl Default for DiffuseSearch {
             surface_points: Whole(2048),
             free_points: Whole(1024),
             rays: Count(128),
-            gain: NonNegative(0.1),
-            growth: NonNegative(2.0),
+            gain: NonNegative(0.02),
+            growth: NonNegative(1.0),
         }
     }
 }

@@ -435,10 +435,21 @@ fn summary(r: &Value) -> Vec<String> {
     let train = r["coverage_train"]
         .as_f64()
         .map_or(String::new(), |t| format!(" (training {:.2}%)", 100.0 * t));
-    // Probes the diffuse step added, beside the count.
-    let diffuse = r["diffuse"]["probes_added"]
-        .as_u64()
-        .map_or(String::new(), |n| format!(" ({n} for diffuse light)"));
+    // What the diffuse step did, beside the count: coverage's probes in,
+    // and the held-out error of the blended diffuse light it lowered.
+    let d = &r["diffuse"];
+    let diffuse = match (
+        d["probes_before"].as_u64(),
+        d["validation_before"].as_f64(),
+        d["validation_after"].as_f64(),
+    ) {
+        (Some(n), Some(a), Some(b)) => format!(
+            " ({n} for coverage; diffuse error {:.0}% → {:.0}% held out)",
+            100.0 * a,
+            100.0 * b
+        ),
+        _ => String::new(),
+    };
     let mut line = format!(
         "{}: {} probes{diffuse}, coverage {:.2}% ± {:.2}% on unseen samples{train}, {} in solid, {} near surfaces; voxel {:.4} ({})",
         r["method"].as_str().unwrap_or("?"),

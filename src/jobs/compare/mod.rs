@@ -191,18 +191,16 @@ pub fn compare(options: &RunOptions) -> Result<Outcome> {
         coverage: &coverage,
         progress: job.progress,
     };
-    let own_materials = job.config.compare.materials == Materials::Scene;
-    let mut ours = if benchmarks.diffuse() || own_materials {
-        Some(place_ours(&mut job, &own, Materials::Scene)?)
-    } else {
-        None
-    };
+    // Ours are placed once, on the scene's own materials (the diffuse step
+    // follows the scene's light, as a user's run does), and measured by
+    // both benchmarks.
+    let ours = place_ours(&mut job, &own)?;
     // The diffuse benchmark: the space the config's cameras reach (chosen
     // views are not seeds: they are drawn from the free voxels, which keep
     // to that space when the config restricts placement to it), the
     // receivers the views see, and every placement's SH blended there.
     let diffuse = match (benchmarks.diffuse(), &ours) {
-        (true, Some((placed, _))) => {
+        (true, (placed, _)) => {
             let given: Vec<CameraParams> = cameras.iter().filter(|c| !c.1).map(|c| c.0).collect();
             let bench = job.watch.time("diffuse reference", || {
                 let hits: Vec<crate::render::probes::GBuffer> = cameras
@@ -242,11 +240,32 @@ pub fn compare(options: &RunOptions) -> Result<Outcome> {
         let context = None;
         return write(job, Glossy::none(&prepared, warnings), diffuse, &[], &cameras, context);
     }
-    // The glossy benchmark, on `compare.materials`: ours placed again when
-    // they are not the scene's (the diffuse step follows the materials).
+    // The glossy benchmark, on `compare.materials`. Its grids, and ours
+    // again at the count of the one nearest ours, placed first, on the
+    // scene's own materials as ours are.
+    let (ours, ours_count) = ours;
+    let (grids, sweep) = grid_choice(&job.config, &prepared.domain, options.grids.as_ref(), ours_count);
+    let ours_at = match nearest_by_cells(&grids, ours_count).map(|g| g.probes()) {
+        Some(n) if n != ours_count => {
+            let method = ours_default(&job.config.placement);
+            let t = std::time::Instant::now();
+            // An extra row: a stage that cannot take it (refinement's
+            // work at that count) is a finding, not a reason to lose
+            // the comparison.
+            let placed = match own.refined(&job, method, Some(n)) {
+                Err(Error::User(e)) => {
+                    warnings.push(format!("compare: {method}@{n}: {e}"));
+                    None
+                }
+                Err(e) => return Err(e),
+                Ok(c) => Some((format!("{method}@{n}"), c, t.elapsed().as_secs_f64() * 1e3)),
+            };
+            placed
+        }
+        _ => None,
+    };
     if let Materials::AllGlossy(alpha) = job.config.compare.materials {
         crate::render::material::all_glossy(&mut prepared.scene.materials, alpha.0);
-        ours = None;
     }
     let glossy_config = job.config.clone();
     let over = Over {
@@ -254,13 +273,6 @@ pub fn compare(options: &RunOptions) -> Result<Outcome> {
         prepared: &prepared,
         coverage: &coverage,
         progress: job.progress,
-    };
-    let (ours, ours_count) = match ours {
-        Some(o) => o,
-        None => {
-            let materials = job.config.compare.materials;
-            place_ours(&mut job, &over, materials)?
-        }
     };
     let views = views(&mut job, &prepared, &cameras)?;
     let context = if job.cpu {
@@ -286,7 +298,6 @@ pub fn compare(options: &RunOptions) -> Result<Outcome> {
     };
     // Every bake of the comparison is planned (and fitted to the work
     // limit) before the first one runs; the rivals are sized to ours.
-    let (grids, sweep) = bench.grid_choice(options.grids.as_ref(), ours_count);
     let ours_counts: Vec<usize> = ours.iter().map(|(_, c, _)| c.probes.probes.len()).collect();
     let plan = plan(
         &bench.config,
@@ -309,7 +320,7 @@ pub fn compare(options: &RunOptions) -> Result<Outcome> {
     bench.measure_ours(&mut job, ours)?;
     bench.given(&mut job)?;
     let grid_rows = bench.grids(&mut job, &plan.grids, ours_count)?;
-    bench.ours_at_grid_count(&mut job, &grid_rows, ours_count)?;
+    bench.ours_at_grid_count(&mut job, ours_at)?;
     bench.competitors(&mut job, &grid_rows, ours_count)?;
     let glossy = Glossy {
         gpu_used: bench.gpu_used,
@@ -325,21 +336,17 @@ pub fn compare(options: &RunOptions) -> Result<Outcome> {
 /// Paths per pixel of the diffuse figures' reference view.
 const LIT_VIEW_RAYS: u32 = 96;
 
-/// Ours, placed and refined whatever the config says (§3.3) over `over`,
-/// or reused from `--from` (when its `materials` are the scene's), not yet
+/// Ours, placed and refined whatever the config says (§3.3) over `over`
+/// (the scene's own materials), or reused from `--from`, not yet
 /// measured, with the time each took, the config's method first (the one
 /// the comparison headlines); and the probe count the others are matched
 /// to (that method's).
-fn place_ours(job: &mut Job, over: &Over, materials: Materials) -> Result<(Vec<Unmeasured>, usize)> {
+fn place_ours(job: &mut Job, over: &Over) -> Result<(Vec<Unmeasured>, usize)> {
     let first = ours_default(&over.config.placement);
     let mut out = Vec::new();
     for method in std::iter::once(first).chain(ours().filter(|m| *m != first)) {
         let t = std::time::Instant::now();
-        let found = if materials == Materials::Scene {
-            reuse(job, method, over.prepared, job.config.compare.materials)?
-        } else {
-            None
-        };
+        let found = reuse(job, method, over.prepared, job.config.compare.materials)?;
         let candidate = match found {
             Some(c) => c,
             None => over.refined(job, method, None)?,
@@ -891,29 +898,18 @@ impl Bench<'_> {
     fn ours_at_grid_count(
         &mut self,
         job: &mut Job,
-        grids: &[(usize, GridParams)],
-        ours_count: usize,
+        placed: Option<(String, Candidate, f64)>,
     ) -> Result<()> {
-        let Some(&(n, _)) = nearest_grid(grids, ours_count) else {
+        let Some((name, candidate, placed_ms)) = placed else {
             return Ok(());
         };
-        if n == ours_count {
-            return Ok(());
-        }
-        let method = ours_default(&self.config.placement);
-        let name = format!("{method}@{n}");
         let t = std::time::Instant::now();
-        // An extra row: a stage that cannot take it (refinement's work at
-        // that count) is a finding, not a reason to lose the comparison.
-        match self
-            .over
-            .refined(job, method, Some(n))
-            .and_then(|c| self.measure(&name, Family::Ours, c, false))
-        {
+        match self.measure(&name, Family::Ours, candidate, false) {
             Err(Error::User(e)) => self.warnings.push(format!("compare: {name}: {e}")),
             other => other?,
         }
-        job.watch.record(&name, t.elapsed().as_secs_f64() * 1e3);
+        job.watch
+            .record(&name, placed_ms + t.elapsed().as_secs_f64() * 1e3);
         Ok(())
     }
 
@@ -941,20 +937,6 @@ impl Bench<'_> {
     /// a sweep around `ours_count` ([`placement::grid::grid_sweep`]); and whether they are
     /// the sweep (whose largest grids [`plan`] may leave out; named grids
     /// are the user's, checked before any work).
-    fn grid_choice(
-        &self,
-        given: Option<&Vec<GridParams>>,
-        ours_count: usize,
-    ) -> (Vec<GridParams>, bool) {
-        match (given, self.config.compare.grids.is_empty()) {
-            (Some(g), _) => (g.clone(), false),
-            (None, false) => (self.config.compare.grids.clone(), false),
-            (None, true) => (
-                placement::grid::grid_sweep(&self.over.prepared.domain, ours_count),
-                true,
-            ),
-        }
-    }
 
     /// Places and measures the planned `grids` ([`plan`]);
     /// returns each grid with its probe count.
@@ -1243,6 +1225,24 @@ struct Rendered {
     blocks: Blocks,
     /// Render, MSE heat map and ꟻLIP map, PNG, where the page shows them.
     figures: Option<[Vec<u8>; 3]>,
+}
+
+/// The uniform grids the glossy benchmark compares with: the given ones,
+/// the config's, or a sweep around `ours_count`
+/// ([`placement::grid::grid_sweep`]); and whether they are the sweep
+/// (whose largest grids [`plan`] may leave out; named grids are the
+/// user's, checked before any work).
+fn grid_choice(
+    config: &Config,
+    domain: &crate::scene::Bounds,
+    given: Option<&Vec<GridParams>>,
+    ours_count: usize,
+) -> (Vec<GridParams>, bool) {
+    match (given, config.compare.grids.is_empty()) {
+        (Some(g), _) => (g.clone(), false),
+        (None, false) => (config.compare.grids.clone(), false),
+        (None, true) => (placement::grid::grid_sweep(domain, ours_count), true),
+    }
 }
 
 /// [`nearest_grid`] among `grids` by their cell counts, before any is
