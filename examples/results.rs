@@ -673,7 +673,7 @@ fn diffuse_summary(compares: &[Value], plots: &mut Vec<(String, String)>, tag: &
                 ),
             });
         }
-        if let Some(svg) = diffuse_plot(placements, &format!("baked diffuse error at surface receivers against probe count, {name}")) {
+        if let Some(svg) = diffuse_plot(placements, num(d, "setup.limit"), &format!("baked diffuse error at surface receivers against probe count, {name}")) {
             let file = format!("diffuse-{tag}{name}.svg");
             curves.push(format!("![baked diffuse error against probe count, {name}]({file})"));
             plots.push((file, svg));
@@ -716,7 +716,7 @@ fn diffuse_summary(compares: &[Value], plots: &mut Vec<(String, String)>, tag: &
         md.push('\n');
     }
     if !curves.is_empty() {
-        md.push_str("Error against probe count, every method (ours at several budgets, the grid sweep, each competitor at each count of the sweep):\n\n");
+        md.push_str("Error against probe count, every method (ours at several budgets, the grid sweep, each competitor at each count of the sweep; dashed, the blend's limit: a probe at every receiver, `diffuse.setup.limit`):\n\n");
         for cv in &curves {
             let _ = writeln!(md, "{cv}\n");
         }
@@ -738,7 +738,7 @@ fn family_colour(f: &str) -> &'static str {
 
 /// Every family's baked surface error against probe count (both log), a
 /// line and markers per family.
-fn diffuse_plot(placements: &[Value], title: &str) -> Option<String> {
+fn diffuse_plot(placements: &[Value], limit: Option<f64>, title: &str) -> Option<String> {
     let pts: Vec<(String, f64, f64)> = placements
         .iter()
         .filter_map(|p| {
@@ -757,6 +757,12 @@ fn diffuse_plot(placements: &[Value], title: &str) -> Option<String> {
         x1 = x1.max(n.log10());
         y0 = y0.min(e.log10());
         y1 = y1.max(e.log10());
+    }
+    // The blend's own limit (a probe at every receiver), drawn across:
+    // how far every placement stands from what the lookup allows.
+    let limit = limit.filter(|&l| l > 0.0);
+    if let Some(l) = limit {
+        y0 = y0.min(l.log10());
     }
     let pad = |a: f64, b: f64| {
         if b - a < 1e-9 {
@@ -829,6 +835,13 @@ fn diffuse_plot(placements: &[Value], title: &str) -> Option<String> {
         let lx = left + pw + 16.0;
         let _ = writeln!(s, "<circle cx=\"{lx:.1}\" cy=\"{ly:.1}\" r=\"4\" fill=\"{colour}\"/><text x=\"{:.1}\" y=\"{:.1}\">{f}</text>", lx + 10.0, ly + 4.0);
         ly += 18.0;
+    }
+    if let Some(l) = limit {
+        let y = py(l);
+        let _ = writeln!(s, "<line x1=\"{left}\" y1=\"{y:.1}\" x2=\"{:.1}\" y2=\"{y:.1}\" stroke=\"#555\" stroke-dasharray=\"6 4\"/>", left + pw);
+        let lx = left + pw + 16.0;
+        let _ = writeln!(s, "<line x1=\"{:.1}\" y1=\"{ly:.1}\" x2=\"{:.1}\" y2=\"{ly:.1}\" stroke=\"#555\" stroke-dasharray=\"6 4\"/><text x=\"{:.1}\" y=\"{:.1}\">the blend's limit</text>", lx - 6.0, lx + 6.0, lx + 10.0, ly + 4.0);
+        let _ = writeln!(s, "<text x=\"{:.1}\" y=\"{:.1}\" font-size=\"10\">(a probe at</text><text x=\"{:.1}\" y=\"{:.1}\" font-size=\"10\">every receiver)</text>", lx + 10.0, ly + 18.0, lx + 10.0, ly + 30.0);
     }
     s.push_str("</svg>\n");
     Some(s)
