@@ -284,7 +284,7 @@ pub fn gltf(data: &[u8]) {
         Path::new("fuzz.glb"),
         1.0,
         UpAxis::Y,
-        &mut |_uri: &str| Ok(data.to_vec()),
+        &mut |_uri: &str, _what: &str| Ok(data.to_vec()),
     ) else {
         return;
     };
@@ -408,8 +408,9 @@ pub fn generated_seeds() -> Vec<(&'static str, String, Vec<u8>)> {
 }
 
 /// Small glTF files by the test kit's writer: a lit, instanced quad as a
-/// GLB, and quantized strips with a sparse accessor as a `.gltf` with its
-/// buffer in a data URI.
+/// GLB, quantized strips with a sparse accessor as a `.gltf` with its
+/// buffer in a data URI, and a textured quad whose material uses an
+/// extension the reader does not apply.
 fn gltf_seeds() -> Vec<(&'static str, Vec<u8>)> {
     use probeplace::fixtures::gltf_writer::{Builder, Positions};
     use serde_json::json;
@@ -451,6 +452,9 @@ fn gltf_seeds() -> Vec<(&'static str, Vec<u8>)> {
     t.material_json(m)["pbrMetallicRoughness"]["baseColorTexture"] = json!({"index": texture,
         "extensions": {"KHR_texture_transform": {"offset": [0.5, 0.0], "rotation": 0.3, "scale": [2.0, 2.0]}}});
     t.material_json(m)["emissiveTexture"] = json!({"index": texture});
+    // An extension used but not applied (the reader warns and goes on).
+    t.material_json(m)["extensions"] = json!({"KHR_materials_transmission": {"transmissionFactor": 0.5}});
+    t.use_extension("KHR_materials_transmission");
     let mesh = t.textured_quad(m);
     let n = t.node(json!({"mesh": mesh}));
     t.scene(&[n]);

@@ -61,7 +61,10 @@ pub fn encode(source: &Source) -> Vec<u8> {
             "method": source.method,
             "frame": "world: right-handed, +Y up; Unity (left-handed) = (-x, y, z)",
             "count": source.probes.len(),
-            "sh_convention": "SphericalHarmonicsL2[channel, coefficient]: 27 floats a probe, r0..r8 g0..g8 b0..b8, in Unity's frame (x negated) and convention (irradiance over pi, basis constants folded in), for LightProbes.bakedProbes; empty before a bake",
+            "sh_convention": format!(
+                "SphericalHarmonicsL2[channel, coefficient]: 27 floats a probe, r0..r8 g0..g8 b0..b8, in Unity's frame (x negated) and convention (irradiance over pi, basis constants folded in), for LightProbes.bakedProbes; empty before a bake. {}",
+                crate::report::sh::SH_HOLDS
+            ),
             "positions": positions,
             "sh": sh,
         }),

@@ -19,6 +19,11 @@ use glam::Vec3;
 use serde::Deserialize;
 use serde_json::json;
 
+/// Which light the SH holds, in the words every export and docs/engines.md
+/// use (a test holds them to this): an engine that is not told bakes its
+/// lights' direct light nowhere, and dynamic objects go nearly dark.
+pub const SH_HOLDS: &str = "The SH holds what a mixed-lighting probe holds: emitters, the sky and every reflection, but no direct light from point, spot or directional lights. Keep those lights Mixed (Baked Indirect) or Realtime, so the engine shades their direct light itself.";
+
 /// The file's name in an output set.
 pub(crate) const SH_FILE: &str = "sh.json";
 

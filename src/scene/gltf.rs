@@ -115,15 +115,16 @@ pub fn read(path: &Path, scale: f64, up: UpAxis) -> Result<GltfFile> {
     let limit = limits::memory_budget().saturating_mul(4);
     let bytes = input::read(path, "scene file", limit)?;
     let dir = path.parent().unwrap_or(Path::new("")).to_path_buf();
-    parse(&bytes, path, scale, up, &mut |uri: &str| {
+    parse(&bytes, path, scale, up, &mut |uri: &str, what: &str| {
         let file = dir.join(uri);
-        input::read(&file, "glTF buffer", limit)
+        input::read(&file, what, limit)
     })
 }
 
 /// Parses the glTF JSON or GLB in `bytes` (named `path` in messages);
-/// `external(uri)` returns the bytes of a buffer stored in a file (the URI
-/// percent-decoded, relative to the glTF's folder).
+/// `external(uri, what)` returns the bytes of a buffer or an image stored
+/// in a file (the URI percent-decoded, relative to the glTF's folder;
+/// `what` is `"glTF buffer"` or `"glTF image"`, for its messages).
 ///
 /// Contract: every triangle of the default scene's mesh instances in
 /// node order, each primitive's in its index order (strips and fans
@@ -135,7 +136,7 @@ pub fn parse(
     path: &Path,
     scale: f64,
     up: UpAxis,
-    external: &mut dyn FnMut(&str) -> Result<Vec<u8>>,
+    external: &mut dyn FnMut(&str, &str) -> Result<Vec<u8>>,
 ) -> Result<GltfFile> {
     let fail = |msg: String| Error::user_file(path, msg);
     let (json_bytes, bin) = container(bytes).map_err(&fail)?;
@@ -168,6 +169,30 @@ pub fn parse(
             )));
         }
     }
+    // Extensions the file uses but does not require: the reader goes on
+    // without them (as §3.12 allows), and says which, once.
+    let mut skipped: Vec<&str> = Vec::new();
+    for ext in &root.extensions_used {
+        if !SUPPORTED_EXTENSIONS.contains(&ext.as_str()) && !skipped.contains(&ext.as_str()) {
+            skipped.push(ext);
+        }
+    }
+    let mut early_warnings = Vec::new();
+    if !skipped.is_empty() {
+        let more = match skipped.len().saturating_sub(LISTED) {
+            0 => String::new(),
+            n => format!(" and {n} more"),
+        };
+        early_warnings.push(format!(
+            "{}: extension(s) {}{more} not applied: what they add to materials or geometry is left out",
+            path.display(),
+            skipped[..skipped.len().min(LISTED)]
+                .iter()
+                .map(|e| e.chars().take(64).collect::<String>().escape_debug().to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
+        ));
+    }
     let mut reader = Reader {
         root: &root,
         path,
@@ -175,7 +200,10 @@ pub fn parse(
         buffers: vec![None; root.buffers.len()],
         external,
     };
-    let mut out = GltfFile::default();
+    let mut out = GltfFile {
+        warnings: early_warnings,
+        ..GltfFile::default()
+    };
     let mut clamped = Vec::new();
     for (i, m) in root.materials.iter().enumerate() {
         let (material, was_clamped) = material_of(i, m);
@@ -693,7 +721,7 @@ struct Reader<'a> {
     path: &'a Path,
     bin: Option<&'a [u8]>,
     buffers: Vec<Option<Arc<Vec<u8>>>>,
-    external: &'a mut dyn FnMut(&str) -> Result<Vec<u8>>,
+    external: &'a mut dyn FnMut(&str, &str) -> Result<Vec<u8>>,
 }
 
 /// A buffer view: its buffer's bytes, its offset and length there, and its
@@ -776,7 +804,7 @@ impl Reader<'_> {
             Some(uri) => {
                 let name = percent_decode(uri)
                     .ok_or_else(|| self.fail(format!("buffer {b}: its uri {uri:?} is malformed")))?;
-                (self.external)(&name).map_err(|e| self.fail(format!("buffer {b} ({uri:?}): {e}")))?
+                (self.external)(&name, "glTF buffer").map_err(|e| self.fail(format!("buffer {b} ({uri:?}): {e}")))?
             }
         };
         if (data.len() as u64) < json.byte_length.0 {
@@ -1090,7 +1118,7 @@ impl Reader<'_> {
             Some(uri) if uri.contains("://") => Err("a URL; probeplace reads only files beside the glTF".into()),
             Some(uri) => {
                 let name = percent_decode(uri).ok_or("its uri is malformed")?;
-                (self.external)(&name).map_err(|e| e.to_string())
+                (self.external)(&name, "glTF image").map_err(|e| e.to_string())
             }
         }
     }

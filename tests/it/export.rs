@@ -925,6 +925,21 @@ fn a_bake_hands_its_sh_to_the_exports() {
         o,
     ]);
     let unity = read_json(&out.path().join("probes.unity.json"));
+    // Which light the SH holds: the file says it in docs/engines.md's
+    // words, and the docs say it where a Unity user reads the workflow.
+    let engines = std::fs::read_to_string("docs/engines.md").unwrap();
+    let holds = engines
+        .lines()
+        .skip_while(|l| *l != "## Which light the SH holds")
+        .find(|l| l.starts_with("The SH holds"))
+        .expect("docs/engines.md says which light the SH holds");
+    assert!(
+        holds.contains("no direct light from point, spot or directional lights")
+            && holds.contains("Mixed (Baked Indirect) or Realtime"),
+        "{holds}"
+    );
+    let convention = unity["sh_convention"].as_str().unwrap();
+    assert!(convention.ends_with(holds), "{convention}");
     let u: Vec<f64> = serde_json::from_value(unity["sh"].clone()).unwrap();
     assert_eq!(u.len(), 27 * n);
     // Unity's convention, from the published constants: irradiance over

@@ -345,6 +345,8 @@ fn gltf_images_read_from_a_buffer_view_a_data_uri_a_file_and_a_jpeg() {
         .collect();
     assert_eq!(gone.len(), 1, "{:?}", s.warnings);
     assert_eq!(s.warnings.len(), 1, "{:?}", s.warnings);
+    // Named for what is missing: an image, not a buffer.
+    assert!(gone[0].contains("glTF image") && !gone[0].contains("buffer"), "{}", gone[0]);
     let linear = |c: u8| probeplace::scene::texture::srgb_to_linear(c);
     let want = [
         Some(linear(255)),
@@ -431,4 +433,36 @@ fn hostile_texture_references_are_refused_or_warned_in_one_line() {
         s.warnings
     );
     assert!(s.textures.is_empty());
+    // Extensions used but not required, which the reader does not apply:
+    // one line naming them (each once, hostile names escaped), and the
+    // file is read.
+    let s = write("unapplied.glb", &|d| {
+        d["extensionsUsed"] = json!([
+            "KHR_materials_transmission",
+            "KHR_materials_sheen",
+            "KHR_materials_sheen",
+            "KHR_texture_transform",
+            "X_bad\nname",
+        ]);
+    })
+    .unwrap();
+    let named: Vec<_> = s.warnings.iter().filter(|w| w.contains("not applied")).collect();
+    assert_eq!(named.len(), 1, "{:?}", s.warnings);
+    let w = named[0];
+    assert!(
+        w.contains("KHR_materials_transmission, KHR_materials_sheen, X_bad\\nname")
+            && w.matches("sheen").count() == 1
+            && !w.contains("KHR_texture_transform")
+            && !w.contains('\n'),
+        "{w}"
+    );
+    assert!(!s.triangles.is_empty());
+    // Required and unknown: refused, as the specification asks.
+    refused(
+        write("required.glb", &|d| {
+            d["extensionsUsed"] = json!(["KHR_materials_transmission"]);
+            d["extensionsRequired"] = json!(["KHR_materials_transmission"]);
+        }),
+        "requires the extension KHR_materials_transmission",
+    );
 }
