@@ -126,7 +126,8 @@ pub fn input_files(config: &Config, overrides: &Overrides) -> Vec<InputFile> {
 }
 
 /// The image files the `map_Kd` and `map_Ke` statements of the MTL files
-/// `libraries` name that exist (relative to each MTL), each once. Best
+/// `libraries` name that exist (relative to each MTL, in the name's case
+/// or another: [`crate::scene::texture::locate`]), each once. Best
 /// effort, as [`material_libraries`]: a library that cannot be read names
 /// none, and the loader says why.
 pub fn texture_files(libraries: &[PathBuf]) -> Vec<PathBuf> {
@@ -140,8 +141,11 @@ pub fn texture_files(libraries: &[PathBuf]) -> Vec<PathBuf> {
         let text = String::from_utf8_lossy(&bytes);
         let (_, maps, _) = crate::scene::obj::parse_mtl(&text, lib);
         for m in maps {
-            if m.file.is_file() && !out.contains(&m.file) {
-                out.push(m.file);
+            // Where the loader finds it (another letter case included).
+            if let Some((file, _)) = crate::scene::texture::locate(&m.file) {
+                if !out.contains(&file) {
+                    out.push(file);
+                }
             }
         }
     }

@@ -543,15 +543,44 @@ fn obj_textures(
         }
     }
     let limit = crate::limits::memory_budget();
+    // Each file where it is, or spelt in another case beside it (one
+    // warning names every such file and the spelling used).
+    let located: Vec<Option<(PathBuf, bool)>> = files.iter().map(|f| texture::locate(f)).collect();
+    let respelt: Vec<String> = files
+        .iter()
+        .zip(&located)
+        .filter_map(|(f, l)| match l {
+            Some((at, true)) => Some(format!(
+                "{} as {}",
+                f.file_name().unwrap_or_default().to_string_lossy(),
+                at.file_name().unwrap_or_default().to_string_lossy()
+            )),
+            _ => None,
+        })
+        .collect();
+    if !respelt.is_empty() {
+        let dir = files[0].parent().map(|d| d.display().to_string()).unwrap_or_default();
+        let shown = respelt.len().min(5);
+        let more = match respelt.len() - shown {
+            0 => String::new(),
+            n => format!(" and {n} more"),
+        };
+        warnings.push(format!(
+            "{dir}: {} texture(s) found in another letter case: {}{more}",
+            respelt.len(),
+            respelt[..shown].join(", ")
+        ));
+    }
     let mut images = texture::load_images(files.len(), |i| {
         let file = files[i];
         let name = file.display().to_string();
-        if !file.exists() {
+        let Some((at, _)) = &located[i] else {
             return (name, Err("texture not found".into()));
-        }
-        let bytes = crate::input::read(file, "texture", limit).map_err(|e| {
+        };
+        let bytes = crate::input::read(at, "texture", limit).map_err(|e| {
             let e = e.to_string();
-            e.strip_prefix(&format!("{name}: ")).unwrap_or(&e).to_string()
+            let shown = at.display().to_string();
+            e.strip_prefix(&format!("{shown}: ")).unwrap_or(&e).to_string()
         });
         (name, bytes)
     });

@@ -32,6 +32,7 @@
 
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
+use std::path::{Path, PathBuf};
 use std::sync::{Arc, LazyLock};
 
 /// Longest side of a texture read: 16384 texels, the most any current GPU
@@ -340,6 +341,37 @@ pub fn decode(bytes: &[u8], name: String) -> Result<Texture, String> {
     Ok(Texture::from_srgb8(name, width, height, texels))
 }
 
+/// Where the image file an MTL names is: `file` itself when it exists,
+/// else the one file in its folder whose name differs only in letter case
+/// (the first by name, should several): OBJ files made on Windows or
+/// macOS spell names as their file systems ignore case (Dabrovic Sponza's
+/// MTL names `SP_LUK.JPG` for `sp_luk.JPG`). The second value is true when
+/// the spelling differs, for the warning that says which file was used.
+/// `None`: no such file.
+pub fn locate(file: &Path) -> Option<(PathBuf, bool)> {
+    if file.is_file() {
+        return Some((file.to_path_buf(), false));
+    }
+    let name = file.file_name()?.to_str()?;
+    let dir = match file.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    let mut found: Vec<PathBuf> = std::fs::read_dir(dir)
+        .ok()?
+        .filter_map(|e| e.ok())
+        .filter(|e| {
+            e.file_name()
+                .to_str()
+                .is_some_and(|n| n.to_lowercase() == name.to_lowercase())
+        })
+        .map(|e| file.with_file_name(e.file_name()))
+        .filter(|p| p.is_file())
+        .collect();
+    found.sort();
+    found.into_iter().next().map(|p| (p, true))
+}
+
 /// Loads the images `count` names, for one scene: `fetch(i)` gives image
 /// `i`'s bytes and its name for messages (or why it could not be read).
 /// Headers are read first; images are then taken in order while their
@@ -468,6 +500,25 @@ mod tests {
             2,
             vec![[255; 3], [0; 3], [0; 3], [255; 3]],
         )
+    }
+
+    #[test]
+    fn a_file_is_found_as_named_or_in_another_letter_case() {
+        let dir = tempfile::tempdir().unwrap();
+        let at = |n: &str| dir.path().join(n);
+        std::fs::write(at("exact.png"), b"x").unwrap();
+        std::fs::write(at("sp_luk.JPG"), b"x").unwrap();
+        std::fs::write(at("Twice.png"), b"x").unwrap();
+        std::fs::write(at("twice.PNG"), b"x").unwrap();
+        std::fs::create_dir(at("folder.png")).unwrap();
+        assert_eq!(locate(&at("exact.png")), Some((at("exact.png"), false)));
+        assert_eq!(locate(&at("SP_LUK.JPG")), Some((at("sp_luk.JPG"), true)));
+        // Several spellings: the first by name, whatever the directory's order.
+        assert_eq!(locate(&at("TWICE.png")), Some((at("Twice.png"), true)));
+        // Folders and absent files are not images.
+        assert_eq!(locate(&at("FOLDER.png")), None);
+        assert_eq!(locate(&at("gone.png")), None);
+        assert_eq!(locate(&dir.path().join("no_dir").join("a.png")), None);
     }
 
     #[test]

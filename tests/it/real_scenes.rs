@@ -24,6 +24,14 @@ fn dabrovic_sponza() {
     assert!(r["sdf"]["outside"].as_u64().unwrap() > 0);
     // No normals in the file, so the loader used geometric normals: nothing to drop but slivers.
     assert!(r["scene"]["dropped_triangles"].as_u64().unwrap() < 100);
+    // Its MTL names textures in upper case (`SP_LUK.JPG`) that the archive
+    // spells in mixed case (`sp_luk.JPG`): every one is found, and one
+    // warning says which were respelt.
+    let warnings: Vec<&str> = r["warnings"].as_array().unwrap().iter().filter_map(|w| w.as_str()).collect();
+    assert!(!warnings.iter().any(|w| w.contains("texture not found")), "{warnings:?}");
+    let respelt: Vec<_> = warnings.iter().filter(|w| w.contains("another letter case")).collect();
+    assert_eq!(respelt.len(), 1, "{warnings:?}");
+    assert!(respelt[0].contains("SP_LUK.JPG as sp_luk.JPG"), "{}", respelt[0]);
 }
 
 #[test]
