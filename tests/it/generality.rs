@@ -53,9 +53,10 @@ fn failures(r: &GeneralityRow) -> Vec<String> {
         ));
     }
     // Scene warnings (degenerate triangles dropped on load, a material an
-    // asset uses but its MTL lacks) are the asset's and name its file;
-    // placement itself must not warn.
-    let asset = |w: &String| w.contains(".obj: ") || w.contains(".mtl");
+    // asset uses but its MTL lacks, a texture missing or spelt in another
+    // letter case) are the asset's and name its file; placement itself
+    // must not warn.
+    let asset = |w: &String| w.contains(".obj: ") || w.contains(".mtl") || w.contains("texture");
     for w in r.warnings.iter().filter(|w| !asset(w)) {
         out.push(format!("{}: warning: {w}", r.scene));
     }
