@@ -626,7 +626,8 @@ fn diffuse_summary(compares: &[Value], plots: &mut Vec<(String, String)>, tag: &
             let lo = num(x, "surface_baked.lo");
             // Ours at most a fraction `f` of the rival's error, the
             // interval excluding 1.
-            let within = |f: f64| value.is_some_and(|v| v * f >= 1.0) && lo.is_some_and(|lo| lo > 1.0);
+            let within =
+                |f: f64| value.is_some_and(|v| v * f >= 1.0) && lo.is_some_and(|lo| lo > 1.0);
             if text(x, "family") == "grid" {
                 if within(0.6) {
                     grid_bar += 1;
@@ -673,9 +674,15 @@ fn diffuse_summary(compares: &[Value], plots: &mut Vec<(String, String)>, tag: &
                 ),
             });
         }
-        if let Some(svg) = diffuse_plot(placements, num(d, "setup.limit"), &format!("baked diffuse error at surface receivers against probe count, {name}")) {
+        if let Some(svg) = diffuse_plot(
+            placements,
+            num(d, "setup.limit"),
+            &format!("baked diffuse error at surface receivers against probe count, {name}"),
+        ) {
             let file = format!("diffuse-{tag}{name}.svg");
-            curves.push(format!("![baked diffuse error against probe count, {name}]({file})"));
+            curves.push(format!(
+                "![baked diffuse error against probe count, {name}]({file})"
+            ));
             plots.push((file, svg));
         }
     }
@@ -751,7 +758,12 @@ fn diffuse_plot(placements: &[Value], limit: Option<f64>, title: &str) -> Option
         return None;
     }
     let (w, h, left, right, top, bottom) = (800.0, 420.0, 80.0, 140.0, 36.0, 50.0);
-    let (mut x0, mut x1, mut y0, mut y1) = (f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY);
+    let (mut x0, mut x1, mut y0, mut y1) = (
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+    );
     for (_, n, e) in &pts {
         x0 = x0.min(n.log10());
         x1 = x1.max(n.log10());
@@ -799,7 +811,11 @@ fn diffuse_plot(placements: &[Value], limit: Option<f64>, title: &str) -> Option
                 if !(axis_lo..=axis_hi).contains(&v.log10()) {
                     continue;
                 }
-                let label = if v >= 1.0 { format!("{v:.0}") } else { format!("{v}") };
+                let label = if v >= 1.0 {
+                    format!("{v:.0}")
+                } else {
+                    format!("{v}")
+                };
                 if vertical {
                     let x = px(v);
                     let _ = writeln!(s, "<line x1=\"{x:.1}\" y1=\"{top}\" x2=\"{x:.1}\" y2=\"{:.1}\" stroke=\"#eee\"/><text x=\"{x:.1}\" y=\"{:.1}\" text-anchor=\"middle\">{label}</text>", top + ph, top + ph + 16.0);
@@ -826,11 +842,23 @@ fn diffuse_plot(placements: &[Value], limit: Option<f64>, title: &str) -> Option
         line.sort_by(|a, b| a.1.total_cmp(&b.1).then(a.2.total_cmp(&b.2)));
         let colour = family_colour(f);
         if line.len() > 1 {
-            let coords: Vec<String> = line.iter().map(|p| format!("{:.1},{:.1}", px(p.1), py(p.2))).collect();
-            let _ = writeln!(s, "<polyline fill=\"none\" stroke=\"{colour}\" stroke-width=\"1.5\" points=\"{}\"/>", coords.join(" "));
+            let coords: Vec<String> = line
+                .iter()
+                .map(|p| format!("{:.1},{:.1}", px(p.1), py(p.2)))
+                .collect();
+            let _ = writeln!(
+                s,
+                "<polyline fill=\"none\" stroke=\"{colour}\" stroke-width=\"1.5\" points=\"{}\"/>",
+                coords.join(" ")
+            );
         }
         for p in &line {
-            let _ = writeln!(s, "<circle cx=\"{:.1}\" cy=\"{:.1}\" r=\"3.5\" fill=\"{colour}\"/>", px(p.1), py(p.2));
+            let _ = writeln!(
+                s,
+                "<circle cx=\"{:.1}\" cy=\"{:.1}\" r=\"3.5\" fill=\"{colour}\"/>",
+                px(p.1),
+                py(p.2)
+            );
         }
         let lx = left + pw + 16.0;
         let _ = writeln!(s, "<circle cx=\"{lx:.1}\" cy=\"{ly:.1}\" r=\"4\" fill=\"{colour}\"/><text x=\"{:.1}\" y=\"{:.1}\">{f}</text>", lx + 10.0, ly + 4.0);

@@ -453,7 +453,8 @@ fn gltf_seeds() -> Vec<(&'static str, Vec<u8>)> {
         "extensions": {"KHR_texture_transform": {"offset": [0.5, 0.0], "rotation": 0.3, "scale": [2.0, 2.0]}}});
     t.material_json(m)["emissiveTexture"] = json!({"index": texture});
     // An extension used but not applied (the reader warns and goes on).
-    t.material_json(m)["extensions"] = json!({"KHR_materials_transmission": {"transmissionFactor": 0.5}});
+    t.material_json(m)["extensions"] =
+        json!({"KHR_materials_transmission": {"transmissionFactor": 0.5}});
     t.use_extension("KHR_materials_transmission");
     let mesh = t.textured_quad(m);
     let n = t.node(json!({"mesh": mesh}));

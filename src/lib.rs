@@ -99,7 +99,9 @@ macro_rules! stage_modules {
     )+};
 }
 
-stage_modules!(coverage, diffuse, gpu, raster, reachable, refine, render, sampling, scene, sdf, stages, trace);
+stage_modules!(
+    coverage, diffuse, gpu, raster, reachable, refine, render, sampling, scene, sdf, stages, trace
+);
 
 pub mod config;
 #[cfg(test)]

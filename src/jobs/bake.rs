@@ -11,7 +11,10 @@ use crate::error::{Error, Result};
 use crate::lightfield::LightField;
 use crate::render::Reference;
 use crate::report;
-use crate::report::bake::{DiffuseViewSet, DiffuseViewsReport, atlas, distance_preview, normal_preview, BakeReport, ReferenceReport};
+use crate::report::bake::{
+    atlas, distance_preview, normal_preview, BakeReport, DiffuseViewSet, DiffuseViewsReport,
+    ReferenceReport,
+};
 use crate::report::sh::SH_FILE;
 use crate::stages::{self, validate, Prepared};
 use serde_json::Value;
@@ -228,7 +231,8 @@ fn add_diffuse_views(
         encode_png(&crate::raster::tonemap(pixels, w, h, exposure), name)
     };
     let [reference_png, sets @ ..] = DIFFUSE_VIEW_FILES;
-    job.set.add(reference_png, tonemapped(&reference, reference_png)?);
+    job.set
+        .add(reference_png, tonemapped(&reference, reference_png)?);
     for (r, files) in renders.iter().zip(sets.chunks(2)) {
         job.set.add(files[0], tonemapped(&r.image, files[0])?);
         job.set.add(

@@ -837,7 +837,13 @@ fn plot_lines(s: &mut String, frame: &PlotFrame, points: &[&Point], join: Join) 
         if on.len() > 1 {
             let line: Vec<String> = on
                 .iter()
-                .map(|p| format!("{:.1},{:.1}", frame.px(p.probes.max(1) as f64), frame.py(p.y)))
+                .map(|p| {
+                    format!(
+                        "{:.1},{:.1}",
+                        frame.px(p.probes.max(1) as f64),
+                        frame.py(p.y)
+                    )
+                })
                 .collect();
             let what = match join {
                 Join::GridByTracer => format!("grids on {tracer}"),

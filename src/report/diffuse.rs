@@ -344,7 +344,11 @@ mod tests {
     #[test]
     fn the_equal_error_count_interpolates_in_log_count() {
         let grid = row("grid:4x4x4", 64, 0.2);
-        let ours = [row("a@8", 8, 0.4), row("a@32", 32, 0.1), row("a@16", 16, 0.3)];
+        let ours = [
+            row("a@8", 8, 0.4),
+            row("a@32", 32, 0.1),
+            row("a@16", 16, 0.3),
+        ];
         let refs: Vec<&DiffusePlacement> = ours.iter().collect();
         let e = EqualError::new(&grid, &refs, "a");
         // Between 16 (0.3) and 32 (0.1), half way: √(16·32).
@@ -375,7 +379,10 @@ mod tests {
         b.errors.surface = errors(&[0.2, 0.4, 0.6, 0.8]);
         let c = DiffuseComparison::new(&a, &b, 7);
         let i = c.surface_baked.unwrap();
-        assert!((i.value - 2.0).abs() < 1e-9 && (i.lo - 2.0).abs() < 1e-9, "{i:?}");
+        assert!(
+            (i.value - 2.0).abs() < 1e-9 && (i.lo - 2.0).abs() < 1e-9,
+            "{i:?}"
+        );
         assert!(c.win && !c.loss);
         assert_eq!(c.free_baked, None, "no free receivers");
         assert!((c.surface_leaks.unwrap().value - 1.0).abs() < 1e-12);

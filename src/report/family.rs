@@ -79,4 +79,3 @@ impl Serialize for Family {
         s.serialize_str(self.key())
     }
 }
-

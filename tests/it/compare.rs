@@ -280,7 +280,12 @@ fn diffuse_light_is_measured_for_every_placement() {
         assert!(v.is_finite(), "{line}");
     }
     let html = std::fs::read_to_string(dir.join("report.html")).unwrap();
-    for id in ["diffuse-ratios", "diffuse-placements", "equal-error", "diffuse-views"] {
+    for id in [
+        "diffuse-ratios",
+        "diffuse-placements",
+        "equal-error",
+        "diffuse-views",
+    ] {
         assert!(html.contains(&format!("id=\"{id}\"")), "no #{id}");
     }
 }
@@ -293,7 +298,11 @@ fn only_one_benchmark_runs_when_asked() {
     let config = test_quality("configs/two-rooms.ron", &[]);
     let dir = tempfile::tempdir().unwrap();
     let r = run_compare(config.arg(), dir.path(), &["--only", "diffuse", "--cpu"]);
-    assert!(r["placements"].as_array().unwrap().is_empty(), "{}", r["placements"]);
+    assert!(
+        r["placements"].as_array().unwrap().is_empty(),
+        "{}",
+        r["placements"]
+    );
     assert!(!r["diffuse"]["comparisons"].as_array().unwrap().is_empty());
     assert!(r["cameras"][0]["reference_glossy_mean"].is_null());
     assert!(dir.path().join("diffuse.csv").is_file());

@@ -108,7 +108,9 @@ fn seeds_are_accepted_and_committed() {
                 "s.glb".as_ref(),
                 1.0,
                 Default::default(),
-                &mut |_: &str, _: &str| Err(probeplace::error::Error::User("no external file".into())),
+                &mut |_: &str, _: &str| {
+                    Err(probeplace::error::Error::User("no external file".into()))
+                },
             )
             .is_ok_and(|f| !f.triangles.is_empty()),
             other => panic!("a generated seed for {other}"),

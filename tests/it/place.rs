@@ -388,7 +388,10 @@ fn the_diffuse_step_lowers_the_held_out_error_and_reports_it() {
     assert!(d["inserted"].as_u64().unwrap() >= 1, "{d}");
     assert_eq!(both["probe_count"], d["probes_after"], "{d}");
     let f = |k: &str| d[k].as_f64().unwrap();
-    assert!(f("error_after") < f("error_before"), "the training error falls: {d}");
+    assert!(
+        f("error_after") < f("error_before"),
+        "the training error falls: {d}"
+    );
     assert!(
         f("validation_after") < 0.9 * f("validation_before"),
         "the held-out error falls by a tenth at least: {d}"

@@ -27,11 +27,26 @@ fn dabrovic_sponza() {
     // Its MTL names textures in upper case (`SP_LUK.JPG`) that the archive
     // spells in mixed case (`sp_luk.JPG`): every one is found, and one
     // warning says which were respelt.
-    let warnings: Vec<&str> = r["warnings"].as_array().unwrap().iter().filter_map(|w| w.as_str()).collect();
-    assert!(!warnings.iter().any(|w| w.contains("texture not found")), "{warnings:?}");
-    let respelt: Vec<_> = warnings.iter().filter(|w| w.contains("another letter case")).collect();
+    let warnings: Vec<&str> = r["warnings"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter_map(|w| w.as_str())
+        .collect();
+    assert!(
+        !warnings.iter().any(|w| w.contains("texture not found")),
+        "{warnings:?}"
+    );
+    let respelt: Vec<_> = warnings
+        .iter()
+        .filter(|w| w.contains("another letter case"))
+        .collect();
     assert_eq!(respelt.len(), 1, "{warnings:?}");
-    assert!(respelt[0].contains("SP_LUK.JPG as sp_luk.JPG"), "{}", respelt[0]);
+    assert!(
+        respelt[0].contains("SP_LUK.JPG as sp_luk.JPG"),
+        "{}",
+        respelt[0]
+    );
 }
 
 #[test]

@@ -346,7 +346,11 @@ fn gltf_images_read_from_a_buffer_view_a_data_uri_a_file_and_a_jpeg() {
     assert_eq!(gone.len(), 1, "{:?}", s.warnings);
     assert_eq!(s.warnings.len(), 1, "{:?}", s.warnings);
     // Named for what is missing: an image, not a buffer.
-    assert!(gone[0].contains("glTF image") && !gone[0].contains("buffer"), "{}", gone[0]);
+    assert!(
+        gone[0].contains("glTF image") && !gone[0].contains("buffer"),
+        "{}",
+        gone[0]
+    );
     let linear = |c: u8| probeplace::scene::texture::srgb_to_linear(c);
     let want = [
         Some(linear(255)),
@@ -446,7 +450,11 @@ fn hostile_texture_references_are_refused_or_warned_in_one_line() {
         ]);
     })
     .unwrap();
-    let named: Vec<_> = s.warnings.iter().filter(|w| w.contains("not applied")).collect();
+    let named: Vec<_> = s
+        .warnings
+        .iter()
+        .filter(|w| w.contains("not applied"))
+        .collect();
     assert_eq!(named.len(), 1, "{:?}", s.warnings);
     let w = named[0];
     assert!(

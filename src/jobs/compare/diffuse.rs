@@ -62,8 +62,11 @@ pub(super) fn run(
     let mut rows: Vec<DiffusePlacement> = Vec::new();
     let mut warnings = Vec::new();
     let measure = |name: &str, family: Family, positions: &[Vec3]| -> DiffusePlacement {
-        let valid =
-            crate::coverage::probes_free(&over.prepared.bvh, over.prepared.sdf.voxel_size, positions);
+        let valid = crate::coverage::probes_free(
+            &over.prepared.bvh,
+            over.prepared.sdf.voxel_size,
+            positions,
+        );
         let m = stages::diffuse::measure(config, over.prepared, bench, positions, &valid);
         DiffusePlacement::new(name, family, positions.to_vec(), m)
     };
@@ -71,7 +74,10 @@ pub(super) fn run(
     for &(method, probes) in ours {
         let t = std::time::Instant::now();
         rows.push(measure(method, Family::Ours, &probes.positions()));
-        job.watch.record(&format!("diffuse {method}"), t.elapsed().as_secs_f64() * 1e3);
+        job.watch.record(
+            &format!("diffuse {method}"),
+            t.elapsed().as_secs_f64() * 1e3,
+        );
     }
     let n = default_set.probes.len();
     // The grids: placed plainly, each measured.
@@ -87,7 +93,8 @@ pub(super) fn run(
         let placed = over.plain(method)?;
         counted.push((placed.probes.probes.len(), *g));
         rows.push(measure(&name, Family::Grid, &placed.probes.positions()));
-        job.watch.record(&format!("diffuse {name}"), t.elapsed().as_secs_f64() * 1e3);
+        job.watch
+            .record(&format!("diffuse {name}"), t.elapsed().as_secs_f64() * 1e3);
     }
     let nearest = nearest_grid(&counted, n).map(|&(k, _)| k);
     // Each competitor at each count of the sweep; the one at our count
@@ -124,11 +131,16 @@ pub(super) fn run(
                         Err(e) => return Err(e),
                         Ok(placed) => {
                             let c = candidate_of(placed);
-                            rows.push(measure(&name, Family::Competitor(m.word), &c.probes.positions()));
+                            rows.push(measure(
+                                &name,
+                                Family::Competitor(m.word),
+                                &c.probes.positions(),
+                            ));
                             Some(rows.len() - 1)
                         }
                     };
-                    job.watch.record(&format!("diffuse {name}"), t.elapsed().as_secs_f64() * 1e3);
+                    job.watch
+                        .record(&format!("diffuse {name}"), t.elapsed().as_secs_f64() * 1e3);
                     at
                 }
             };
@@ -155,7 +167,8 @@ pub(super) fn run(
             Err(e) => return Err(e),
             Ok(c) => rows.push(measure(&name, Family::Ours, &c.probes.positions())),
         }
-        job.watch.record(&format!("diffuse {name}"), t.elapsed().as_secs_f64() * 1e3);
+        job.watch
+            .record(&format!("diffuse {name}"), t.elapsed().as_secs_f64() * 1e3);
     }
     // Ours at each rival's count against it.
     let ours_rows: Vec<&DiffusePlacement> = rows
@@ -174,10 +187,20 @@ pub(super) fn run(
         })
         .collect();
     let equal_error = nearest
-        .and_then(|k| rows.iter().find(|r| r.family == Family::Grid && r.probes == k))
+        .and_then(|k| {
+            rows.iter()
+                .find(|r| r.family == Family::Grid && r.probes == k)
+        })
         .map(|g| EqualError::new(g, &ours_rows, default_method));
     let figures = match lit {
-        Some(view) => Some(lit_figures(config, over, view, &rows, &comparisons, default_method)?),
+        Some(view) => Some(lit_figures(
+            config,
+            over,
+            view,
+            &rows,
+            &comparisons,
+            default_method,
+        )?),
         None => None,
     };
     let r = &bench.receivers;
@@ -246,7 +269,12 @@ fn lit_figures(
         shown.push(&c.ours);
         shown.push(&c.rival);
     }
-    shown.extend(comparisons.iter().filter(|c| c.family != Family::Grid).map(|c| c.rival.as_str()));
+    shown.extend(
+        comparisons
+            .iter()
+            .filter(|c| c.family != Family::Grid)
+            .map(|c| c.rival.as_str()),
+    );
     if shown.is_empty() {
         shown.push(method);
     }
@@ -256,8 +284,11 @@ fn lit_figures(
             continue;
         };
         let positions = &row.positions;
-        let valid =
-            crate::coverage::probes_free(&over.prepared.bvh, over.prepared.sdf.voxel_size, positions);
+        let valid = crate::coverage::probes_free(
+            &over.prepared.bvh,
+            over.prepared.sdf.voxel_size,
+            positions,
+        );
         let renderer = over.prepared.renderer(config);
         let sh = crate::diffuse::bake_sh(
             &renderer,
@@ -283,4 +314,3 @@ fn lit_figures(
         placements,
     })
 }
-

@@ -42,7 +42,6 @@ mod placing;
 
 use super::bake;
 use super::outcome::Outcome;
-use placing::{candidate_of, reuse, Candidate, Over};
 use super::run::{Job, RunOptions};
 use crate::config::{CameraParams, Config, GridParams, Materials, Placement};
 use crate::encode::png::encode_png;
@@ -66,6 +65,7 @@ use crate::stages::{self, Prepared};
 use crate::svo::Svo;
 use crate::trace::{single::March, Lattice};
 use glam::Vec3;
+use placing::{candidate_of, reuse, Candidate, Over};
 
 /// Pixel size of each of the two placement views in the report.
 const VIEW_SIZE: u32 = 320;
@@ -111,7 +111,10 @@ pub fn compare(options: &RunOptions) -> Result<Outcome> {
         .collect();
     // Grids given by name are checked before any work; a sweep once our
     // count is known.
-    let named: Vec<GridParams> = options.grids.clone().unwrap_or_else(|| job.config.compare.grids.clone());
+    let named: Vec<GridParams> = options
+        .grids
+        .clone()
+        .unwrap_or_else(|| job.config.compare.grids.clone());
     if benchmarks.glossy() {
         check_grids(&job.config, &named).map_err(|e| job.config_error(e))?;
     }
@@ -226,7 +229,14 @@ pub fn compare(options: &RunOptions) -> Result<Outcome> {
                         placed.iter().map(|(m, c, _)| (*m, &c.probes)).collect();
                     let named = (options.grids.is_some() || !job.config.compare.grids.is_empty())
                         .then_some(named.as_slice());
-                    Some(diffuse::run(&mut job, &own, &bench, &sets, named, Some(&lit))?)
+                    Some(diffuse::run(
+                        &mut job,
+                        &own,
+                        &bench,
+                        &sets,
+                        named,
+                        Some(&lit),
+                    )?)
                 }
                 None => None,
             }
@@ -238,13 +248,25 @@ pub fn compare(options: &RunOptions) -> Result<Outcome> {
     }
     if !benchmarks.glossy() {
         let context = None;
-        return write(job, Glossy::none(&prepared, warnings), diffuse, &[], &cameras, context);
+        return write(
+            job,
+            Glossy::none(&prepared, warnings),
+            diffuse,
+            &[],
+            &cameras,
+            context,
+        );
     }
     // The glossy benchmark, on `compare.materials`. Its grids, and ours
     // again at the count of the one nearest ours, placed first, on the
     // scene's own materials as ours are.
     let (ours, ours_count) = ours;
-    let (grids, sweep) = grid_choice(&job.config, &prepared.domain, options.grids.as_ref(), ours_count);
+    let (grids, sweep) = grid_choice(
+        &job.config,
+        &prepared.domain,
+        options.grids.as_ref(),
+        ours_count,
+    );
     let ours_at = match nearest_by_cells(&grids, ours_count).map(|g| g.probes()) {
         Some(n) if n != ours_count => {
             let method = ours_default(&job.config.placement);
@@ -449,8 +471,10 @@ fn write(
     };
     job.set.add("compare.csv", to_csv(&report).into_bytes());
     if let Some(d) = &report.diffuse {
-        job.set
-            .add("diffuse.csv", crate::report::diffuse::to_csv(d).into_bytes());
+        job.set.add(
+            "diffuse.csv",
+            crate::report::diffuse::to_csv(d).into_bytes(),
+        );
     }
     job.set
         .add("report.html", html::page(&report, &figures).into_bytes());
@@ -1025,10 +1049,10 @@ impl Bench<'_> {
         } = self.over.prepared;
         let probes = &candidate.probes;
         let positions = probes.positions();
-        let (cov, holes) = self
-            .over
-            .coverage
-            .evaluate_with_holes(bvh, &positions, &self.over.progress);
+        let (cov, holes) =
+            self.over
+                .coverage
+                .evaluate_with_holes(bvh, &positions, &self.over.progress);
         let free = crate::coverage::probes_free(bvh, sdf.voxel_size, &positions);
         let health = crate::coverage::probe_health_of(&free, sdf, domain, &positions);
         let views_png = encode_png(
@@ -1138,7 +1162,13 @@ impl Bench<'_> {
             None => {
                 stages::bake::check_with(&self.config, positions.len(), Work::Maps)
                     .map_err(|e| e.in_config(&self.config_path, &self.config_text))?;
-                baked = stages::bake(&self.config, self.over.prepared, positions, &self.over.progress).field;
+                baked = stages::bake(
+                    &self.config,
+                    self.over.prepared,
+                    positions,
+                    &self.over.progress,
+                )
+                .field;
                 &baked
             }
         };
