@@ -743,6 +743,28 @@ fn family_colour(f: &str) -> &'static str {
     }
 }
 
+/// An SVG plot's opening: the canvas `w`×`h`, white, `title` centred
+/// above, and the frame of the plot area (`pw`×`ph` at `left`, `top`).
+fn svg_frame(w: f64, h: f64, left: f64, top: f64, pw: f64, ph: f64, title: &str) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{w}\" height=\"{h}\" viewBox=\"0 0 {w} {h}\" font-family=\"sans-serif\" font-size=\"12\">"
+    );
+    s.push_str("<rect width=\"100%\" height=\"100%\" fill=\"#fff\"/>\n");
+    let _ = writeln!(
+        s,
+        "<text x=\"{:.1}\" y=\"20\" text-anchor=\"middle\" font-size=\"14\">{}</text>",
+        left + pw / 2.0,
+        xml(title)
+    );
+    let _ = writeln!(
+        s,
+        "<rect x=\"{left}\" y=\"{top}\" width=\"{pw}\" height=\"{ph}\" fill=\"none\" stroke=\"#888\"/>"
+    );
+    s
+}
+
 /// Every family's baked surface error against probe count (both log), a
 /// line and markers per family.
 fn diffuse_plot(placements: &[Value], limit: Option<f64>, title: &str) -> Option<String> {
@@ -787,22 +809,7 @@ fn diffuse_plot(placements: &[Value], limit: Option<f64>, title: &str) -> Option
     let (pw, ph) = (w - left - right, h - top - bottom);
     let px = |n: f64| left + (n.log10() - x0) / (x1 - x0) * pw;
     let py = |e: f64| top + (1.0 - (e.log10() - y0) / (y1 - y0)) * ph;
-    let mut s = String::new();
-    let _ = writeln!(
-        s,
-        "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{w}\" height=\"{h}\" viewBox=\"0 0 {w} {h}\" font-family=\"sans-serif\" font-size=\"12\">"
-    );
-    s.push_str("<rect width=\"100%\" height=\"100%\" fill=\"#fff\"/>\n");
-    let _ = writeln!(
-        s,
-        "<text x=\"{:.1}\" y=\"20\" text-anchor=\"middle\" font-size=\"14\">{}</text>",
-        left + pw / 2.0,
-        xml(title)
-    );
-    let _ = writeln!(
-        s,
-        "<rect x=\"{left}\" y=\"{top}\" width=\"{pw}\" height=\"{ph}\" fill=\"none\" stroke=\"#888\"/>"
-    );
+    let mut s = svg_frame(w, h, left, top, pw, ph, title);
     // Ticks at 1, 2, 5 × 10^k.
     for (axis_lo, axis_hi, vertical) in [(x0, x1, true), (y0, y1, false)] {
         for k in (axis_lo.floor() as i32)..=(axis_hi.ceil() as i32) {
@@ -1769,22 +1776,7 @@ fn plot(
     let px = |x: f64| left + (tx(x) - x0) / (x1 - x0) * pw;
     let py = |v: f64| top + (1.0 - (ty(v) - y0) / (y1 - y0)) * ph;
 
-    let mut s = String::new();
-    let _ = writeln!(
-        s,
-        "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{w}\" height=\"{h}\" viewBox=\"0 0 {w} {h}\" font-family=\"sans-serif\" font-size=\"12\">"
-    );
-    s.push_str("<rect width=\"100%\" height=\"100%\" fill=\"#fff\"/>\n");
-    let _ = writeln!(
-        s,
-        "<text x=\"{:.1}\" y=\"20\" text-anchor=\"middle\" font-size=\"14\">{}</text>",
-        left + pw / 2.0,
-        xml(title)
-    );
-    let _ = writeln!(
-        s,
-        "<rect x=\"{left}\" y=\"{top}\" width=\"{pw}\" height=\"{ph}\" fill=\"none\" stroke=\"#888\"/>"
-    );
+    let mut s = svg_frame(w, h, left, top, pw, ph, title);
     // x ticks: 1, 2, 5 × powers of ten inside the range.
     for e in -1..6 {
         for m in [1.0, 2.0, 5.0] {

@@ -382,36 +382,11 @@ impl LightSet {
         let mut sum = self.direct_delta(bvh, p, n, wo, bsdf);
         let mut area_glossy = Vec3::ZERO;
         if !self.area.is_empty() {
-            let u = sampler.next_f32();
-            let uv = sampler.next_2d();
-            let i = self
-                .cdf
-                .partition_point(|&c| c <= u)
-                .min(self.area.len() - 1);
-            let light = &self.area[i];
-            // By solid angle where the triangle subtends enough of the
-            // sphere (no `1/d²` weight to blow up beside the emitter), else
-            // by area (module docs).
-            let (y, wi, k) = match light.by_solid_angle(p, uv) {
-                Some((y, wi, omega)) => (y, wi, n.dot(wi) * omega / light.select),
-                None => {
-                    let y = point_in_triangle(&light.vertices, uv.x, uv.y);
-                    let to = y - p;
-                    let d2 = to.length_squared();
-                    let wi = to / d2.sqrt();
-                    let cos_light = light.normal.dot(wi).abs();
-                    (y, wi, n.dot(wi) * cos_light / (d2 * light.pdf_area))
-                }
-            };
+            let (light, y, wi, num, den) = self.pick_emitter(p, sampler);
+            let k = n.dot(wi) * num / den;
             if k > 0.0 && k.is_finite() && !bvh.occluded(origin, y, eps) {
                 let f = bsdf.eval(n, wo, wi);
-                let emission = match self.maps.get(light.map as usize) {
-                    Some(m) => {
-                        let uv = interpolate(&m.texcoords, barycentric(&light.vertices, y));
-                        light.emission * m.map.sample(&self.textures, uv)
-                    }
-                    None => light.emission,
-                };
+                let emission = self.emission_at(light, y);
                 sum += emission * f.total() * k;
                 area_glossy += emission * f.glossy * k;
             }
@@ -479,6 +454,25 @@ impl LightSet {
             return None;
         }
         let eps = self.epsilon;
+        let (light, y, wi, num, den) = self.pick_emitter(p, sampler);
+        let weight = num / den;
+        if !(weight > 0.0 && weight.is_finite()) || bvh.occluded(p + offset, y, eps) {
+            return Some((wi, Vec3::ZERO));
+        }
+        Some((wi, self.emission_at(light, y) * weight))
+    }
+
+    /// One point `y` on an area emitter, seen from `p`, drawn as both
+    /// [`LightSet::direct_split`] and [`LightSet::sample_emitter`] draw it:
+    /// the triangle by power, then by solid angle where it subtends enough
+    /// of the sphere (no `1/d²` weight to blow up beside the emitter), else
+    /// by area (module docs). Returns the emitter, `y`, the unit direction
+    /// `wi` to it, and the sample's weight per unit of `cos θ` as a ratio
+    /// `num / den` (`Ω / select`, or `cos θ_light / (d² pdf_area)`), kept
+    /// apart so a caller multiplies its own cosine in first.
+    ///
+    /// Contract: `self.area` is not empty; draws three values.
+    fn pick_emitter(&self, p: Vec3, sampler: &mut Sampler) -> (&AreaLight, Vec3, Vec3, f32, f32) {
         let u = sampler.next_f32();
         let uv = sampler.next_2d();
         let i = self
@@ -486,28 +480,29 @@ impl LightSet {
             .partition_point(|&c| c <= u)
             .min(self.area.len() - 1);
         let light = &self.area[i];
-        let (y, wi, weight) = match light.by_solid_angle(p, uv) {
-            Some((y, wi, omega)) => (y, wi, omega / light.select),
+        match light.by_solid_angle(p, uv) {
+            Some((y, wi, omega)) => (light, y, wi, omega, light.select),
             None => {
                 let y = point_in_triangle(&light.vertices, uv.x, uv.y);
                 let to = y - p;
                 let d2 = to.length_squared();
                 let wi = to / d2.sqrt();
                 let cos_light = light.normal.dot(wi).abs();
-                (y, wi, cos_light / (d2 * light.pdf_area))
+                (light, y, wi, cos_light, d2 * light.pdf_area)
             }
-        };
-        if !(weight > 0.0 && weight.is_finite()) || bvh.occluded(p + offset, y, eps) {
-            return Some((wi, Vec3::ZERO));
         }
-        let emission = match self.maps.get(light.map as usize) {
+    }
+
+    /// The radiance `light` emits at its point `y` (its emission texture
+    /// applied, where it has one).
+    fn emission_at(&self, light: &AreaLight, y: Vec3) -> Vec3 {
+        match self.maps.get(light.map as usize) {
             Some(m) => {
                 let uv = interpolate(&m.texcoords, barycentric(&light.vertices, y));
                 light.emission * m.map.sample(&self.textures, uv)
             }
             None => light.emission,
-        };
-        Some((wi, emission * weight))
+        }
     }
 
     /// The point, spot and directional lights' light arriving at `p`, one

@@ -179,18 +179,14 @@ pub fn parse(
     }
     let mut early_warnings = Vec::new();
     if !skipped.is_empty() {
-        let more = match skipped.len().saturating_sub(LISTED) {
-            0 => String::new(),
-            n => format!(" and {n} more"),
-        };
+        let shown: Vec<String> = skipped
+            .iter()
+            .map(|e| e.chars().take(64).collect::<String>().escape_debug().to_string())
+            .collect();
         early_warnings.push(format!(
-            "{}: extension(s) {}{more} not applied: what they add to materials or geometry is left out",
+            "{}: extension(s) {} not applied: what they add to materials or geometry is left out",
             path.display(),
-            skipped[..skipped.len().min(LISTED)]
-                .iter()
-                .map(|e| e.chars().take(64).collect::<String>().escape_debug().to_string())
-                .collect::<Vec<_>>()
-                .join(", ")
+            super::first_of(&shown, LISTED)
         ));
     }
     let mut reader = Reader {
@@ -213,15 +209,10 @@ pub fn parse(
         out.materials.push(material);
     }
     if !clamped.is_empty() {
-        let more = match clamped.len().saturating_sub(LISTED) {
-            0 => String::new(),
-            n => format!(" and {n} more"),
-        };
-        clamped.truncate(LISTED);
         out.warnings.push(format!(
-            "{}: material(s) {}{more}: a factor out of range (or not finite) was clamped",
+            "{}: material(s) {}: a factor out of range (or not finite) was clamped",
             path.display(),
-            clamped.join(", ")
+            super::first_of(&clamped, LISTED)
         ));
     }
     let sets = reader.textures(&mut out)?;

@@ -560,15 +560,10 @@ fn obj_textures(
         .collect();
     if !respelt.is_empty() {
         let dir = files[0].parent().map(|d| d.display().to_string()).unwrap_or_default();
-        let shown = respelt.len().min(5);
-        let more = match respelt.len() - shown {
-            0 => String::new(),
-            n => format!(" and {n} more"),
-        };
         warnings.push(format!(
-            "{dir}: {} texture(s) found in another letter case: {}{more}",
+            "{dir}: {} texture(s) found in another letter case: {}",
             respelt.len(),
-            respelt[..shown].join(", ")
+            first_of(&respelt, 5)
         ));
     }
     let mut images = texture::load_images(files.len(), |i| {
@@ -671,6 +666,16 @@ pub fn load_gltf(path: &Path, scale: f64, up: UpAxis) -> Result<Scene> {
 }
 
 /// Small analytic scenes shared by the unit tests of several stages.
+
+/// The first `most` of `items` joined by commas, then how many more: how
+/// every loader's warning names a long list (`a, b and 3 more`).
+pub(crate) fn first_of(items: &[impl AsRef<str>], most: usize) -> String {
+    let shown: Vec<&str> = items.iter().take(most).map(AsRef::as_ref).collect();
+    match items.len().saturating_sub(most) {
+        0 => shown.join(", "),
+        n => format!("{} and {n} more", shown.join(", ")),
+    }
+}
 #[cfg(test)]
 pub mod testing {
     use super::raycast::SceneBvh;
@@ -800,6 +805,13 @@ mod tests {
             .write_all(text.as_bytes())
             .unwrap();
         p
+    }
+
+    #[test]
+    fn long_lists_are_named_in_part_and_counted() {
+        assert_eq!(first_of(&["a", "b"], 5), "a, b");
+        assert_eq!(first_of(&["a", "b", "c"], 2), "a, b and 1 more");
+        assert_eq!(first_of(&Vec::<String>::new(), 2), "");
     }
 
     #[test]
