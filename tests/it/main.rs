@@ -28,5 +28,6 @@ mod render;
 mod report_html;
 mod svo;
 mod textures;
+mod threejs;
 mod tiles;
 mod translation;
