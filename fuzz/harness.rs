@@ -381,6 +381,19 @@ fn check_materials(materials: &[probeplace::scene::Material]) {
             "{m:?}"
         );
         assert!((0.0..=MAX_SHININESS as f32).contains(&m.shininess), "{m:?}");
+        // A cut-out's alpha and cutoff are finite, its factor in [0, 1].
+        if let Some(c) = m.cutout {
+            assert!(
+                unit(&c.factor) && c.cutoff.is_finite() && c.cutoff >= 0.0,
+                "{m:?}"
+            );
+        }
+        if let Some(mr) = m.metal_rough {
+            assert!(
+                mr.base.iter().all(unit) && unit(&mr.metallic) && unit(&mr.roughness),
+                "{m:?}"
+            );
+        }
     }
 }
 
@@ -459,10 +472,43 @@ fn gltf_seeds() -> Vec<(&'static str, Vec<u8>)> {
     let mesh = t.textured_quad(m);
     let n = t.node(json!({"mesh": mesh}));
     t.scene(&[n]);
+    // Metal and roughness painted in a texture under factors of 1, an
+    // alpha-masked colour texture (RGBA) with its cutoff, and a BLEND
+    // material: the per-texel BSDF and the cut-outs.
+    let mut c = Builder::new();
+    let rgba: Vec<u8> = (0..16u8)
+        .flat_map(|i| [i * 16, 200, 100, if i % 3 == 0 { 0 } else { 255 }])
+        .collect();
+    let colour = c.image(
+        &probeplace::fixtures::gltf_writer::png_rgba(4, 4, &rgba),
+        "image/png",
+    );
+    let colour = c.texture(colour, None);
+    let painted: Vec<u8> = (0..4u8).flat_map(|i| [0, 64 * i, 255 * (i % 2)]).collect();
+    let mr = c.image(
+        &probeplace::fixtures::gltf_writer::png_rgb(2, 2, &painted),
+        "image/png",
+    );
+    let mr = c.texture(mr, None);
+    let fence = c.material("fence", [0.8; 3], 1.0, 1.0, [0.0; 3]);
+    let fj = c.material_json(fence);
+    fj["pbrMetallicRoughness"]["baseColorTexture"] = json!({"index": colour});
+    fj["pbrMetallicRoughness"]["metallicRoughnessTexture"] = json!({"index": mr});
+    fj["alphaMode"] = json!("MASK");
+    fj["alphaCutoff"] = json!(0.4);
+    let glass = c.material("glass", [0.9; 3], 0.0, 0.1, [0.0; 3]);
+    c.material_json(glass)["alphaMode"] = json!("BLEND");
+    c.material_json(glass)["pbrMetallicRoughness"]["baseColorFactor"] = json!([0.9, 0.9, 0.9, 0.3]);
+    let a = c.textured_quad(fence);
+    let b2 = c.textured_quad(glass);
+    let na = c.node(json!({"mesh": a}));
+    let nb = c.node(json!({"mesh": b2, "translation": [0.0, 1.0, 0.0]}));
+    c.scene(&[na, nb]);
     vec![
         ("quad.glb", glb),
         ("strip.gltf", q.gltf(None)),
         ("textured.glb", t.glb()),
+        ("masked.glb", c.glb()),
     ]
 }
 

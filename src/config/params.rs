@@ -616,6 +616,23 @@ pub struct BakeParams {
     /// Directions per probe's SH L2 projection (`sh.json`), and paths per
     /// axis of the reference irradiance beside it.
     pub sh_rays: Count<65536>,
+    /// Whether the SH holds the point, spot and directional lights'
+    /// direct light (engines that want fully baked probes) or not (a
+    /// mixed-lighting bake, the default).
+    pub sh_direct: ShDirect,
+}
+
+/// `bake.sh_direct`: which light `sh.json` and the exports' SH hold.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, serde::Serialize)]
+pub enum ShDirect {
+    /// What a mixed-lighting probe holds (Unity's Baked Indirect):
+    /// emitters, the sky and every reflection, not the point, spot and
+    /// directional lights' direct light, which the engine shades.
+    #[default]
+    Exclude,
+    /// All the light at the probe (Unity's Baked lights, a fully baked
+    /// probe): the delta lights' direct light too, projected exactly.
+    Include,
 }
 
 impl Default for BakeParams {
@@ -627,6 +644,7 @@ impl Default for BakeParams {
             bounces: Whole(2),
             moment_exponent: Positive(50.0),
             sh_rays: Count(1024),
+            sh_direct: ShDirect::Exclude,
         }
     }
 }

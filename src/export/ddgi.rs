@@ -212,6 +212,7 @@ pub fn encode(source: &Source) -> Result<Vec<u8>, String> {
             "index_order": "x + counts[0]*z + counts[0]*counts[2]*y",
             "active": source.probes.len(),
             "inactive": cells - source.probes.len(),
+            "sh_holds": source.light.as_ref().map(|_| crate::report::sh::holds(source.direct_included)),
             "probes": entries,
         }),
         "probes",

@@ -235,7 +235,11 @@ pub fn encode(source: &Source, scene: Option<&Scene>) -> Vec<u8> {
     let mut nodes = vec![json!({
         "name": "probes",
         "children": (1..=probe_nodes.len()).collect::<Vec<_>>(),
-        "extras": { "method": source.method, "count": probe_nodes.len() },
+        "extras": {
+            "method": source.method,
+            "count": probe_nodes.len(),
+            "sh_holds": source.light.as_ref().map(|_| crate::report::sh::holds(source.direct_included)),
+        },
     })];
     nodes.extend(probe_nodes);
     nodes.extend(box_nodes);

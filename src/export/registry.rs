@@ -88,6 +88,7 @@ mod tests {
             probes: vec![probe(0.5), probe(3.5)],
             stats: Default::default(),
             light: None,
+            direct_included: false,
         }
     }
 

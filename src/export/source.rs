@@ -53,6 +53,9 @@ pub struct Source {
     /// Each probe's diffuse light (`sh.json`, written by `bake`); `None`
     /// for a run that did not bake.
     pub light: Option<Vec<crate::diffuse::sh::ProbeLight>>,
+    /// Whether `light` holds the delta lights' direct light (`sh.json`'s
+    /// `sh_direct: Include`).
+    pub direct_included: bool,
 }
 
 /// The fields of `probes.json` the exports read.
@@ -147,6 +150,7 @@ impl Source {
                 .cloned()
                 .unwrap_or_default(),
             light: None,
+            direct_included: false,
         })
     }
 
@@ -156,11 +160,10 @@ impl Source {
     /// Contract: the file must be of this run and hold every probe.
     pub fn with_light(mut self, sh_json: Option<&[u8]>) -> Result<Source, String> {
         if let Some(bytes) = sh_json {
-            self.light = Some(crate::report::sh::decode(
-                bytes,
-                &self.provenance,
-                self.probes.len(),
-            )?);
+            let (light, direct_included) =
+                crate::report::sh::decode(bytes, &self.provenance, self.probes.len())?;
+            self.light = Some(light);
+            self.direct_included = direct_included;
         }
         Ok(self)
     }

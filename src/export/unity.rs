@@ -63,7 +63,7 @@ pub fn encode(source: &Source) -> Vec<u8> {
             "count": source.probes.len(),
             "sh_convention": format!(
                 "SphericalHarmonicsL2[channel, coefficient]: 27 floats a probe, r0..r8 g0..g8 b0..b8, in Unity's frame (x negated) and convention (irradiance over pi, basis constants folded in), for LightProbes.bakedProbes; empty before a bake. {}",
-                crate::report::sh::SH_HOLDS
+                crate::report::sh::holds(source.direct_included)
             ),
             "positions": positions,
             "sh": sh,

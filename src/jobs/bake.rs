@@ -166,7 +166,12 @@ pub(crate) fn bake_stage(
     let rays = job.config.bake.sh_rays.0;
     job.set.add(
         SH_FILE,
-        crate::report::sh::encode(&job.provenance, rays, &light),
+        crate::report::sh::encode(
+            &job.provenance,
+            rays,
+            job.config.bake.sh_direct == crate::config::ShDirect::Include,
+            &light,
+        ),
     );
     let timings = watch.to_map_with_total();
     job.watch.record("bake", timings["total"]);

@@ -316,6 +316,7 @@ fn assemble_report(job: &Job, prepared: &Prepared, placed: &Placed, svo: SvoRepo
             bounds: BoundsRecord::world(&scene.bounds, scene),
             area: scene.area(),
             emitters: crate::stages::diffuse::emitters(config, scene),
+            textures: crate::report::TextureRecord::of(scene),
         },
         domain: BoundsRecord::world(&prepared.domain, scene),
         sdf: sdf.into(),

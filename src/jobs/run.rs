@@ -461,6 +461,11 @@ fn summary(r: &Value) -> Vec<String> {
         f(&r["sdf"]["voxel_size"]),
         r["resolution"]["source"].as_str().unwrap_or("config"),
     );
+    // What the scene's textures came to, where its materials name any.
+    if let Some(t) = r["scene"]["textures"].as_array().filter(|t| !t.is_empty()) {
+        let read = t.iter().filter(|t| t["missing"].is_null()).count();
+        line += &format!("; textures: {read} of {} read", t.len());
+    }
     let b = &r["bake"];
     if b.is_object() {
         let seen = f(&b["tracer"]["seen"]);

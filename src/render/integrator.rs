@@ -282,8 +282,9 @@ impl<'a> Renderer<'a> {
         let m = &self.scene.materials[material];
         let (bsdf, emission) = if m.is_textured() {
             let uv = self.scene.texcoord_at(tri, p);
+            let (kd, ks, ns) = self.scene.colours_at(m, uv);
             (
-                Bsdf::from_colours(self.scene.diffuse_at(m, uv), m.specular, m.shininess),
+                Bsdf::from_colours(kd, ks, ns),
                 emission_of(self.scene.emission_at(m, uv)),
             )
         } else {
@@ -354,6 +355,8 @@ mod tests {
             emission: [ke; 3],
             diffuse_map: None,
             emission_map: None,
+            metal_rough: None,
+            cutout: None,
         }
     }
 
@@ -601,6 +604,8 @@ mod tests {
             emission: [0.0; 3],
             diffuse_map: None,
             emission_map: None,
+            metal_rough: None,
+            cutout: None,
         };
         let scene = Scene::from_triangles(
             "t".into(),
@@ -647,6 +652,8 @@ mod tests {
             emission: [0.0; 3],
             diffuse_map: None,
             emission_map: None,
+            metal_rough: None,
+            cutout: None,
         };
         let tris = crate::scene::testing::room_with_box_triangles();
         let scene = Scene::from_triangles(

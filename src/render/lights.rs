@@ -590,6 +590,8 @@ mod tests {
             emission: ke,
             diffuse_map: None,
             emission_map: None,
+            metal_rough: None,
+            cutout: None,
         }
     }
 

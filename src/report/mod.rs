@@ -171,6 +171,38 @@ pub struct SceneRecord {
     /// What lights it: its emissive materials, and the point, spot,
     /// directional and sky lights of the config and the file.
     pub emitters: crate::stages::diffuse::Emitters,
+    /// Every image file its materials name, read or not.
+    pub textures: Vec<TextureRecord>,
+}
+
+/// One texture in `report.json`'s `scene.textures`.
+#[derive(Debug, Serialize)]
+pub struct TextureRecord {
+    /// The file read (or, for a glTF, the image: the file and its index).
+    pub file: String,
+    /// What the materials use it for: `colour`, `emission`,
+    /// `metal-roughness`, `alpha`.
+    pub uses: Vec<&'static str>,
+    /// Its width and height in texels; `null` when it was not read.
+    pub size: Option<[u32; 2]>,
+    /// Why it was not read; `null` when it was.
+    pub missing: Option<String>,
+}
+
+impl TextureRecord {
+    /// The records of `scene`'s texture files, in the order they are named.
+    pub fn of(scene: &Scene) -> Vec<TextureRecord> {
+        scene
+            .texture_files
+            .iter()
+            .map(|f| TextureRecord {
+                file: f.name.clone(),
+                uses: f.uses.clone(),
+                size: f.status.as_ref().ok().copied(),
+                missing: f.status.as_ref().err().cloned(),
+            })
+            .collect()
+    }
 }
 
 /// SDF facts in `report.json`.

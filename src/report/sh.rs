@@ -24,14 +24,49 @@ use serde_json::json;
 /// lights' direct light nowhere, and dynamic objects go nearly dark.
 pub const SH_HOLDS: &str = "The SH holds what a mixed-lighting probe holds: emitters, the sky and every reflection, but no direct light from point, spot or directional lights. Keep those lights Mixed (Baked Indirect) or Realtime, so the engine shades their direct light itself.";
 
+/// [`SH_HOLDS`] for a bake with `bake.sh_direct: Include`.
+pub const SH_HOLDS_ALL: &str = "The SH holds all the light at the probe, the direct light of point, spot and directional lights included (bake.sh_direct: Include). Set those lights to Baked, or leave them out of the engine's shading of probe-lit objects, so their direct light is not counted twice.";
+
+/// The sentence of [`SH_HOLDS`] or [`SH_HOLDS_ALL`] that says which
+/// light a bake holds: with the delta lights' direct light (`bake.sh_direct:
+/// Include`) or without.
+pub fn holds(direct_included: bool) -> &'static str {
+    if direct_included {
+        SH_HOLDS_ALL
+    } else {
+        SH_HOLDS
+    }
+}
+
+/// `sh.json`'s `sh_direct`, as `bake.sh_direct` names it (the config's own
+/// type is not used here: the exports, which read this file, lie below the
+/// config in the module graph).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, serde::Serialize)]
+enum Direct {
+    #[default]
+    Exclude,
+    Include,
+}
+
 /// The file's name in an output set.
 pub(crate) const SH_FILE: &str = "sh.json";
 
 /// The `format` of `sh.json`.
 pub const FORMAT: &str = "probeplace.sh";
 
-/// `sh.json` for `light`, one entry per probe in `probes.json` order.
-pub fn encode(provenance: &Provenance, rays: u32, light: &[ProbeLight]) -> Vec<u8> {
+/// `sh.json` for `light` (its `total` holding the delta lights' direct
+/// light, or not), one entry per probe in `probes.json` order.
+pub fn encode(
+    provenance: &Provenance,
+    rays: u32,
+    direct_included: bool,
+    light: &[ProbeLight],
+) -> Vec<u8> {
+    let sh_direct = if direct_included {
+        Direct::Include
+    } else {
+        Direct::Exclude
+    };
     let rows =
         |sh: &ShL2| -> Vec<[f32; 3]> { sh.coefficients.iter().map(|c| c.to_array()).collect() };
     let probes: Vec<_> = light
@@ -53,6 +88,8 @@ pub fn encode(provenance: &Provenance, rays: u32, light: &[ProbeLight]) -> Vec<u
             "frame": "world: right-handed, +Y up",
             "axes": "+x, -x, +y, -y, +z, -z",
             "rays": rays,
+            "sh_direct": sh_direct,
+            "holds": holds(direct_included),
             "count": light.len(),
             "probes": probes,
         }),
@@ -66,6 +103,9 @@ struct File {
     format: String,
     version: u32,
     provenance: Provenance,
+    /// Absent in files written before the option: they excluded it.
+    #[serde(default)]
+    sh_direct: Direct,
     probes: Vec<ProbeIn>,
 }
 
@@ -76,14 +116,16 @@ struct ProbeIn {
     irradiance_axes: [[f32; 3]; 6],
 }
 
-/// The probes' light of `sh.json` bytes, checked to be of the run of
-/// `provenance` (its config and scene hashes) and to hold `probes` probes. The error is the reason
-/// alone, led by `sh.json:`.
+/// The probes' light of `sh.json` bytes, and whether it holds the delta
+/// lights' direct light,
+/// checked to be of the run of `provenance` (its config and scene hashes)
+/// and to hold `probes` probes. The error is the reason alone, led by
+/// `sh.json:`.
 pub fn decode(
     bytes: &[u8],
     provenance: &Provenance,
     probes: usize,
-) -> Result<Vec<ProbeLight>, String> {
+) -> Result<(Vec<ProbeLight>, bool), String> {
     let f: File = serde_json::from_slice(bytes)
         .map_err(|e| format!("sh.json: not a probeplace SH file: {e}"))?;
     if f.format != FORMAT || f.version != 1 {
@@ -110,7 +152,8 @@ pub fn decode(
             coefficients: std::array::from_fn(|k| Vec3::from(rows[k])),
         })
     };
-    f.probes
+    let light = f
+        .probes
         .iter()
         .enumerate()
         .map(|(i, p)| {
@@ -123,7 +166,8 @@ pub fn decode(
                 irradiance_axes: p.irradiance_axes.map(Vec3::from),
             })
         })
-        .collect()
+        .collect::<Result<Vec<_>, String>>()?;
+    Ok((light, f.sh_direct == Direct::Include))
 }
 
 #[cfg(test)]
@@ -158,9 +202,14 @@ mod tests {
             overrides: Default::default(),
         };
         let probes = [light(0.5), light(1.5)];
-        let bytes = encode(&p, 64, &probes);
+        let bytes = encode(&p, 64, true, &probes);
         let back = decode(&bytes, &p, 2).unwrap();
-        assert_eq!(back, probes);
+        assert_eq!(back, (probes.to_vec(), true));
+        // A file from before the option holds no direct light.
+        let mut old: serde_json::Value = serde_json::from_slice(&bytes).unwrap();
+        old.as_object_mut().unwrap().remove("sh_direct");
+        let old = old.to_string();
+        assert!(!decode(old.as_bytes(), &p, 2).unwrap().1);
         let e = decode(&bytes, &p, 3).unwrap_err();
         assert!(e.starts_with("sh.json: comes from another run"), "{e}");
         let mut other = p.clone();

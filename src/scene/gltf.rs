@@ -32,13 +32,19 @@
 //!   [`Material::fallback`], as an OBJ face without one does (not the
 //!   specification's white metal, which would make every untextured test
 //!   asset a mirror).
-//! * **Textures** (§3.8, §3.9.2, §5.26): `baseColorTexture` and
-//!   `emissiveTexture` with their samplers' wrap modes and
-//!   `KHR_texture_transform`, read through the `TEXCOORD_n` set they name;
+//! * **Textures** (§3.8, §3.9.2, §5.26): `baseColorTexture`,
+//!   `emissiveTexture` and `metallicRoughnessTexture` (blue metal, green
+//!   roughness, per texel: [`super::MetalRough`]) with their samplers'
+//!   wrap modes and `KHR_texture_transform`, read through the
+//!   `TEXCOORD_n` set they name;
 //!   each image (a buffer view, a `data:` URI or a file) decoded once
 //!   ([`super::texture`]). An image that cannot be read is a warning and
 //!   its material keeps its factor; a texture, image or sampler index
 //!   that names nothing is an error.
+//! * **Alpha** (§3.9.4): MASK with its `alphaCutoff`, from the base
+//!   colour's alpha (factor × texture), as a cut-out every ray test
+//!   passes through ([`super::Cutout`]); BLEND as MASK at 0.5, with one
+//!   warning ([`alpha_of`]).
 //! * **Lights** (`KHR_lights_punctual`): point, spot and directional
 //!   lights at their nodes, as config lights ([`light_of`]).
 //!
@@ -46,7 +52,7 @@
 //! beside the glTF (relative URIs, percent-decoded). Every file read goes
 //! through [`crate::input`] (regular files only, within the memory budget).
 
-use super::obj::{MAX_EMISSION, MAX_SHININESS};
+use super::obj::MAX_EMISSION;
 use super::{file_to_world, Material};
 use crate::config::numbers::{Degrees, Direction, NonNegative, Point3, Rgb};
 use crate::config::params::{Light, UpAxis};
@@ -54,7 +60,7 @@ use crate::error::{Error, Result};
 use crate::input;
 use crate::limits;
 use base64::Engine;
-use super::texture::{self, Texture, TextureMap, Wrap};
+use super::texture::{self, Texture, TextureFile, TextureMap, Wrap};
 use glam::{DMat3, DMat4, DQuat, DVec3, Vec2};
 use gltf::json;
 use json::accessor::{ComponentType, Type};
@@ -102,6 +108,9 @@ pub struct GltfFile {
     pub texcoords: Vec<[Vec2; 3]>,
     /// The decoded images the materials' maps index.
     pub textures: Vec<Arc<Texture>>,
+    /// Every image the materials name: its uses, its size or why it was
+    /// not read.
+    pub files: Vec<TextureFile>,
     /// Warnings, each naming the file.
     pub warnings: Vec<String>,
 }
@@ -519,12 +528,9 @@ fn local_transform(node: &json::Node) -> Option<DMat4> {
 }
 
 /// The metallic-roughness material `m` (§3.9.2) as the bake's BSDF sees it
-/// ([`crate::render::material`]): a dielectric's base colour is its
-/// diffuse albedo with a 4% specular reflectance (the specification's
-/// `F0`), a metal's base colour its specular reflectance and no diffuse,
-/// mixed by `metallic`; the GGX roughness `α = roughness²` (§3.9.2 and
-/// Appendix B) is stored as the Phong exponent `Ns = 2/α² − 2` the BSDF
-/// maps back to that `α`. Emission is `emissiveFactor` times
+/// ([`crate::render::material`]), by its factors
+/// ([`super::MetalRough::lobes`]; its textures are applied by
+/// [`Reader::textures`]). Emission is `emissiveFactor` times
 /// `KHR_materials_emissive_strength`. Out-of-range values are clamped as
 /// MTL values are; the flag says whether any was.
 pub fn material_of(index: usize, m: &json::Material) -> (Material, bool) {
@@ -560,22 +566,82 @@ pub fn material_of(index: usize, m: &json::Material) -> (Material, bool) {
             0.0
         }
     });
-    let alpha = roughness * roughness;
-    let shininess = if alpha > 0.0 {
-        (2.0 / (alpha * alpha) - 2.0).min(MAX_SHININESS)
-    } else {
-        MAX_SHININESS
-    };
+    // An alpha cutoff below 0 (§5.19: at least 0) reads as 0 in
+    // [`alpha_of`], and is said as the factors are.
+    if m.alpha_cutoff.is_some_and(|c| !(c.0 >= 0.0 && c.0.is_finite())) {
+        clamped = true;
+    }
+    let (diffuse, specular, shininess) = super::MetalRough::lobes(base, metallic, roughness);
     let material = Material {
         name,
-        diffuse: base.map(|b| (b * (1.0 - metallic)) as f32),
-        specular: base.map(|b| (0.04 * (1.0 - metallic) + b * metallic) as f32),
-        shininess: shininess as f32,
+        diffuse,
+        specular,
+        shininess,
         emission: emission.map(|e| e as f32),
-        diffuse_map: None,
-        emission_map: None,
+        ..Material::fallback()
     };
     (material, clamped)
+}
+
+/// Which map of a material a texture is.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Slot {
+    Colour,
+    Emission,
+    MetalRough,
+}
+
+impl Slot {
+    /// Its use as `report.json` names it ([`texture::USES`]).
+    fn name(self) -> &'static str {
+        match self {
+            Slot::Colour => "colour",
+            Slot::Emission => "emission",
+            Slot::MetalRough => "metal-roughness",
+        }
+    }
+}
+
+/// `m`'s base colour, metallic and roughness factors, each in [0, 1]
+/// (a non-finite one at its default), as [`material_of`] reads them.
+fn factors(m: &json::Material) -> ([f64; 3], f64, f64) {
+    let pbr = &m.pbr_metallic_roughness;
+    let unit = |v: f32, d: f32| (if v.is_finite() { v } else { d }).clamp(0.0, 1.0) as f64;
+    (
+        [0, 1, 2].map(|c| unit(pbr.base_color_factor.0[c], 1.0)),
+        unit(pbr.metallic_factor.0, 1.0),
+        unit(pbr.roughness_factor.0, 1.0),
+    )
+}
+
+/// The cut-out of `m`'s alpha mode (§3.9.4), `None` where rays stop
+/// everywhere: OPAQUE; or MASK (and BLEND, read as MASK at 0.5) whose
+/// alpha, `baseColorFactor`'s times the colour texture's alpha channel
+/// (`colour`, if it was read and has one), is at the cutoff everywhere.
+/// `alphaCutoff` defaults to 0.5; a non-finite one is 0.5, a negative
+/// one 0.
+fn alpha_of(
+    m: &json::Material,
+    colour: Option<TextureMap>,
+    textures: &[Arc<Texture>],
+) -> Option<super::Cutout> {
+    use json::material::AlphaMode;
+    let cutoff = match m.alpha_mode {
+        Checked::Valid(AlphaMode::Mask) => m.alpha_cutoff.map_or(0.5, |c| c.0),
+        Checked::Valid(AlphaMode::Blend) => 0.5,
+        _ => return None,
+    };
+    let cutoff = if cutoff.is_finite() { cutoff.max(0.0) } else { 0.5 };
+    let factor = m.pbr_metallic_roughness.base_color_factor.0[3];
+    let factor = if factor.is_finite() { factor.clamp(0.0, 1.0) } else { 1.0 };
+    let map = colour.filter(|c| textures[c.texture as usize].has_alpha());
+    let cut = super::Cutout {
+        factor,
+        map,
+        grey: false,
+        cutoff,
+    };
+    (map.is_some() || cut.everywhere()).then_some(cut)
 }
 
 /// A `KHR_lights_punctual` light at the node whose world transform is
@@ -983,26 +1049,29 @@ impl Reader<'_> {
         Ok(())
     }
 
-    /// The images the materials' `baseColorTexture` and `emissiveTexture`
-    /// name, loaded ([`texture::load_images`]: each image once, within the
-    /// texture budget; one that fails is a warning and its material keeps
-    /// its factor), into `out.textures`, and the maps set on
-    /// `out.materials` (glTF §3.9.2, §5.26 samplers' wrap modes,
-    /// `KHR_texture_transform`). Returns each material's texture
+    /// The images the materials' `baseColorTexture`, `emissiveTexture` and
+    /// `metallicRoughnessTexture` name, loaded ([`texture::load_images`]:
+    /// each image once, within the texture budget; one that fails is a
+    /// warning and its material keeps its factor), into `out.textures`,
+    /// and the maps set on `out.materials` (glTF §3.9.2, §5.26 samplers'
+    /// wrap modes, `KHR_texture_transform`); then each material's alpha
+    /// mode as a cut-out ([`alpha_of`]). Returns each material's texture
     /// coordinate set (`TEXCOORD_n`), `None` for an untextured one.
     ///
     /// Errors: a texture, image or sampler index that names nothing.
     fn textures(&mut self, out: &mut GltfFile) -> Result<Vec<Option<u32>>> {
         let root = self.root;
-        // (material, emissive?, info) of every map, checked.
-        let mut uses: Vec<(usize, bool, &json::texture::Info)> = Vec::new();
+        // (material, slot, info) of every map, checked.
+        let mut uses: Vec<(usize, Slot, &json::texture::Info)> = Vec::new();
         let mut images: Vec<usize> = Vec::new();
         for (i, m) in root.materials.iter().enumerate() {
+            let pbr = &m.pbr_metallic_roughness;
             let slots = [
-                (false, m.pbr_metallic_roughness.base_color_texture.as_ref(), "baseColorTexture"),
-                (true, m.emissive_texture.as_ref(), "emissiveTexture"),
+                (Slot::Colour, pbr.base_color_texture.as_ref(), "baseColorTexture"),
+                (Slot::Emission, m.emissive_texture.as_ref(), "emissiveTexture"),
+                (Slot::MetalRough, pbr.metallic_roughness_texture.as_ref(), "metallicRoughnessTexture"),
             ];
-            for (emissive, info, what) in slots {
+            for (slot, info, what) in slots {
                 let Some(info) = info else { continue };
                 let here = || format!("material {}: {what}", named(i, m.name.as_deref()));
                 let t = info.index.value();
@@ -1021,28 +1090,41 @@ impl Reader<'_> {
                 if !images.contains(&image) {
                     images.push(image);
                 }
-                uses.push((i, emissive, info));
+                uses.push((i, slot, info));
             }
         }
         let path = self.path;
-        let mut loaded = texture::load_images(images.len(), |k| {
-            let i = images[k];
-            let image = &root.images[i];
-            let name = match (&image.name, &image.uri) {
-                (_, Some(uri)) if !uri.starts_with("data:") => format!("{}: image {i} ({uri:?})", path.display()),
-                (Some(n), _) => format!("{}: image {i} ({n:?})", path.display()),
-                _ => format!("{}: image {i}", path.display()),
-            };
-            (name, self.image_bytes(i))
-        });
+        let names: Vec<String> = images
+            .iter()
+            .map(|&i| {
+                let image = &root.images[i];
+                match (&image.name, &image.uri) {
+                    (_, Some(uri)) if !uri.starts_with("data:") => format!("{}: image {i} ({uri:?})", path.display()),
+                    (Some(n), _) => format!("{}: image {i} ({n:?})", path.display()),
+                    _ => format!("{}: image {i}", path.display()),
+                }
+            })
+            .collect();
+        let mut loaded = texture::load_images(images.len(), |k| (names[k].clone(), self.image_bytes(images[k])));
         out.warnings.append(&mut loaded.warnings);
         out.textures = loaded.textures;
         let index = loaded.index;
+        out.files = names
+            .into_iter()
+            .zip(loaded.status)
+            .map(|(name, status)| TextureFile { name, uses: Vec::new(), status })
+            .collect();
         let mut sets: Vec<Option<u32>> = vec![None; root.materials.len()];
         let mut mixed: Vec<String> = Vec::new();
-        for (i, emissive, info) in uses {
+        // Each material's colour image, among `images`.
+        let mut colour_image: Vec<Option<usize>> = vec![None; root.materials.len()];
+        for (i, slot, info) in uses {
             let tex = &root.textures[info.index.value()];
             let k = images.iter().position(|&im| im == tex.source.value()).unwrap_or(0);
+            out.files[k].add_use(slot.name());
+            if slot == Slot::Colour {
+                colour_image[i] = Some(k);
+            }
             let Some(texture) = index[k] else { continue };
             let transform = info.extensions.as_ref().and_then(|e| e.texture_transform.as_ref());
             let set = transform.and_then(|t| t.tex_coord).unwrap_or(info.tex_coord);
@@ -1068,10 +1150,24 @@ impl Reader<'_> {
                 wrap: wraps,
             };
             let m = &mut out.materials[i];
-            if emissive {
-                m.emission_map = Some(map);
-            } else {
-                m.diffuse_map = Some(map);
+            match slot {
+                Slot::Colour => m.diffuse_map = Some(map),
+                Slot::Emission => m.emission_map = Some(map),
+                Slot::MetalRough => {
+                    let (base, metallic, roughness) = factors(&root.materials[i]);
+                    // What reads the material without a point sees the
+                    // lobes of the texture's mean metal and roughness.
+                    let mean = out.textures[texture as usize].mean_data();
+                    let (d, sp, ns) =
+                        super::MetalRough::lobes(base, metallic * mean.z as f64, roughness * mean.y as f64);
+                    (m.diffuse, m.specular, m.shininess) = (d, sp, ns);
+                    m.metal_rough = Some(super::MetalRough {
+                        base: base.map(|b| b as f32),
+                        metallic: metallic as f32,
+                        roughness: roughness as f32,
+                        map,
+                    });
+                }
             }
             match sets[i] {
                 Some(s) if s != set => mixed.push(m.name.clone()),
@@ -1081,9 +1177,28 @@ impl Reader<'_> {
         }
         if !mixed.is_empty() {
             out.warnings.push(format!(
-                "{}: material(s) {} read their colour and emission textures through different TEXCOORD sets; both use the colour texture's",
+                "{}: material(s) {} read their textures through different TEXCOORD sets; all use the first one's",
                 path.display(),
                 mixed.iter().take(LISTED).map(|n| format!("`{n}`")).collect::<Vec<_>>().join(", ")
+            ));
+        }
+        // Alpha: a cut-out where the mode asks for one.
+        let mut blend: Vec<String> = Vec::new();
+        for (i, m) in root.materials.iter().enumerate() {
+            if m.alpha_mode == Checked::Valid(json::material::AlphaMode::Blend) {
+                blend.push(named(i, m.name.as_deref()));
+            }
+            let material = &mut out.materials[i];
+            material.cutout = alpha_of(m, material.diffuse_map, &out.textures);
+            if let (Some(_), Some(k)) = (material.cutout.and_then(|c| c.map), colour_image[i]) {
+                out.files[k].add_use("alpha");
+            }
+        }
+        if !blend.is_empty() {
+            out.warnings.push(format!(
+                "{}: material(s) {} blend by alpha (`alphaMode` BLEND): rays read them as MASK at alpha 0.5, passing where alpha is under it",
+                path.display(),
+                super::first_of(&blend, LISTED)
             ));
         }
         Ok(sets)

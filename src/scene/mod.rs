@@ -50,6 +50,94 @@ pub struct Material {
     /// An emission texture (`map_Ke`, glTF's `emissiveTexture`): the
     /// emitted radiance at a point is `emission ×` its texel.
     pub emission_map: Option<texture::TextureMap>,
+    /// glTF's metallic-roughness parameters, where the material has a
+    /// `metallicRoughnessTexture`: its BSDF is then made per texel
+    /// ([`Scene::colours_at`]), and `diffuse`, `specular` and `shininess`
+    /// hold the lobes of the texture's mean metal and roughness (for what
+    /// reads a material without a point: previews, exports).
+    pub metal_rough: Option<MetalRough>,
+    /// Where rays pass through the surface (glTF's `alphaMode` MASK, an
+    /// MTL's `map_d` or `d`): every ray test of the scene skips it there
+    /// ([`raycast::SceneBvh`]).
+    pub cutout: Option<Cutout>,
+}
+
+/// glTF's metallic-roughness material (§3.9.2) with a
+/// `metallicRoughnessTexture`: at a point, metal is `metallic ×` the
+/// texel's blue channel and roughness `roughness ×` its green one (raw
+/// values, not sRGB), and the base colour `base ×` the colour texture's
+/// texel ([`Material::diffuse_map`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MetalRough {
+    /// `baseColorFactor`'s colour.
+    pub base: [f32; 3],
+    /// `metallicFactor`.
+    pub metallic: f32,
+    /// `roughnessFactor`.
+    pub roughness: f32,
+    /// The `metallicRoughnessTexture`.
+    pub map: texture::TextureMap,
+}
+
+impl MetalRough {
+    /// The BSDF's `(Kd, Ks, Ns)` of base colour `base`, metal `metallic`
+    /// and roughness `roughness` (each in [0, 1]): a dielectric's base
+    /// colour is its diffuse albedo with a 4% specular reflectance (the
+    /// specification's `F0`), a metal's base colour its specular
+    /// reflectance and no diffuse, mixed by `metallic`; the GGX roughness
+    /// `α = roughness²` is stored as the Phong exponent `Ns = 2/α² − 2`
+    /// that [`crate::render::material::alpha_from_shininess`] maps back.
+    pub fn lobes(base: [f64; 3], metallic: f64, roughness: f64) -> ([f32; 3], [f32; 3], f32) {
+        let alpha = roughness * roughness;
+        let shininess = if alpha > 0.0 {
+            (2.0 / (alpha * alpha) - 2.0).min(obj::MAX_SHININESS)
+        } else {
+            obj::MAX_SHININESS
+        };
+        (
+            base.map(|b| (b * (1.0 - metallic)) as f32),
+            base.map(|b| (0.04 * (1.0 - metallic) + b * metallic) as f32),
+            shininess as f32,
+        )
+    }
+}
+
+/// Where a surface lets rays through: its alpha, `factor ×` the map's
+/// (the alpha channel; with `grey`, a map without one is read by its
+/// first channel, as an MTL's `map_d` often is), is below `cutoff`
+/// (glTF §3.9.4's `alphaMode` MASK: "rendered fully opaque" at or above
+/// the cutoff, "fully transparent" below it). BLEND and an MTL's
+/// dissolve are read as MASK at 0.5: a ray either passes or stops.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Cutout {
+    /// The alpha where the map is opaque (`baseColorFactor`'s alpha, `d`).
+    pub factor: f32,
+    /// The alpha texture, if any.
+    pub map: Option<texture::TextureMap>,
+    /// Whether a map without an alpha channel is read by its first channel.
+    pub grey: bool,
+    /// Alpha at and above which the surface stops rays (`alphaCutoff`).
+    pub cutoff: f32,
+}
+
+impl Cutout {
+    /// Whether the surface stops rays at texture coordinates `uv`.
+    ///
+    /// Contract: the map indexes `textures`; allocation-free.
+    #[inline]
+    pub fn opaque_at(&self, textures: &[Arc<texture::Texture>], uv: Vec2) -> bool {
+        let a = match self.map {
+            Some(m) => textures[m.texture as usize].sample_alpha(m.apply(uv), m.wrap, self.grey),
+            None => 1.0,
+        };
+        self.factor * a >= self.cutoff
+    }
+
+    /// Whether the surface lets every ray through (no map, and its factor
+    /// under the cutoff).
+    pub fn everywhere(&self) -> bool {
+        self.map.is_none() && self.factor < self.cutoff
+    }
 }
 
 impl Material {
@@ -63,12 +151,32 @@ impl Material {
             emission: [0.0; 3],
             diffuse_map: None,
             emission_map: None,
+            metal_rough: None,
+            cutout: None,
         }
     }
 
-    /// Whether either colour varies over the surface (a texture map).
+    /// Whether anything of it varies over the surface (a texture map of
+    /// colour, emission, metal and roughness, or alpha): its triangles
+    /// then need texture coordinates.
     pub fn is_textured(&self) -> bool {
-        self.diffuse_map.is_some() || self.emission_map.is_some()
+        self.diffuse_map.is_some()
+            || self.emission_map.is_some()
+            || self.metal_rough.is_some()
+            || self.cutout.is_some_and(|c| c.map.is_some())
+    }
+
+    /// The texture maps it reads, each with its use (for messages and
+    /// `report.json`'s list of textures).
+    pub fn maps(&self) -> impl Iterator<Item = (&'static str, texture::TextureMap)> + '_ {
+        [
+            ("colour", self.diffuse_map),
+            ("emission", self.emission_map),
+            ("metal-roughness", self.metal_rough.map(|m| m.map)),
+            ("alpha", self.cutout.and_then(|c| c.map)),
+        ]
+        .into_iter()
+        .filter_map(|(what, m)| m.map(|m| (what, m)))
     }
 }
 
@@ -168,6 +276,9 @@ pub struct Scene {
     pub texcoords: Vec<[Vec2; 3]>,
     /// The decoded textures the materials' maps index.
     pub textures: Vec<Arc<texture::Texture>>,
+    /// Every image file the materials name, read or not: what
+    /// `report.json` lists and the summary line counts.
+    pub texture_files: Vec<texture::TextureFile>,
 }
 
 impl Scene {
@@ -197,8 +308,11 @@ impl Scene {
     ) -> Result<Scene> {
         let (triangles, uvs): (Vec<_>, Vec<_>) =
             triangles.into_iter().map(|(t, m, uv)| ((t, m), uv)).unzip();
-        let maps = materials.iter().flat_map(|m| [m.diffuse_map, m.emission_map]);
-        if maps.flatten().any(|m| m.texture as usize >= textures.len()) {
+        let bad = materials
+            .iter()
+            .flat_map(|m| m.maps())
+            .any(|(_, m)| m.texture as usize >= textures.len());
+        if bad {
             return Err(Error::user_file(&source, "a material's texture map names no texture"));
         }
         let mut scene = Scene::assemble(source, DVec3::ZERO, 0, triangles, materials, uvs)?;
@@ -299,6 +413,7 @@ impl Scene {
             format: "generated",
             texcoords: Vec::new(),
             textures: Vec::new(),
+            texture_files: Vec::new(),
         };
         let textured = scene.materials.iter().any(Material::is_textured);
         scene.materials.push(Material::fallback());
@@ -389,6 +504,30 @@ impl Scene {
             Some(uv) => texture::interpolate(uv, texture::barycentric(&self.triangles[triangle], p)),
             None => Vec2::ZERO,
         }
+    }
+
+    /// The BSDF's `(Kd, Ks, Ns)` of `material` at texture coordinates
+    /// `uv`: [`Scene::diffuse_at`] with the material's `Ks` and `Ns`, or
+    /// for a metallic-roughness material ([`MetalRough`]) the lobes of
+    /// its base colour, metal and roughness at the texel.
+    ///
+    /// Contract: the material's maps index [`Scene::textures`];
+    /// allocation-free.
+    #[inline]
+    pub fn colours_at(&self, material: &Material, uv: Vec2) -> ([f32; 3], [f32; 3], f32) {
+        let Some(mr) = material.metal_rough else {
+            return (self.diffuse_at(material, uv), material.specular, material.shininess);
+        };
+        let base = match material.diffuse_map {
+            Some(map) => Vec3::from(mr.base) * map.sample(&self.textures, uv),
+            None => Vec3::from(mr.base),
+        };
+        let d = self.textures[mr.map.texture as usize].sample_data(mr.map.apply(uv), mr.map.wrap);
+        MetalRough::lobes(
+            base.as_dvec3().to_array(),
+            (mr.metallic * d.z) as f64,
+            (mr.roughness * d.y) as f64,
+        )
     }
 
     /// The diffuse colour factor of `material` at texture coordinates `uv`:
@@ -492,7 +631,8 @@ pub fn load_obj(path: &Path, scale: f64, up: UpAxis) -> Result<Scene> {
         triangle_texcoords,
         maps,
     } = obj::read(path)?;
-    let textures = obj_textures(&mut materials, &maps, &mut warnings);
+    let obj_dir = path.parent().unwrap_or(Path::new(""));
+    let (textures, texture_files) = obj_textures(&mut materials, &maps, obj_dir, &mut warnings);
     let textured = materials.iter().any(Material::is_textured);
     let uvs: Vec<[Vec2; 3]> = if textured && !triangle_texcoords.is_empty() {
         triangle_texcoords
@@ -524,51 +664,72 @@ pub fn load_obj(path: &Path, scale: f64, up: UpAxis) -> Result<Scene> {
     scene.warnings = warnings;
     scene.format = "obj";
     scene.textures = textures;
+    scene.texture_files = texture_files;
     Ok(scene)
 }
 
 /// Loads the images an OBJ's materials map (each file once, however many
 /// materials name it) and sets the materials' [`texture::TextureMap`]s;
 /// a map whose image did not load is left out, with a warning
-/// ([`texture::load_images`]).
+/// ([`texture::load_images`]). Each file is looked for where the MTL
+/// names it, then as [`texture::locate_map`] says; one warning names the
+/// files found in another letter case, one those found elsewhere.
+/// Returns the textures and the list of files `report.json` gives.
 fn obj_textures(
     materials: &mut [Material],
     maps: &[obj::MapSpec],
+    obj_dir: &Path,
     warnings: &mut Vec<String>,
-) -> Vec<Arc<texture::Texture>> {
-    let mut files: Vec<&Path> = Vec::new();
+) -> (Vec<Arc<texture::Texture>>, Vec<texture::TextureFile>) {
+    let mut files: Vec<&obj::MapSpec> = Vec::new();
     for m in maps {
-        if !files.contains(&m.file.as_path()) {
-            files.push(&m.file);
+        if !files.iter().any(|f| f.file == m.file) {
+            files.push(m);
         }
     }
     let limit = crate::limits::memory_budget();
-    // Each file where it is, or spelt in another case beside it (one
-    // warning names every such file and the spelling used).
-    let located: Vec<Option<(PathBuf, bool)>> = files.iter().map(|f| texture::locate(f)).collect();
-    let respelt: Vec<String> = files
+    let located: Vec<Option<(PathBuf, texture::Found)>> = files
         .iter()
-        .zip(&located)
-        .filter_map(|(f, l)| match l {
-            Some((at, true)) => Some(format!(
-                "{} as {}",
-                f.file_name().unwrap_or_default().to_string_lossy(),
-                at.file_name().unwrap_or_default().to_string_lossy()
-            )),
-            _ => None,
-        })
+        .map(|f| texture::locate_map(&f.file, &f.written, obj_dir))
         .collect();
+    let name_of = |p: &Path| p.file_name().unwrap_or_default().to_string_lossy().into_owned();
+    let found = |how: texture::Found, show: &dyn Fn(&obj::MapSpec, &Path) -> String| -> Vec<String> {
+        files
+            .iter()
+            .zip(&located)
+            .filter_map(|(f, l)| match l {
+                Some((at, h)) if *h == how => Some(show(f, at)),
+                _ => None,
+            })
+            .collect()
+    };
+    let respelt = found(texture::Found::Respelt, &|f, at| {
+        format!("{} as {}", name_of(&f.file), name_of(at))
+    });
     if !respelt.is_empty() {
-        let dir = files[0].parent().map(|d| d.display().to_string()).unwrap_or_default();
+        let dir = files[0].file.parent().map(|d| d.display().to_string()).unwrap_or_default();
         warnings.push(format!(
             "{dir}: {} texture(s) found in another letter case: {}",
             respelt.len(),
             first_of(&respelt, 5)
         ));
     }
+    let mut moved = found(texture::Found::BesideObj, &|f, at| {
+        format!("{} at {} (beside the OBJ)", f.written.display(), at.display())
+    });
+    moved.extend(found(texture::Found::InMtlFolder, &|f, at| {
+        format!("{} at {} (in the MTL's folder)", f.written.display(), at.display())
+    }));
+    if !moved.is_empty() {
+        warnings.push(format!(
+            "{} texture(s) not where the MTL names them (relative to its folder) but found elsewhere: {}",
+            moved.len(),
+            first_of(&moved, 5)
+        ));
+    }
+    let names: Vec<String> = files.iter().map(|f| f.file.display().to_string()).collect();
     let mut images = texture::load_images(files.len(), |i| {
-        let file = files[i];
-        let name = file.display().to_string();
+        let name = names[i].clone();
         let Some((at, _)) = &located[i] else {
             return (name, Err("texture not found".into()));
         };
@@ -580,8 +741,20 @@ fn obj_textures(
         (name, bytes)
     });
     warnings.append(&mut images.warnings);
+    let mut list: Vec<texture::TextureFile> = files
+        .iter()
+        .zip(&located)
+        .zip(images.status)
+        .map(|((f, l), status)| texture::TextureFile {
+            // The file read, where one was found.
+            name: l.as_ref().map_or_else(|| f.file.display().to_string(), |(at, _)| at.display().to_string()),
+            uses: Vec::new(),
+            status,
+        })
+        .collect();
     for m in maps {
-        let file = files.iter().position(|f| *f == m.file.as_path()).unwrap_or(0);
+        let file = files.iter().position(|f| f.file == m.file).unwrap_or(0);
+        list[file].add_use(m.slot.name());
         let Some(texture) = images.index[file] else {
             continue;
         };
@@ -599,13 +772,21 @@ fn obj_textures(
             }; 2],
         };
         let slot = &mut materials[m.material];
-        if m.emission {
-            slot.emission_map = Some(map);
-        } else {
-            slot.diffuse_map = Some(map);
+        match m.slot {
+            obj::MapSlot::Colour => slot.diffuse_map = Some(map),
+            obj::MapSlot::Emission => slot.emission_map = Some(map),
+            obj::MapSlot::Alpha => {
+                let cut = slot.cutout.get_or_insert(Cutout {
+                    factor: 1.0,
+                    map: None,
+                    grey: true,
+                    cutoff: 0.5,
+                });
+                cut.map = Some(map);
+            }
         }
     }
-    images.textures
+    (images.textures, list)
 }
 
 /// The scene format of `path`: glTF 2.0 for a `.gltf` or `.glb` name (any
@@ -653,19 +834,19 @@ pub fn load_gltf(path: &Path, scale: f64, up: UpAxis) -> Result<Scene> {
         mut warnings,
         texcoords,
         textures,
+        files,
     } = gltf::read(path, scale, up)?;
     let n = triangles.len();
     let mut scene =
         Scene::from_world(path.to_path_buf(), n, |i| triangles[i], materials, texcoords)?;
     scene.textures = textures;
+    scene.texture_files = files;
     warnings.append(&mut scene.warnings);
     scene.warnings = warnings;
     scene.lights = lights;
     scene.format = "gltf";
     Ok(scene)
 }
-
-/// Small analytic scenes shared by the unit tests of several stages.
 
 /// The first `most` of `items` joined by commas, then how many more: how
 /// every loader's warning names a long list (`a, b and 3 more`).
@@ -676,6 +857,7 @@ pub(crate) fn first_of(items: &[impl AsRef<str>], most: usize) -> String {
         n => format!("{} and {n} more", shown.join(", ")),
     }
 }
+/// Small analytic scenes shared by the unit tests of several stages.
 #[cfg(test)]
 pub mod testing {
     use super::raycast::SceneBvh;

@@ -25,10 +25,12 @@
 //! 0); `Ke` components to [0, [`MAX_EMISSION`]] (non-finite: 0); `Ns` to
 //! [0, [`MAX_SHININESS`]] (non-finite: the default 1).
 //!
-//! Texture maps: `map_Kd` and `map_Ke` (the file name, relative to the MTL,
-//! after the options), with the options `-o u v` (offset), `-s u v`
-//! (scale) and `-clamp on`; other options are skipped with their
-//! arguments. The images are decoded by [`super::texture`].
+//! Texture maps: `map_Kd`, `map_Ke` and `map_d` (the file name, relative
+//! to the MTL, after the options), with the options `-o u v` (offset),
+//! `-s u v` (scale) and `-clamp on`; other options are skipped with their
+//! arguments. The images are decoded by [`super::texture`]. Dissolve
+//! (`d`, or `Tr` as its complement) and `map_d` make a cut-out
+//! ([`super::Cutout`]: rays pass where the opacity is under 0.5).
 
 use super::Material;
 use crate::error::{Error, Result};
@@ -143,16 +145,41 @@ const RELATIVE: i64 = -(1 << 42);
 pub struct MapSpec {
     /// Index into [`ObjFile::materials`].
     pub material: usize,
-    /// `map_Ke` (true) or `map_Kd` (false).
-    pub emission: bool,
-    /// The image file.
+    /// Which map: `map_Kd`, `map_Ke` or `map_d`.
+    pub slot: MapSlot,
+    /// The image file, relative to the MTL's folder.
     pub file: PathBuf,
+    /// The file as the MTL writes it (for the other places it is looked
+    /// for: [`super::texture::locate_map`]).
+    pub written: PathBuf,
     /// Offset and scale (`-o`, `-s`), and whether it clamps (`-clamp on`).
     pub offset: [f32; 2],
     /// Scale `-s`.
     pub scale: [f32; 2],
     /// `-clamp on`.
     pub clamp: bool,
+}
+
+/// Which of a material's maps an MTL statement sets.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum MapSlot {
+    /// `map_Kd`: the diffuse colour texture.
+    Colour,
+    /// `map_Ke`: the emission texture.
+    Emission,
+    /// `map_d`: the dissolve (alpha) texture, a cut-out.
+    Alpha,
+}
+
+impl MapSlot {
+    /// Its use as `report.json` names it ([`super::texture::USES`]).
+    pub fn name(self) -> &'static str {
+        match self {
+            MapSlot::Colour => "colour",
+            MapSlot::Emission => "emission",
+            MapSlot::Alpha => "alpha",
+        }
+    }
 }
 
 /// A face corner's texture index as [`parse_batched`] holds it before the
@@ -845,6 +872,8 @@ pub fn parse_mtl(text: &str, path: &Path) -> (Vec<Material>, Vec<MapSpec>, Vec<S
     let mut maps: Vec<MapSpec> = Vec::new();
     let dir = path.parent().unwrap_or(Path::new(""));
     let mut warnings: Vec<String> = Vec::new();
+    // Per material, its dissolve: (given by `d`?, opacity).
+    let mut dissolve: HashMap<usize, (bool, f32)> = HashMap::new();
     let mut repaired = 0usize;
     let mut warn = |w: String| {
         repaired += 1;
@@ -876,14 +905,20 @@ pub fn parse_mtl(text: &str, path: &Path) -> (Vec<Material>, Vec<MapSpec>, Vec<S
                 m.name
             )
         };
-        if keyword == "map_Kd" || keyword == "map_Ke" {
-            let emission = keyword == "map_Ke";
-            maps.retain(|m| !(m.material == slot && m.emission == emission));
+        let which = match keyword {
+            "map_Kd" => Some(MapSlot::Colour),
+            "map_Ke" => Some(MapSlot::Emission),
+            "map_d" => Some(MapSlot::Alpha),
+            _ => None,
+        };
+        if let Some(which) = which {
+            maps.retain(|m| !(m.material == slot && m.slot == which));
             match map_statement(rest_of(line, keyword)) {
                 Some((file, offset, scale, clamp)) => maps.push(MapSpec {
                     material: slot,
-                    emission,
-                    file: dir.join(file),
+                    slot: which,
+                    file: dir.join(&file),
+                    written: PathBuf::from(file),
                     offset,
                     scale,
                     clamp,
@@ -936,6 +971,26 @@ pub fn parse_mtl(text: &str, path: &Path) -> (Vec<Material>, Vec<MapSpec>, Vec<S
                     _ => m.emission = out,
                 }
             }
+            // Dissolve: `d` is the opacity, `Tr` (as many exporters
+            // write it) its complement; `d` wins where both are given.
+            // Read as a cut-out at 0.5 (`Material::cutout`): under it,
+            // rays pass the material everywhere.
+            "d" | "Tr" => match values.iter().find(|w| **w != "-halo").and_then(|v| v.parse::<f64>().ok()) {
+                Some(v) if v.is_finite() => {
+                    let d = if keyword == "d" { v } else { 1.0 - v };
+                    if !(0.0..=1.0).contains(&d) {
+                        warn(here(format!("{keyword} {v} out of range; clamped")));
+                    }
+                    let given_d = dissolve.get(&slot).is_some_and(|&(by_d, _)| by_d);
+                    if keyword == "d" || !given_d {
+                        dissolve.insert(slot, (keyword == "d", d.clamp(0.0, 1.0) as f32));
+                    }
+                }
+                _ => warn(here(format!(
+                    "{keyword} `{}` is not a number; ignored",
+                    short(&values.join(" "))
+                ))),
+            },
             "Ns" => match values.first().and_then(|v| v.parse::<f64>().ok()) {
                 Some(v) if (0.0..=MAX_SHININESS).contains(&v) => m.shininess = v as f32,
                 Some(v) => {
@@ -960,6 +1015,29 @@ pub fn parse_mtl(text: &str, path: &Path) -> (Vec<Material>, Vec<MapSpec>, Vec<S
             "{}: and {} more value(s) clamped",
             path.display(),
             repaired - LISTED_WARNINGS
+        ));
+    }
+    let mut invisible: Vec<String> = Vec::new();
+    for (&i, &(_, d)) in &dissolve {
+        if d < 1.0 {
+            let cut = super::Cutout {
+                factor: d,
+                map: None,
+                grey: true,
+                cutoff: 0.5,
+            };
+            if cut.everywhere() {
+                invisible.push(format!("`{}` ({d})", materials[i].name));
+            }
+            materials[i].cutout = Some(cut);
+        }
+    }
+    if !invisible.is_empty() {
+        invisible.sort();
+        warnings.push(format!(
+            "{}: material(s) {} have an opacity (`d`, or 1 − `Tr`) under 0.5: rays pass through them everywhere, as through a cut-out",
+            path.display(),
+            super::first_of(&invisible, LISTED_WARNINGS)
         ));
     }
     (materials, maps, warnings)
@@ -1214,9 +1292,9 @@ mod tests {
             && w.contains("1 face corner(s) whose texture index names no `vt`")), "{:?}", obj.warnings);
         let file = |m: &MapSpec| m.file.to_string_lossy().into_owned();
         assert_eq!(obj.maps.len(), 2, "{:?}", obj.maps);
-        assert_eq!((file(&obj.maps[0]), obj.maps[0].emission), ("my file.png".into(), false));
+        assert_eq!((file(&obj.maps[0]), obj.maps[0].slot), ("my file.png".into(), MapSlot::Colour));
         assert_eq!((obj.maps[0].scale, obj.maps[0].offset, obj.maps[0].clamp), ([2.0, 3.0], [0.5, 0.0], true));
-        assert_eq!((file(&obj.maps[1]), obj.maps[1].emission), ("glow.jpg".into(), true));
+        assert_eq!((file(&obj.maps[1]), obj.maps[1].slot), ("glow.jpg".into(), MapSlot::Emission));
         // `map_Kd -bm 1` names no file.
         assert!(obj.warnings.iter().any(|w| w.contains("material `b`: map_Kd names no file")), "{:?}", obj.warnings);
     }

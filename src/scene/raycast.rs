@@ -22,6 +22,12 @@
 //! Answers do not depend on the tree or on the order it is traversed in:
 //! among hits at the same distance the lowest scene triangle index wins,
 //! and the box tests are inclusive, so every such hit is seen.
+//!
+//! Cut-outs ([`super::Cutout`]: glTF's alpha MASK, an MTL's `map_d`): a
+//! hit on a cut-out triangle counts only where its alpha at the hit point
+//! stops rays, so every stage (coverage, placement, the bake, the
+//! references, validation) sees through the holes of a fence or a leaf
+//! alike. Scenes without one pay one branch per hit.
 
 use super::watertight::{in_range, TriangleBlock, WatertightRay, WatertightTriangle};
 use super::wide_bvh::{prefetch, BoxRay, WideBvh, LEAF_ALIGN, PAD};
@@ -96,6 +102,36 @@ pub struct SceneBvh {
     /// Whether each slot's triangle is one face of a two-sided sheet:
     /// the scene holds the same triangle again, reversed ([`sheet_faces`]).
     sheet: Vec<bool>,
+    /// Per slot, its index in `cut.triangles` ([`NOT_CUT`]: an opaque
+    /// triangle); empty when the scene has no cut-out.
+    cut_of: Vec<u32>,
+    /// The cut-out triangles and what their test reads.
+    cut: Cutouts,
+}
+
+/// A slot's [`SceneBvh::cut_of`] for an opaque triangle.
+const NOT_CUT: u32 = u32::MAX;
+
+/// What the alpha test of cut-out triangles reads ([`SceneBvh`]).
+#[derive(Default)]
+struct Cutouts {
+    /// Each cut-out triangle's vertices, texture coordinates and cut-out.
+    triangles: Vec<([Vec3; 3], [glam::Vec2; 3], super::Cutout)>,
+    /// The scene's textures.
+    textures: Vec<std::sync::Arc<super::texture::Texture>>,
+}
+
+impl Cutouts {
+    /// Whether cut-out triangle `k` stops a ray at point `p` on it.
+    #[inline]
+    fn opaque(&self, k: u32, p: Vec3A) -> bool {
+        let (tri, uv, cut) = &self.triangles[k as usize];
+        if cut.everywhere() {
+            return false;
+        }
+        let b = super::texture::barycentric(tri, p.into());
+        cut.opaque_at(&self.textures, super::texture::interpolate(uv, b))
+    }
 }
 
 /// Triangles above which the BVH is built with obvhs's fast preset rather
@@ -173,11 +209,25 @@ impl SceneBvh {
             .iter()
             .map(|&i| i != PAD && sheet_of_scene[i as usize])
             .collect();
+        let (cut_of, cut) = cutouts(scene, &scene_index);
         SceneBvh {
             bvh,
             blocks,
             slots,
             sheet,
+            cut_of,
+            cut,
+        }
+    }
+
+    /// Whether the triangle of `slot` stops a ray at point `p` on it: an
+    /// opaque triangle everywhere, a cut-out where its alpha is at its
+    /// cutoff.
+    #[inline(always)]
+    fn stops(&self, slot: usize, p: Vec3A) -> bool {
+        match self.cut_of.get(slot) {
+            None | Some(&NOT_CUT) => true,
+            Some(&k) => self.cut.opaque(k, p),
         }
     }
 
@@ -263,7 +313,7 @@ impl SceneBvh {
                     // What `wray.intersect(triangle, tmin, bound(best_t))`
                     // returns, the bound as it is after the lanes before.
                     let t = in_range(dist[i], tmin, bound(best_t));
-                    if !t.is_finite() {
+                    if !t.is_finite() || !self.stops(slot, origin + d * t) {
                         continue;
                     }
                     let ts = t + shift(slot);
@@ -390,7 +440,7 @@ impl SceneBvh {
         let wray = WatertightRay::new(a, dir);
         // The remembered triangles first, by the traversal's own test.
         let remembered = |m: &Blocker| -> bool {
-            m.lanes != 0 && blocking_lane(&wray, &m.block, m.lanes, &ray).is_some()
+            m.lanes != 0 && blocking_lane(&wray, &m.block, m.lanes, &ray, |_, _| true).is_some()
         };
         if remembered(blocker) || other.as_deref().is_some_and(remembered) {
             return true;
@@ -399,14 +449,17 @@ impl SceneBvh {
         let touch = |slots: Range<usize>| self.prefetch(slots);
         let blocked = self.bvh.any::<NEAR_FIRST, _, _>(&BoxRay::new(&ray), ray.tmax, touch, |slots| {
             for (block, lanes) in blocks_of(slots) {
-                if let Some(i) = blocking_lane(&wray, &self.blocks[block], lanes, &ray) {
+                let stops = |i: usize, t: f32| self.stops(LEAF_ALIGN * block + i, a + dir * t);
+                if let Some(i) = blocking_lane(&wray, &self.blocks[block], lanes, &ray, stops) {
                     last = Some((LEAF_ALIGN * block + i) as u32);
                     return true;
                 }
             }
             false
         });
-        if let Some(slot) = last {
+        // A cut-out is not remembered: whether it blocks depends on where
+        // a segment crosses it, which the memory's test does not ask.
+        if let Some(slot) = last.filter(|&s| self.cut_of.get(s as usize).is_none_or(|&k| k == NOT_CUT)) {
             let slot = slot as usize;
             let tri = self.blocks[slot / LEAF_ALIGN].triangle(slot % LEAF_ALIGN);
             blocker.remember(&tri);
@@ -419,24 +472,59 @@ impl SceneBvh {
 }
 
 /// The first of `lanes` of `block` whose triangle blocks the segment of
-/// `ray` (its distance within `[tmin, tmax]` and short of `tmax`): the
-/// test of a leaf's blocks in the traversal, and of a [`Blocker`]'s.
+/// `ray` (its distance `t` within `[tmin, tmax]` and short of `tmax`, and
+/// `stops(lane, t)`: not a cut-out's hole): the test of a leaf's blocks
+/// in the traversal, and of a [`Blocker`]'s.
 #[inline(always)]
 fn blocking_lane(
     wray: &WatertightRay,
     block: &TriangleBlock,
     lanes: u32,
     ray: &Ray,
+    stops: impl Fn(usize, f32) -> bool,
 ) -> Option<usize> {
     let (mut hit, dist) = wray.distances4(block, lanes);
     while hit != 0 {
         let i = hit.trailing_zeros() as usize;
         hit &= hit - 1;
-        if in_range(dist[i], ray.tmin, ray.tmax) < ray.tmax {
+        let t = in_range(dist[i], ray.tmin, ray.tmax);
+        if t < ray.tmax && stops(i, t) {
             return Some(i);
         }
     }
     None
+}
+
+/// The cut-out triangles of `scene` ([`super::Material::cutout`]) in the
+/// BVH's slot order `scene_index`: per slot its index among them
+/// ([`NOT_CUT`] for the rest; empty when there are none), and what their
+/// test reads. A cut-out's triangle without texture coordinates reads its
+/// map at (0, 0).
+fn cutouts(scene: &Scene, scene_index: &[u32]) -> (Vec<u32>, Cutouts) {
+    let cut_material: Vec<Option<super::Cutout>> =
+        scene.materials.iter().map(|m| m.cutout).collect();
+    if cut_material.iter().all(Option::is_none) {
+        return (Vec::new(), Cutouts::default());
+    }
+    let mut cut = Cutouts {
+        triangles: Vec::new(),
+        textures: scene.textures.clone(),
+    };
+    let cut_of = scene_index
+        .iter()
+        .map(|&i| {
+            let Some(&Some(c)) = (i != PAD)
+                .then(|| cut_material.get(scene.material_ids[i as usize] as usize))
+                .flatten()
+            else {
+                return NOT_CUT;
+            };
+            let uv = scene.texcoords.get(i as usize).copied().unwrap_or_default();
+            cut.triangles.push((scene.triangles[i as usize], uv, c));
+            (cut.triangles.len() - 1) as u32
+        })
+        .collect();
+    (cut_of, cut)
 }
 
 /// The blocks of a leaf's slots (which start at a multiple of
@@ -1458,5 +1546,81 @@ mod brute_force {
             hits > 1000 && blocked > 1000,
             "{hits} hits, {blocked} blocked"
         );
+    }
+
+    /// A unit quad on z = 0 whose alpha texture is opaque on its right
+    /// half (x > ½) and clear on its left, MASK at 0.5, over a floor at
+    /// z = −1; with `cut: false` the same quad opaque.
+    fn half_masked_quad(cut: bool) -> Scene {
+        use super::super::texture::{Texture, TextureMap, Wrap};
+        use super::super::Cutout;
+        use glam::Vec2;
+        // 2 × 1 texels: the filter's ramp between their centres crosses
+        // 0.5 at x = ½ exactly.
+        let alpha = Texture::from_srgb8("a".into(), 2, 1, vec![[255; 3]; 2]).with_alpha(vec![0, 255]);
+        let mut m = Material::fallback();
+        m.cutout = cut.then_some(Cutout {
+            factor: 1.0,
+            map: Some(TextureMap {
+                wrap: [Wrap::Clamp; 2],
+                ..TextureMap::new(0)
+            }),
+            grey: false,
+            cutoff: 0.5,
+        });
+        let (a, b, c, d) = (Vec3::ZERO, Vec3::X, Vec3::new(1.0, 1.0, 0.0), Vec3::Y);
+        let uv = |p: Vec3| Vec2::new(p.x, p.y);
+        let f = |z: f32| [Vec3::new(-5.0, -5.0, z), Vec3::new(5.0, -5.0, z), Vec3::new(0.0, 5.0, z)];
+        Scene::from_textured_triangles(
+            "quad".into(),
+            [
+                ([a, b, c], 0, [a, b, c].map(uv)),
+                ([a, c, d], 0, [a, c, d].map(uv)),
+                (f(-1.0), 1, [Vec2::ZERO; 3]),
+            ],
+            vec![m, Material::fallback()],
+            vec![std::sync::Arc::new(alpha)],
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn a_half_masked_quad_passes_half_the_rays_in_every_test() {
+        let s = half_masked_quad(true);
+        let bvh = SceneBvh::new(&s);
+        let n = 10_000u64;
+        let (mut passed, mut right_passed) = (0u64, 0u64);
+        let mut near_a = Blocker::default();
+        let mut near_b = Blocker::default();
+        for i in 0..n {
+            let h = hash2(0xA1FA, i);
+            // From a point above to a point on the quad's plane below it
+            // and on: the crossing is uniform over the quad.
+            let o = Vec3::new(0.5, 0.5, 1.0) + (cube_point(hash2(h, 1)) * Vec3::new(0.5, 0.5, 0.2));
+            let x = Vec3::new(unit_f32(hash2(h, 2)), unit_f32(hash2(h, 3)), 0.0);
+            let dir = (x - o).normalize();
+            let hit = bvh.closest_hit(o, dir, 0.0, f32::INFINITY).unwrap();
+            let through = hit.triangle == 2;
+            passed += through as u64;
+            right_passed += (through && x.x > 0.5) as u64;
+            // The segment to just above the floor, by each occlusion test
+            // (the memories shared along the way, as coverage shares them).
+            let end = o + dir * ((o.z + 0.99) / -dir.z);
+            assert_eq!(bvh.occluded(o, end, 1e-4), !through, "ray {i}");
+            assert_eq!(bvh.occluded_from(o, end, 1e-4, &mut near_a), !through, "ray {i}");
+            assert_eq!(
+                bvh.occluded_between::<true>(o, end, 1e-4, &mut near_a, &mut near_b),
+                !through,
+                "ray {i}"
+            );
+        }
+        let fraction = passed as f64 / n as f64;
+        assert!((fraction - 0.5).abs() < 0.02 * 0.5, "{fraction} of the rays passed");
+        assert_eq!(right_passed, 0, "the opaque half stops every ray");
+        // Opaque, the quad stops them all.
+        let opaque = SceneBvh::new(&half_masked_quad(false));
+        let o = Vec3::new(0.25, 0.5, 1.0);
+        assert_eq!(opaque.closest_hit(o, -Vec3::Z, 0.0, f32::INFINITY).unwrap().triangle, 1);
+        assert_eq!(bvh.closest_hit(o, -Vec3::Z, 0.0, f32::INFINITY).unwrap().triangle, 2);
     }
 }

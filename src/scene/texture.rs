@@ -1,6 +1,6 @@
-//! Colour and emission textures: decoded once at load (PNG or JPEG), kept
-//! as 8-bit sRGB, and read at hit points with bilinear filtering in linear
-//! light.
+//! Colour, emission, metal-roughness and alpha textures: decoded once at
+//! load (PNG or JPEG), kept as 8-bit codes, and read at hit points with
+//! bilinear filtering in linear light.
 //!
 //! Why textures matter to probe placement at all: the light a probe stores
 //! is what the surfaces around it reflect, and their albedo decides how
@@ -17,7 +17,13 @@
 //!   colour and emissive textures; MTL files do not say, and every tool
 //!   writes sRGB images), decoded to linear by the sRGB curve (IEC
 //!   61966-2-1) *before* filtering, so a black-and-white checker filters to
-//!   the mean of its linear values, not to sRGB grey. Alpha is ignored.
+//!   the mean of its linear values, not to sRGB grey.
+//! * **Data**: a metallic-roughness texture holds linear values (glTF
+//!   §3.9.2: blue metallic, green roughness), read by
+//!   [`TextureMap::sample_data`] without the sRGB curve.
+//! * **Alpha** is linear too (glTF §3.9.2), kept only when the image has
+//!   a channel that is not opaque everywhere, and read by
+//!   [`TextureMap::sample_mask`] for cut-outs ([`super::Cutout`]).
 //! * **Filtering**: bilinear between the four texels around the point,
 //!   with texel centres at half-integers, wrapped per axis ([`Wrap`]). No
 //!   mip-mapping: the bake and the references shoot single rays, whose
@@ -145,6 +151,9 @@ pub struct Texture {
     /// Height in texels.
     pub height: u32,
     texels: Vec<[u8; 3]>,
+    /// Per texel, its alpha; empty where the image has none (or it is
+    /// 255 everywhere).
+    alpha: Vec<u8>,
     mean: Vec3,
 }
 
@@ -156,7 +165,8 @@ impl std::fmt::Debug for Texture {
 
 impl PartialEq for Texture {
     fn eq(&self, other: &Texture) -> bool {
-        (self.width, self.height, &self.texels) == (other.width, other.height, &other.texels)
+        (self.width, self.height, &self.texels, &self.alpha)
+            == (other.width, other.height, &other.texels, &other.alpha)
     }
 }
 
@@ -189,7 +199,38 @@ impl Texture {
             height,
             mean: Vec3::new((sum[0] / n) as f32, (sum[1] / n) as f32, (sum[2] / n) as f32),
             texels,
+            alpha: Vec::new(),
         }
+    }
+
+    /// This texture with `alpha` (one value per texel, rows from the top)
+    /// as its alpha channel; one that is 255 everywhere is not kept.
+    ///
+    /// Contract: `alpha.len() == width × height`; panics otherwise.
+    pub fn with_alpha(mut self, alpha: Vec<u8>) -> Texture {
+        assert_eq!(alpha.len(), self.texels.len());
+        self.alpha = if alpha.iter().all(|&a| a == 255) { Vec::new() } else { alpha };
+        self
+    }
+
+    /// Whether the image has an alpha channel that is not opaque everywhere.
+    pub fn has_alpha(&self) -> bool {
+        !self.alpha.is_empty()
+    }
+
+    /// The mean of each channel's raw value (`code / 255`, no sRGB curve)
+    /// over the whole image: a metallic-roughness texture's mean metal and
+    /// roughness, for what reads a material without a point.
+    pub fn mean_data(&self) -> Vec3 {
+        let sum = self
+            .texels
+            .par_chunks(1 << 16)
+            .map(|c| c.iter().fold([0u64; 3], |s, t| [0, 1, 2].map(|k| s[k] + t[k] as u64)))
+            .collect::<Vec<_>>()
+            .into_iter()
+            .fold([0u64; 3], |a, b| [a[0] + b[0], a[1] + b[1], a[2] + b[2]]);
+        let n = self.texels.len() as f64 * 255.0;
+        Vec3::from_array(sum.map(|s| (s as f64 / n) as f32))
     }
 
     /// The texels, 8-bit sRGB, rows from the top.
@@ -218,6 +259,43 @@ impl Texture {
     /// Contract: finite, each channel in [0, 1]; allocation-free.
     #[inline]
     pub fn sample(&self, uv: Vec2, wrap: [Wrap; 2]) -> Vec3 {
+        let lut: &[f32; 256] = &LINEAR;
+        self.filter(uv, wrap, |x, y| self.texel(lut, x, y)).min(Vec3::ONE)
+    }
+
+    /// [`Texture::sample`] of the raw values (`code / 255`), without the
+    /// sRGB curve: a data texture's (metallic-roughness).
+    #[inline]
+    pub fn sample_data(&self, uv: Vec2, wrap: [Wrap; 2]) -> Vec3 {
+        self.filter(uv, wrap, |x, y| {
+            let t = self.texels[y * self.width as usize + x];
+            Vec3::new(t[0] as f32, t[1] as f32, t[2] as f32) * (1.0 / 255.0)
+        })
+        .min(Vec3::ONE)
+    }
+
+    /// The filtered alpha at `uv` (as [`Texture::sample`]), in [0, 1]:
+    /// the alpha channel where the image has one; else 1, or with
+    /// `grey` the first channel's raw value (an MTL `map_d` given as a
+    /// grey image).
+    #[inline]
+    pub fn sample_alpha(&self, uv: Vec2, wrap: [Wrap; 2], grey: bool) -> f32 {
+        let w = self.width as usize;
+        let v = if self.has_alpha() {
+            self.filter(uv, wrap, |x, y| Vec3::splat(self.alpha[y * w + x] as f32))
+        } else if grey {
+            self.filter(uv, wrap, |x, y| Vec3::splat(self.texels[y * w + x][0] as f32))
+        } else {
+            return 1.0;
+        };
+        (v.x * (1.0 / 255.0)).clamp(0.0, 1.0)
+    }
+
+    /// The bilinear filter of `texel` at image coordinates `uv`, wrapped
+    /// by `wrap`; non-finite coordinates read as 0. At least 0 per channel
+    /// (the callers clamp the top of their own range).
+    #[inline(always)]
+    fn filter(&self, uv: Vec2, wrap: [Wrap; 2], texel: impl Fn(usize, usize) -> Vec3) -> Vec3 {
         let finite = |v: f32| if v.is_finite() { v.clamp(-1e9, 1e9) } else { 0.0 };
         let x = finite(uv.x) * self.width as f32 - 0.5;
         let y = finite(uv.y) * self.height as f32 - 0.5;
@@ -226,16 +304,16 @@ impl Texture {
         let (x0, y0) = (x0 as i64, y0 as i64);
         let xs = [wrap[0].index(x0, self.width), wrap[0].index(x0 + 1, self.width)];
         let ys = [wrap[1].index(y0, self.height), wrap[1].index(y0 + 1, self.height)];
-        let lut: &[f32; 256] = &LINEAR;
-        let texel = |x, y| self.texel(lut, x, y);
         let top = texel(xs[0], ys[0]) * (1.0 - fx) + texel(xs[1], ys[0]) * fx;
         let bottom = texel(xs[0], ys[1]) * (1.0 - fx) + texel(xs[1], ys[1]) * fx;
-        (top * (1.0 - fy) + bottom * fy).clamp(Vec3::ZERO, Vec3::ONE)
+        let v = top * (1.0 - fy) + bottom * fy;
+        v.max(Vec3::ZERO)
     }
 
-    /// Decoded bytes a `width × height` texture takes.
+    /// Decoded bytes a `width × height` texture takes at most (three
+    /// colour channels and an alpha).
     pub fn bytes(width: u32, height: u32) -> u64 {
-        width as u64 * height as u64 * 3
+        width as u64 * height as u64 * 4
     }
 }
 
@@ -284,13 +362,15 @@ fn header(bytes: &[u8]) -> Result<(Format, u32, u32), String> {
 
 /// Decodes the PNG or JPEG in `bytes` (named `name`): 8-bit sRGB texels
 /// (16-bit PNGs rounded to 8 bits, grey expanded to RGB, palettes
-/// expanded, alpha dropped).
+/// expanded), and the alpha channel where the PNG has one (or a
+/// transparent colour) that is not opaque everywhere.
 ///
 /// Errors: a message without the name (the caller adds it): not a PNG or
 /// JPEG, broken, or over [`MAX_SIDE`].
 pub fn decode(bytes: &[u8], name: String) -> Result<Texture, String> {
     let (format, width, height) = header(bytes)?;
     let n = width as usize * height as usize;
+    let mut alpha: Vec<u8> = Vec::new();
     let texels: Vec<[u8; 3]> = match format {
         Format::Png => {
             // The decoder's own limit (64 MiB by default) would refuse a
@@ -309,6 +389,10 @@ pub fn decode(bytes: &[u8], name: String) -> Result<Texture, String> {
             let channels = frame.color_type.samples();
             let line = frame.line_size;
             let mut out = Vec::with_capacity(n);
+            let has_alpha = channels == 2 || channels == 4;
+            if has_alpha {
+                alpha.reserve_exact(n);
+            }
             for y in 0..height as usize {
                 let row = &buf[y * line..];
                 for x in 0..width as usize {
@@ -317,6 +401,9 @@ pub fn decode(bytes: &[u8], name: String) -> Result<Texture, String> {
                         1 | 2 => [p[0]; 3],
                         _ => [p[0], p[1], p[2]],
                     });
+                    if has_alpha {
+                        alpha.push(p[channels - 1]);
+                    }
                 }
             }
             out
@@ -338,7 +425,8 @@ pub fn decode(bytes: &[u8], name: String) -> Result<Texture, String> {
             rgb.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect()
         }
     };
-    Ok(Texture::from_srgb8(name, width, height, texels))
+    let texture = Texture::from_srgb8(name, width, height, texels);
+    Ok(if alpha.is_empty() { texture } else { texture.with_alpha(alpha) })
 }
 
 /// Where the image file an MTL names is: `file` itself when it exists,
@@ -372,6 +460,50 @@ pub fn locate(file: &Path) -> Option<(PathBuf, bool)> {
     found.into_iter().next().map(|p| (p, true))
 }
 
+/// Where an MTL's texture map was found ([`locate_map`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Found {
+    /// Where the MTL names it (relative to the MTL's folder).
+    AsNamed,
+    /// There, in another letter case.
+    Respelt,
+    /// Relative to the OBJ's folder (the MTL is elsewhere).
+    BesideObj,
+    /// Its file name alone, in the MTL's folder.
+    InMtlFolder,
+}
+
+/// Where the image an MTL's `map_*` statement names is: `file` (the name
+/// as written, `written`, joined to the MTL's folder) as [`locate`] finds
+/// it; else `written` relative to the OBJ's folder `obj_dir` (exporters
+/// that write paths relative to the OBJ while the MTL sits elsewhere);
+/// else its file name alone (after the last `/` or `\`) in the MTL's
+/// folder (a path from the author's machine, the image shipped beside
+/// the MTL). `None`: none of
+/// these.
+pub fn locate_map(file: &Path, written: &Path, obj_dir: &Path) -> Option<(PathBuf, Found)> {
+    if let Some((at, respelt)) = locate(file) {
+        return Some((at, if respelt { Found::Respelt } else { Found::AsNamed }));
+    }
+    if written.is_relative() {
+        let beside = obj_dir.join(written);
+        if beside != file {
+            if let Some((at, _)) = locate(&beside) {
+                return Some((at, Found::BesideObj));
+            }
+        }
+    }
+    // The last component, whichever separator the author's system used.
+    let name = written.to_str()?.rsplit(['/', '\\']).next().filter(|n| !n.is_empty())?;
+    let flat = file.with_file_name(name);
+    if flat != file {
+        if let Some((at, _)) = locate(&flat) {
+            return Some((at, Found::InMtlFolder));
+        }
+    }
+    None
+}
+
 /// Loads the images `count` names, for one scene: `fetch(i)` gives image
 /// `i`'s bytes and its name for messages (or why it could not be read).
 /// Headers are read first; images are then taken in order while their
@@ -392,12 +524,17 @@ pub fn load_images(
     let mut failed: Vec<String> = Vec::new();
     let mut over: Vec<String> = Vec::new();
     let mut pending: Vec<(usize, String, Vec<u8>)> = Vec::new();
+    let mut status: Vec<Result<[u32; 2], String>> = vec![Err(String::new()); count];
     for i in 0..count {
         let (name, bytes) = fetch(i);
         let bytes = match bytes.and_then(|b| header(&b).map(|h| (b, h))) {
             Ok((b, (_, w, h))) => {
                 let need = Texture::bytes(w, h);
                 if used + need > budget {
+                    status[i] = Err(format!(
+                        "over the texture budget ({}, a quarter of the memory budget)",
+                        crate::input::bytes_text(budget)
+                    ));
                     over.push(name);
                     continue;
                 }
@@ -405,6 +542,7 @@ pub fn load_images(
                 b
             }
             Err(why) => {
+                status[i] = Err(why.clone());
                 failed.push(format!("{name}: {why}"));
                 continue;
             }
@@ -424,9 +562,13 @@ pub fn load_images(
         match t {
             Ok(t) => {
                 index[i] = Some(textures.len() as u32);
+                status[i] = Ok([t.width, t.height]);
                 textures.push(Arc::new(t));
             }
-            Err(why) => failed.push(format!("{name}: {why}")),
+            Err(why) => {
+                status[i] = Err(why.clone());
+                failed.push(format!("{name}: {why}"));
+            }
         }
     }
     let mut warnings: Vec<String> = failed
@@ -454,6 +596,7 @@ pub fn load_images(
     LoadedImages {
         textures,
         index,
+        status,
         warnings,
     }
 }
@@ -464,9 +607,36 @@ pub struct LoadedImages {
     pub textures: Vec<Arc<Texture>>,
     /// Per image, its index in `textures` (`None`: not loaded).
     pub index: Vec<Option<u32>>,
+    /// Per image, its size in texels, or why it was not read.
+    pub status: Vec<Result<[u32; 2], String>>,
     /// One per image not loaded (the first few of each kind, then a count).
     pub warnings: Vec<String>,
 }
+
+/// One image a scene's materials name, as `report.json` lists it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TextureFile {
+    /// The file (or the glTF image) as messages name it.
+    pub name: String,
+    /// What the materials use it for (`colour`, `emission`,
+    /// `metal-roughness`, `alpha`), each once, in that order.
+    pub uses: Vec<&'static str>,
+    /// Its size in texels, or why it was not read.
+    pub status: Result<[u32; 2], String>,
+}
+
+impl TextureFile {
+    /// Adds `what` to its uses, keeping the order of [`USES`].
+    pub fn add_use(&mut self, what: &'static str) {
+        if !self.uses.contains(&what) {
+            self.uses.push(what);
+            self.uses.sort_by_key(|u| USES.iter().position(|k| k == u));
+        }
+    }
+}
+
+/// The uses of a texture, in the order lists give them.
+pub const USES: [&str; 4] = ["colour", "emission", "metal-roughness", "alpha"];
 
 /// Barycentric coordinates `(b1, b2)` of point `p` in triangle `t`
 /// (`p ≈ t0 + b1 (t1 − t0) + b2 (t2 − t0)`), by the projection onto the
@@ -624,7 +794,7 @@ mod tests {
 
     #[test]
     fn missing_and_broken_images_warn_once_each_and_load_nothing() {
-        let LoadedImages { textures, index, warnings } = load_images(3, |i| match i {
+        let LoadedImages { textures, index, warnings, .. } = load_images(3, |i| match i {
             0 => ("gone.png".into(), Err("not found".into())),
             1 => ("junk.png".into(), Ok(b"junk".to_vec())),
             _ => ("ok.png".into(), Err("not found".into())),

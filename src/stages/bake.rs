@@ -4,6 +4,7 @@
 //! tracer against exact ray casts that every bake reports.
 
 use super::prepare::Prepared;
+use crate::config::params::ShDirect;
 use crate::config::Config;
 pub use crate::diffuse::ProbeLight;
 use crate::error::Result;
@@ -187,9 +188,11 @@ pub fn bake(
 }
 
 /// Each probe's SH L2 from `bake.sh_rays` directions and its reference
-/// irradiance along the six axes from as many cosine-weighted paths each
-/// (delta lights' direct light excluded from both, as engines shade it
-/// analytically: [`crate::diffuse`]).
+/// irradiance along the six axes from as many cosine-weighted paths each:
+/// with `bake.sh_direct: Exclude`, the delta lights' direct light
+/// excluded from both, as a mixed-lighting engine shades it analytically
+/// ([`crate::diffuse`]); with `Include`, in both (the SH's exactly
+/// projected, [`crate::diffuse::ProbeSh::total`]).
 ///
 /// Contract: deterministic for a config and positions, whatever the
 /// thread count.
@@ -205,14 +208,25 @@ pub fn probe_light(config: &Config, prepared: &Prepared, positions: &[Vec3]) -> 
     let reference = crate::diffuse::reference(renderer, &receivers, rays, seed ^ 0xA4E5);
     sh.into_iter()
         .zip(reference.chunks(crate::diffuse::AXES.len()))
-        .map(|(sh, e)| ProbeLight {
-            // `sh.json` holds what a mixed-lighting bake stores: the delta
-            // lights' direct light is the renderer's.
-            sh: crate::diffuse::ProbeSh {
-                direct: crate::diffuse::ShL2::ZERO,
-                ..sh
-            },
-            irradiance_axes: std::array::from_fn(|k| e[k].baked),
+        .map(|(sh, e)| {
+            let include = config.bake.sh_direct == ShDirect::Include;
+            ProbeLight {
+                // `sh.json`'s `total` is `baked`: what a mixed-lighting
+                // bake stores (the delta lights' direct light is the
+                // renderer's), or with `Include` all the light.
+                sh: crate::diffuse::ProbeSh {
+                    baked: if include { sh.total() } else { sh.baked },
+                    direct: crate::diffuse::ShL2::ZERO,
+                    ..sh
+                },
+                irradiance_axes: std::array::from_fn(|k| {
+                    if include {
+                        e[k].total
+                    } else {
+                        e[k].baked
+                    }
+                }),
+            }
         })
         .collect()
 }

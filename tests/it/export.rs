@@ -1060,3 +1060,93 @@ fn a_multi_format_export_writes_what_it_can_and_names_what_it_cannot() {
     assert!(!out.join("ddgi.json").exists());
     assert_manifest_holds(&dir_files(&out));
 }
+
+/// `bake.sh_direct: Include` adds the point light's direct light to the SH
+/// and to the reference irradiance beside it, and nothing else: in a
+/// closed room lit by one point light, each probe's SH differs from the
+/// `Exclude` bake's by the light's exact projection (`I/d² · Y(ω)`, ω
+/// towards the light), and each axis's reference by `I · max(0, n·ω)/d²`.
+/// The files say which light they hold, in docs/engines.md's words.
+#[test]
+fn sh_direct_include_adds_the_delta_lights_direct_light_exactly() {
+    let d = tempfile::tempdir().unwrap();
+    std::fs::write(d.path().join("room.obj"), crate::hostile::CUBE_ROOM).unwrap();
+    let light = [1.0f64, 1.3, 0.8];
+    let intensity = 2.0f64;
+    let bake = |mode: &str| -> Value {
+        let config = d.path().join(format!("{mode}.ron"));
+        std::fs::write(
+            &config,
+            format!(
+                "(scene: \"room.obj\", voxel_size: 0.1, seed: 3,\n\
+                 lights: [Point(position: ({}, {}, {}), intensity: ({intensity}, {intensity}, {intensity}))],\n\
+                 bake: (resolution: 8, irradiance_resolution: 8, samples: 1, bounces: 1, sh_rays: 128, sh_direct: {mode}),\n)\n",
+                light[0], light[1], light[2]
+            ),
+        )
+        .unwrap();
+        let out = d.path().join(mode);
+        run_job("bake", &config, &out, &[]);
+        read_json(&out.join("sh.json"))
+    };
+    let (exclude, include) = (bake("Exclude"), bake("Include"));
+    let engines = std::fs::read_to_string(root().join("docs/engines.md")).unwrap();
+    for (sh, mode) in [(&exclude, "Exclude"), (&include, "Include")] {
+        assert_eq!(sh["sh_direct"], mode);
+        let holds = sh["holds"].as_str().unwrap();
+        assert!(engines.contains(holds), "docs/engines.md lacks {holds:?}");
+    }
+    assert_ne!(exclude["holds"], include["holds"]);
+    let positions: Vec<[f64; 3]> = read_json(&d.path().join("Include/probes.json"))["probes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|p| serde_json::from_value(p["position"].clone()).unwrap())
+        .collect();
+    let rows = |sh: &Value, i: usize, key: &str| -> Vec<[f64; 3]> {
+        serde_json::from_value(sh["probes"][i][key].clone()).unwrap()
+    };
+    assert!(!positions.is_empty());
+    for (i, p) in positions.iter().enumerate() {
+        let to: [f64; 3] = std::array::from_fn(|a| light[a] - p[a]);
+        let d2: f64 = to.iter().map(|v| v * v).sum();
+        let w = to.map(|v| v / d2.sqrt());
+        let e = intensity / d2;
+        // Sloan's basis: Y00, Y1-1 (y), Y10 (z), Y11 (x), ...
+        let y = [0.282095, 0.488603 * w[1], 0.488603 * w[2], 0.488603 * w[0]];
+        let (a, b) = (rows(&exclude, i, "total"), rows(&include, i, "total"));
+        for k in 0..4 {
+            for c in 0..3 {
+                let got = b[k][c] - a[k][c];
+                assert!(
+                    (got - e * y[k]).abs() <= 1e-3 * e,
+                    "probe {i} coefficient {k}: {got} against {}",
+                    e * y[k]
+                );
+            }
+        }
+        // The indirect part is the same light either way.
+        assert_eq!(rows(&exclude, i, "indirect"), rows(&include, i, "indirect"));
+        let (a, b) = (
+            rows(&exclude, i, "irradiance_axes"),
+            rows(&include, i, "irradiance_axes"),
+        );
+        let axes = [
+            [1.0, 0.0, 0.0],
+            [-1.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [0.0, -1.0, 0.0],
+            [0.0, 0.0, 1.0],
+            [0.0, 0.0, -1.0],
+        ];
+        for (k, n) in axes.iter().enumerate() {
+            let cos: f64 = (0..3).map(|a| n[a] * w[a]).sum::<f64>().max(0.0);
+            let got = b[k][0] - a[k][0];
+            assert!(
+                (got - e * cos).abs() <= 1e-3 * e,
+                "probe {i} axis {k}: {got} against {}",
+                e * cos
+            );
+        }
+    }
+}

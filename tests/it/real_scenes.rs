@@ -47,6 +47,25 @@ fn dabrovic_sponza() {
         "{}",
         respelt[0]
     );
+    // `report.json` lists every colour texture the MTL names, each read:
+    // its 12 distinct `map_Kd` files (the bump maps are not read).
+    let textures = r["scene"]["textures"].as_array().unwrap();
+    let mtl = std::fs::read_to_string(root().join("../shared/scenes/dabrovic_sponza/sponza.mtl"))
+        .unwrap();
+    let mut named: Vec<String> = mtl
+        .lines()
+        .filter_map(|l| l.trim().strip_prefix("map_Kd "))
+        .map(|f| f.trim().to_lowercase())
+        .collect();
+    named.sort();
+    named.dedup();
+    assert_eq!(textures.len(), named.len(), "{textures:?}");
+    for t in textures {
+        assert!(t["missing"].is_null() && t["size"].is_array(), "{t}");
+        assert_eq!(t["uses"], serde_json::json!(["colour"]), "{t}");
+        let file = t["file"].as_str().unwrap().to_lowercase();
+        assert!(named.iter().any(|n| file.ends_with(n.as_str())), "{file}");
+    }
 }
 
 #[test]
@@ -98,9 +117,14 @@ fn archive_cornell_box_matches_our_measured_fixture() {
 /// `Ks` becomes a dielectric's 4%, which changes the light the diffuse
 /// step optimizes for (it follows the light transport), hence not
 /// byte-identical placements, and final counts that may differ more.
+/// Sponza is written as real assets are (issue 69): `metallicFactor` 1
+/// and the metal (0) painted in a `metallicRoughnessTexture`. Its
+/// materials are not metal: the `.glb` scene export's base colours are
+/// the OBJ's diffuse colours.
 #[test]
 fn sponza_and_the_holodeck_as_gltf_place_as_their_obj() {
     for config in ["sponza", "holodeck"] {
+        let metal_rough = config == "sponza";
         let obj = run(config);
         let cfg = probeplace::config::Config::load(&root().join(format!("configs/{config}.ron")))
             .unwrap();
@@ -109,11 +133,17 @@ fn sponza_and_the_holodeck_as_gltf_place_as_their_obj() {
         let glb = dir.path().join(format!("{config}.glb"));
         std::fs::write(
             &glb,
-            probeplace::fixtures::gltf_writer::from_scene(&scene).glb(),
+            probeplace::fixtures::gltf_writer::from_scene_with(&scene, metal_rough).glb(),
         )
         .unwrap();
         let loaded = probeplace::scene::load(&glb, 1.0, probeplace::config::UpAxis::Y).unwrap();
         assert_eq!(loaded.triangles.len(), scene.triangles.len(), "{config}");
+        let painted = loaded
+            .materials
+            .iter()
+            .filter(|m| m.metal_rough.is_some())
+            .count();
+        assert_eq!(painted > 0, metal_rough, "{config}");
         let ov = overlay(
             &format!("configs/{config}.ron"),
             &[
@@ -142,5 +172,139 @@ fn sponza_and_the_holodeck_as_gltf_place_as_their_obj() {
             "{config}: coverage {c} from glTF, {d} from OBJ (± {ci})"
         );
         eprintln!("{config}: glTF {n} probes, {c:.5}; OBJ {m} probes, {d:.5}");
+        if metal_rough {
+            // The scene export: each material's base colour is the OBJ's
+            // diffuse colour (metal 0), as the glTF read it.
+            let out = dir.path().join("scene-export");
+            let o = probeplace(&[
+                "export",
+                dir.path().join("out").to_str().unwrap(),
+                "--format",
+                "glb",
+                "--scene",
+                "--out",
+                out.to_str().unwrap(),
+            ]);
+            assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+            let glb = std::fs::read(out.join("probes.glb")).unwrap();
+            let len = u32::from_le_bytes(glb[12..16].try_into().unwrap()) as usize;
+            let doc: serde_json::Value = serde_json::from_slice(&glb[20..20 + len]).unwrap();
+            let exported = doc["materials"].as_array().unwrap();
+            let mut checked = 0;
+            for m in exported {
+                let name = m["name"].as_str().unwrap();
+                let Some(source) = scene.materials.iter().find(|s| s.name == name) else {
+                    continue;
+                };
+                let base: Vec<f64> =
+                    serde_json::from_value(m["pbrMetallicRoughness"]["baseColorFactor"].clone())
+                        .unwrap();
+                for c in 0..3 {
+                    assert!(
+                        (base[c] - source.diffuse[c] as f64).abs() < 1e-6,
+                        "{name}: base colour {base:?}, the OBJ's Kd {:?}",
+                        source.diffuse
+                    );
+                }
+                checked += 1;
+            }
+            assert!(
+                checked >= 20,
+                "{checked} materials checked of {}",
+                exported.len()
+            );
+        }
     }
+}
+
+/// Sponza as real glTF assets write it (metal and roughness painted in a
+/// texture under factors of 1) bakes the light its OBJ bakes, at the
+/// OBJ's probes (issue 69). What the glTF's metallic-roughness model
+/// cannot leave out is a dielectric's 4% specular layer (F0 = 0.04),
+/// which the archive's MTL does not have (`Ks 0` on 19 of 21 materials):
+/// so the glTF is held within 2% of the OBJ with `Ks 0.04` everywhere
+/// (measured: 0.1%), and above the plain OBJ by the light that layer
+/// adds, under 10% (measured: 6%). Read as bare metal, as before this
+/// issue, its diffuse albedo would be 0.
+#[test]
+#[ignore = "full tier (about 80 s): cargo test --release -- --include-ignored"]
+fn sponza_as_metal_roughness_gltf_bakes_the_light_of_its_obj() {
+    shared_scenes();
+    let obj = shared_job("bake", "configs/sponza.ron", &[]);
+    let probes = obj.dir.join("probes.json");
+    let cfg = probeplace::config::Config::load(&root().join("configs/sponza.ron")).unwrap();
+    let scene = probeplace::scene::load_obj(&cfg.scene, cfg.scale.0, cfg.up).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let glb = dir.path().join("sponza.glb");
+    std::fs::write(
+        &glb,
+        probeplace::fixtures::gltf_writer::from_scene_with(&scene, true).glb(),
+    )
+    .unwrap();
+    // The OBJ's twin with a dielectric's specular layer: its files linked,
+    // its MTL's `Ks` set to 0.04.
+    let twin = dir.path().join("twin");
+    std::fs::create_dir_all(&twin).unwrap();
+    let source = cfg.scene.parent().unwrap();
+    for e in std::fs::read_dir(source).unwrap().flatten() {
+        if e.file_name() != "sponza.mtl" {
+            std::os::unix::fs::symlink(e.path(), twin.join(e.file_name())).unwrap();
+        }
+    }
+    let mtl = std::fs::read_to_string(source.join("sponza.mtl")).unwrap();
+    let mtl: String = mtl
+        .lines()
+        .filter(|l| !l.trim().starts_with("Ks "))
+        .flat_map(|l| {
+            let extra = l
+                .trim()
+                .starts_with("newmtl ")
+                .then_some("Ks 0.04 0.04 0.04");
+            std::iter::once(l).chain(extra)
+        })
+        .map(|l| format!("{l}\n"))
+        .collect();
+    std::fs::write(twin.join("sponza.mtl"), mtl).unwrap();
+    let mean = |out: &std::path::Path| -> f64 {
+        let sh = read_json(&out.join("sh.json"));
+        let probes = sh["probes"].as_array().unwrap();
+        let sum: f64 = probes
+            .iter()
+            .flat_map(|p| p["irradiance_axes"].as_array().unwrap().iter())
+            .flat_map(|a| a.as_array().unwrap().iter().map(|v| v.as_f64().unwrap()))
+            .sum();
+        sum / (18 * probes.len()) as f64
+    };
+    let bake_at_obj_probes = |scene: &std::path::Path, name: &str| -> f64 {
+        let ov = overlay(
+            "configs/sponza.ron",
+            &[
+                ("scene", &format!("{:?}", scene.display().to_string())),
+                ("scale", "1.0"),
+                ("up", "Y"),
+            ],
+        );
+        let out = dir.path().join(name);
+        run_job(
+            "bake",
+            ov.path(),
+            &out,
+            &["--probes", probes.to_str().unwrap()],
+        );
+        mean(&out)
+    };
+    let gltf = bake_at_obj_probes(&glb, "gltf");
+    let with_ks = bake_at_obj_probes(&twin.join("sponza.obj"), "twin-out");
+    let plain = mean(&obj.dir);
+    eprintln!(
+        "mean probe irradiance: glTF {gltf:.5}, OBJ with Ks 0.04 {with_ks:.5}, OBJ {plain:.5}"
+    );
+    assert!(
+        (gltf / with_ks - 1.0).abs() < 0.02,
+        "glTF {gltf} against the OBJ with Ks 0.04 {with_ks}"
+    );
+    assert!(
+        (1.0..1.10).contains(&(gltf / plain)),
+        "glTF {gltf} against the OBJ {plain}"
+    );
 }

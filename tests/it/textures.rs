@@ -408,6 +408,25 @@ fn hostile_texture_references_are_refused_or_warned_in_one_line() {
         }),
         "emissiveTexture: texture 0's image 9 does not exist",
     );
+    refused(
+        write("no_metal.glb", &|d| {
+            d["materials"][0]["pbrMetallicRoughness"]["metallicRoughnessTexture"] =
+                json!({"index": 5})
+        }),
+        "material 0 (`m`): metallicRoughnessTexture: texture 5 does not exist",
+    );
+    // A cutoff out of range: clamped, with the factors' warning.
+    let s = write("cutoff.glb", &|d| {
+        d["materials"][0]["alphaMode"] = json!("MASK");
+        d["materials"][0]["alphaCutoff"] = json!(-2.0);
+    })
+    .unwrap();
+    assert_eq!(s.warnings.len(), 1, "{:?}", s.warnings);
+    assert!(s.warnings[0].contains("clamped"), "{:?}", s.warnings);
+    assert!(
+        s.materials[0].cutout.is_none(),
+        "alpha 1 at cutoff 0 stops every ray"
+    );
     // Images that are not images, or claim to be huge, or point nowhere:
     // warnings, and the factor.
     let s = write("junk.glb", &|d| {
@@ -473,4 +492,255 @@ fn hostile_texture_references_are_refused_or_warned_in_one_line() {
         }),
         "requires the extension KHR_materials_transmission",
     );
+}
+
+/// A glTF material as real assets write it (issue 69): `metallicFactor`
+/// and `roughnessFactor` 1, the metal painted in the blue channel of a
+/// `metallicRoughnessTexture` and the roughness in its green one. The
+/// BSDF is made per texel (a dielectric texel keeps its base colour as
+/// diffuse albedo, a metal texel none); what reads the material without
+/// a point sees the texture's mean; `report.json`'s list says what each
+/// image is for.
+#[test]
+fn a_metal_roughness_texture_sets_metal_and_roughness_per_texel() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut b = Builder::new();
+    // Left texel: dielectric, rough; right texel: metal, roughness ½.
+    let image = b.image(&png_rgb(2, 1, &[0, 255, 0, 0, 128, 255]), "image/png");
+    let clamp = b.sampler(json!({"wrapS": 33071, "wrapT": 33071}));
+    let t = b.texture(image, Some(clamp));
+    let m = b.material("painted", [0.5; 3], 1.0, 1.0, [0.0; 3]);
+    b.material_json(m)["pbrMetallicRoughness"]["metallicRoughnessTexture"] = json!({"index": t});
+    let mesh = b.textured_quad(m);
+    let node = b.node(json!({"mesh": mesh}));
+    b.scene(&[node]);
+    std::fs::write(dir.path().join("painted.glb"), b.glb()).unwrap();
+    let s = load(&dir.path().join("painted.glb"));
+    assert!(s.warnings.is_empty(), "{:?}", s.warnings);
+    let m = &s.materials[0];
+    let (kd, ks, ns) = s.colours_at(m, Vec2::new(0.1, 0.5));
+    assert_eq!((kd, ks), ([0.5; 3], [0.04; 3]), "dielectric texel");
+    assert_eq!(probeplace::render::material::alpha_from_shininess(ns), 1.0);
+    let (kd, ks, ns) = s.colours_at(m, Vec2::new(0.9, 0.5));
+    assert_eq!((kd, ks), ([0.0; 3], [0.5; 3]), "metal texel");
+    let alpha = probeplace::render::material::alpha_from_shininess(ns);
+    let r = 128.0f32 / 255.0;
+    assert!((alpha - r * r).abs() < 1e-4, "α {alpha}, roughness {r}");
+    // Without a point: the mean texel, metal ½.
+    assert!((m.diffuse[0] - 0.25).abs() < 1e-6, "{:?}", m.diffuse);
+    let files = &s.texture_files;
+    assert_eq!(files.len(), 1);
+    assert_eq!(files[0].uses, ["metal-roughness"]);
+    assert_eq!(files[0].status, Ok([2, 1]));
+    // The path tracer reads it: the metal half reflects no diffuse light.
+    let bvh = SceneBvh::new(&s);
+    let r = Renderer::new(&s, &bvh, &[], 0);
+    // (Scenes are stored relative to their lower corner.)
+    let at = |x: f64| s.to_local(glam::DVec3::new(x, 1.0, -0.5));
+    let v = r.intersect(at(0.1), -Vec3::Y).unwrap();
+    assert_eq!(v.bsdf.diffuse, Vec3::splat(0.5));
+    let v = r.intersect(at(0.9), -Vec3::Y).unwrap();
+    assert_eq!(v.bsdf.diffuse, Vec3::ZERO);
+}
+
+/// Alpha cut-outs (issue 69): glTF's MASK with its cutoff, BLEND read as
+/// MASK at 0.5 with one warning, and an MTL's `map_d` and `d`. Rays pass
+/// where the alpha is under the cutoff, so light reaches a point behind a
+/// masked quad's clear half and not behind its opaque half.
+#[test]
+fn alpha_masks_let_light_through_their_holes() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut b = Builder::new();
+    // Alpha 0 on the left texel, 255 on the right: clear where u < ½.
+    let image = b.image(
+        &probeplace::fixtures::gltf_writer::png_rgba(2, 1, &[255, 255, 255, 0, 255, 255, 255, 255]),
+        "image/png",
+    );
+    let clamp = b.sampler(json!({"wrapS": 33071, "wrapT": 33071}));
+    let t = b.texture(image, Some(clamp));
+    let fence = b.material("fence", [0.5; 3], 0.0, 1.0, [0.0; 3]);
+    let mj = b.material_json(fence);
+    mj["pbrMetallicRoughness"]["baseColorTexture"] = json!({"index": t});
+    mj["alphaMode"] = json!("MASK");
+    mj["alphaCutoff"] = json!(0.5);
+    let glass = b.material("glass", [0.9; 3], 0.0, 0.1, [0.0; 3]);
+    let gj = b.material_json(glass);
+    gj["alphaMode"] = json!("BLEND");
+    gj["pbrMetallicRoughness"]["baseColorFactor"] = json!([0.9, 0.9, 0.9, 0.2]);
+    let light = b.material("light", [0.0; 3], 0.0, 1.0, [4.0; 3]);
+    // The fence at y = 1, a glass pane at y = 1.5 (both facing up), the
+    // light at y = 2 facing down (a mirrored node).
+    let quads = [(fence, 1.0, false), (glass, 1.5, false), (light, 2.0, true)];
+    let roots: Vec<usize> = quads
+        .iter()
+        .map(|&(m, y, down)| {
+            let mesh = b.textured_quad(m);
+            let scale = if down { -1.0 } else { 1.0 };
+            b.node(json!({"mesh": mesh, "translation": [0.0, y, 0.0], "scale": [1.0, scale, 1.0]}))
+        })
+        .collect();
+    b.scene(&roots);
+    std::fs::write(dir.path().join("fence.glb"), b.glb()).unwrap();
+    let s = load(&dir.path().join("fence.glb"));
+    let blend: Vec<_> = s.warnings.iter().filter(|w| w.contains("BLEND")).collect();
+    assert_eq!(blend.len(), 1, "{:?}", s.warnings);
+    assert!(blend[0].contains("glass"), "{}", blend[0]);
+    assert_eq!(s.warnings.len(), 1, "{:?}", s.warnings);
+    assert_eq!(s.texture_files[0].uses, ["colour", "alpha"]);
+    let cut = s.materials[0].cutout.unwrap();
+    assert!(cut.map.is_some() && cut.cutoff == 0.5);
+    assert!(
+        s.materials[1].cutout.unwrap().everywhere(),
+        "BLEND at alpha 0.2"
+    );
+    let bvh = SceneBvh::new(&s);
+    let r = Renderer::new(&s, &bvh, &[], 0);
+    // Under the clear half the light is seen through the fence and the
+    // glass; under the opaque half the fence is.
+    // (Scenes are stored relative to their lower corner.)
+    let at = |x: f32, y: f32| s.to_local(glam::DVec3::new(x as f64, y as f64, -0.5));
+    let up = |x: f32| radiance(&r, at(x, 0.5), at(x, 2.0), 1);
+    assert_eq!(up(0.25), Vec3::splat(4.0));
+    assert!(up(0.75).x < 4.0 * 0.5, "{}", up(0.75));
+    // The irradiance a probe below the clear half gathers: the light,
+    // through the hole (a quarter of the opaque fence's share is left).
+    let gather = |x: f32| -> f32 {
+        let p = at(x, 0.9);
+        (0..4000u64)
+            .map(|k| {
+                let mut smp = Sampler::new(11, k);
+                let u = smp.next_2d();
+                let d = probeplace::render::material::cosine_hemisphere(Vec3::Y, u);
+                r.radiance(p, d, &mut smp).x
+            })
+            .sum::<f32>()
+            / 4000.0
+    };
+    let (clear, opaque) = (gather(0.1), gather(0.9));
+    assert!(
+        clear > 1.5 * opaque,
+        "under the hole {clear}, under the fence {opaque}"
+    );
+
+    // The same in an MTL: `map_d` (a grey image: no alpha channel) and
+    // `d`, with `Tr` its complement.
+    std::fs::write(
+        dir.path().join("mask.png"),
+        png_rgb(2, 1, &[0, 0, 0, 255, 255, 255]),
+    )
+    .unwrap();
+    let obj = room(
+        dir.path(),
+        "masked",
+        "Kd 0.5 0.5 0.5\nmap_d -clamp on mask.png",
+        "Kd 0 0 0\nKe 1 1 1\nd 0.2",
+    );
+    let s = load(&obj);
+    let invisible: Vec<_> = s
+        .warnings
+        .iter()
+        .filter(|w| w.contains("opacity"))
+        .collect();
+    assert_eq!(invisible.len(), 1, "{:?}", s.warnings);
+    assert!(invisible[0].contains("`light` (0.2)"), "{}", invisible[0]);
+    let floor = s.materials[0].cutout.unwrap();
+    assert!(floor.grey && floor.map.is_some());
+    assert_eq!(s.texture_files[0].uses, ["alpha"]);
+    let bvh = SceneBvh::new(&s);
+    // The floor's left half (u < ½, x < 2) lets rays through; the light
+    // (d 0.2) lets every ray through.
+    let down = |x: f32| bvh.closest_hit(Vec3::new(x, 1.0, 2.0), -Vec3::Y, 0.0, 10.0);
+    assert!(down(1.0).is_none());
+    assert!(down(3.0).is_some());
+    assert!(bvh
+        .closest_hit(Vec3::new(3.0, 1.0, 2.0), Vec3::Y, 0.0, 10.0)
+        .is_none());
+    for (mtl, cut) in [
+        ("d 1\nTr 0", false),
+        ("Tr 0.9", true),
+        ("d 0.9\nTr 0.9", false),
+    ] {
+        let s = load(&room(dir.path(), "dissolve", mtl, "Kd 1 1 1"));
+        assert_eq!(
+            s.materials[0].cutout.is_some_and(|c| c.everywhere()),
+            cut,
+            "{mtl}"
+        );
+    }
+}
+
+/// Texture files as real downloads place them (issue 69): a map written
+/// relative to the OBJ while the MTL sits in another folder, and a path
+/// from the author's machine whose image ships beside the MTL, are found,
+/// with one warning naming both; `report.json`'s list names each file
+/// read, and the summary line counts them.
+#[test]
+fn textures_are_found_beside_the_obj_or_the_mtl_and_listed_in_the_report() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::create_dir_all(d.join("materials")).unwrap();
+    std::fs::create_dir_all(d.join("tex")).unwrap();
+    std::fs::write(d.join("tex/wall.png"), checker_png(4)).unwrap();
+    std::fs::write(d.join("materials/floor.png"), checker_png(2)).unwrap();
+    std::fs::write(
+        d.join("scene.obj"),
+        "mtllib materials/scene.mtl\n\
+         v 0 0 0\nv 0 0 4\nv 4 0 4\nv 4 0 0\nv 0 3 0\nv 4 3 0\nv 4 3 4\nv 0 3 4\n\
+         vt 0 0\nvt 0 1\nvt 1 1\nvt 1 0\n\
+         usemtl floor\nf 1/1 2/2 3/3 4/4\nusemtl wall\nf 5/1 6/4 7/3 8/2\nusemtl gone\nf 1 5 8 2\n",
+    )
+    .unwrap();
+    std::fs::write(
+        d.join("materials/scene.mtl"),
+        "newmtl floor\nmap_Kd C:\\Users\\artist\\floor.png\nnewmtl wall\nmap_Kd tex/wall.png\nnewmtl gone\nmap_Kd nowhere.png\n",
+    )
+    .unwrap();
+    let s = load(&d.join("scene.obj"));
+    let moved: Vec<_> = s
+        .warnings
+        .iter()
+        .filter(|w| w.contains("found elsewhere"))
+        .collect();
+    assert_eq!(moved.len(), 1, "{:?}", s.warnings);
+    assert!(
+        moved[0].contains("(beside the OBJ)") && moved[0].contains("(in the MTL's folder)"),
+        "{}",
+        moved[0]
+    );
+    assert!(s.materials[0].diffuse_map.is_some() && s.materials[1].diffuse_map.is_some());
+    let read: Vec<_> = s
+        .texture_files
+        .iter()
+        .filter(|f| f.status.is_ok())
+        .collect();
+    assert_eq!(read.len(), 2, "{:?}", s.texture_files);
+    assert!(read
+        .iter()
+        .any(|f| f.name.ends_with("tex/wall.png") && f.status == Ok([4, 4])));
+    assert!(read.iter().any(|f| f.name.ends_with("materials/floor.png")));
+    // The report lists the three, and the summary line counts them.
+    std::fs::write(
+        d.join("run.ron"),
+        "(scene: \"scene.obj\", voxel_size: 0.2, output: \"out\", refine: (enabled: false))\n",
+    )
+    .unwrap();
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_probeplace"))
+        .args(["place", "run.ron"])
+        .current_dir(d)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(stdout.contains("textures: 2 of 3 read"), "{stdout}");
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(d.join("out/report.json")).unwrap()).unwrap();
+    let list = report["scene"]["textures"].as_array().unwrap();
+    assert_eq!(list.len(), 3);
+    let gone = list
+        .iter()
+        .find(|t| t["file"].as_str().unwrap().ends_with("nowhere.png"))
+        .unwrap();
+    assert_eq!(gone["missing"], "texture not found");
+    assert_eq!(gone["size"], serde_json::Value::Null);
+    assert_eq!(gone["uses"], json!(["colour"]));
 }
