@@ -527,10 +527,13 @@ pub struct ProbeHealth {
     pub probes_outside_domain: usize,
 }
 
-/// Draws `n` area-uniform samples, stratified along the area CDF.
+/// Draws `n` area-uniform samples, stratified along the area CDF, less
+/// those that fall in a cut-out's holes ([`Scene::opaque_at`]): a hole is
+/// not surface, and every ray passes it.
 ///
 /// Contract: deterministic for `(scene, n, seed)`; each triangle's expected
-/// share is proportional to its area.
+/// share is proportional to its area (its opaque area, for a cut-out); at
+/// most `n`, exactly `n` in a scene without cut-outs.
 pub fn sample_surface(scene: &Scene, n: usize, seed: u64) -> Vec<SurfaceSample> {
     let mut cdf = Vec::with_capacity(scene.triangles.len());
     let mut total = 0.0f64;
@@ -540,15 +543,16 @@ pub fn sample_surface(scene: &Scene, n: usize, seed: u64) -> Vec<SurfaceSample> 
     }
     (0..n)
         .into_par_iter()
-        .map(|k| {
+        .filter_map(|k| {
             let h = hash2(seed, k as u64);
             let u = (k as f64 + unit_f32(hash2(h, 0)) as f64) / n as f64 * total;
             let ti = cdf.partition_point(|&c| c < u).min(cdf.len() - 1);
             let t = &scene.triangles[ti];
-            SurfaceSample {
-                position: point_in_triangle(t, unit_f32(hash2(h, 1)), unit_f32(hash2(h, 2))),
+            let position = point_in_triangle(t, unit_f32(hash2(h, 1)), unit_f32(hash2(h, 2)));
+            scene.opaque_at(ti, position).then(|| SurfaceSample {
+                position,
                 normal: scene.normals[ti],
-            }
+            })
         })
         .collect()
 }

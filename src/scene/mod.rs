@@ -506,6 +506,19 @@ impl Scene {
         }
     }
 
+    /// Whether triangle `triangle` is surface at local point `p` (on it):
+    /// everywhere but in a cut-out's holes ([`Cutout`]), which every ray
+    /// passes and coverage does not sample.
+    ///
+    /// Contract: `triangle` indexes [`Scene::triangles`]; allocation-free.
+    #[inline]
+    pub fn opaque_at(&self, triangle: usize, p: Vec3) -> bool {
+        match self.materials[self.material_ids[triangle] as usize].cutout {
+            None => true,
+            Some(c) => c.opaque_at(&self.textures, self.texcoord_at(triangle, p)),
+        }
+    }
+
     /// The BSDF's `(Kd, Ks, Ns)` of `material` at texture coordinates
     /// `uv`: [`Scene::diffuse_at`] with the material's `Ks` and `Ns`, or
     /// for a metallic-roughness material ([`MetalRough`]) the lobes of

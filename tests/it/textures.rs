@@ -655,6 +655,16 @@ fn alpha_masks_let_light_through_their_holes() {
     assert!(bvh
         .closest_hit(Vec3::new(3.0, 1.0, 2.0), Vec3::Y, 0.0, 10.0)
         .is_none());
+    // Coverage samples no hole: of 4000 drawn over the 32 m² (the floor
+    // and the light), about the floor's opaque quarter remain.
+    let samples = probeplace::coverage::sample_surface(&s, 4000, 1);
+    assert!((800..1200).contains(&samples.len()), "{}", samples.len());
+    assert!(
+        samples
+            .iter()
+            .all(|p| p.position.y < 1e-3 && p.position.x >= 2.0 - 1e-3),
+        "a sample in a hole"
+    );
     for (mtl, cut) in [
         ("d 1\nTr 0", false),
         ("Tr 0.9", true),
