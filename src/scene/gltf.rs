@@ -74,6 +74,7 @@ use std::path::Path;
 pub const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_lights_punctual",
     "KHR_materials_emissive_strength",
+    "KHR_materials_specular",
     "KHR_mesh_quantization",
     "KHR_texture_transform",
 ];
@@ -222,6 +223,14 @@ pub fn parse(
             "{}: material(s) {}: a factor out of range (or not finite) was clamped",
             path.display(),
             super::first_of(&clamped, LISTED)
+        ));
+    }
+    let unread = specular_textures(&root);
+    if !unread.is_empty() {
+        out.warnings.push(format!(
+            "{}: material(s) {}: KHR_materials_specular's textures are not applied (its factors are)",
+            path.display(),
+            super::first_of(&unread, LISTED)
         ));
     }
     let sets = reader.textures(&mut out)?;
@@ -571,7 +580,9 @@ pub fn material_of(index: usize, m: &json::Material) -> (Material, bool) {
     if m.alpha_cutoff.is_some_and(|c| !(c.0 >= 0.0 && c.0.is_finite())) {
         clamped = true;
     }
-    let (diffuse, specular, shininess) = super::MetalRough::lobes(base, metallic, roughness);
+    let (f0, f0_clamped) = dielectric_f0(m);
+    clamped |= f0_clamped;
+    let (diffuse, specular, shininess) = super::MetalRough::lobes(base, metallic, roughness, f0);
     let material = Material {
         name,
         diffuse,
@@ -600,6 +611,45 @@ impl Slot {
             Slot::MetalRough => "metal-roughness",
         }
     }
+}
+
+/// A dielectric's specular reflectance `F0` in `m`: 0.04, or with
+/// `KHR_materials_specular` `min(0.04 · specularColorFactor, 1) ·
+/// specularFactor` per channel (the extension's factors; its textures are
+/// not read). The flag says whether a factor was negative or not finite
+/// (read as its default, 1).
+fn dielectric_f0(m: &json::Material) -> ([f64; 3], bool) {
+    let Some(s) = m.extensions.as_ref().and_then(|e| e.specular.as_ref()) else {
+        return ([0.04; 3], false);
+    };
+    let mut clamped = false;
+    let mut ok = |v: f32| -> f64 {
+        if v.is_finite() && v >= 0.0 {
+            v as f64
+        } else {
+            clamped = true;
+            1.0
+        }
+    };
+    let factor = ok(s.specular_factor.0).min(1.0);
+    let colour = s.specular_color_factor.0.map(&mut ok);
+    (colour.map(|c| (0.04 * c).min(1.0) * factor), clamped)
+}
+
+/// Names of the materials whose `KHR_materials_specular` has a texture,
+/// which the reader does not apply (its factors alone are used).
+fn specular_textures(root: &json::Root) -> Vec<String> {
+    root.materials
+        .iter()
+        .enumerate()
+        .filter(|(_, m)| {
+            m.extensions
+                .as_ref()
+                .and_then(|e| e.specular.as_ref())
+                .is_some_and(|s| s.specular_texture.is_some() || s.specular_color_texture.is_some())
+        })
+        .map(|(i, m)| named(i, m.name.as_deref()))
+        .collect()
 }
 
 /// `m`'s base colour, metallic and roughness factors, each in [0, 1]
@@ -1155,16 +1205,22 @@ impl Reader<'_> {
                 Slot::Emission => m.emission_map = Some(map),
                 Slot::MetalRough => {
                     let (base, metallic, roughness) = factors(&root.materials[i]);
+                    let (f0, _) = dielectric_f0(&root.materials[i]);
                     // What reads the material without a point sees the
                     // lobes of the texture's mean metal and roughness.
                     let mean = out.textures[texture as usize].mean_data();
-                    let (d, sp, ns) =
-                        super::MetalRough::lobes(base, metallic * mean.z as f64, roughness * mean.y as f64);
+                    let (d, sp, ns) = super::MetalRough::lobes(
+                        base,
+                        metallic * mean.z as f64,
+                        roughness * mean.y as f64,
+                        f0,
+                    );
                     (m.diffuse, m.specular, m.shininess) = (d, sp, ns);
                     m.metal_rough = Some(super::MetalRough {
                         base: base.map(|b| b as f32),
                         metallic: metallic as f32,
                         roughness: roughness as f32,
+                        f0: f0.map(|f| f as f32),
                         map,
                     });
                 }

@@ -75,19 +75,29 @@ pub struct MetalRough {
     pub metallic: f32,
     /// `roughnessFactor`.
     pub roughness: f32,
+    /// A dielectric's specular reflectance `F0`: 0.04, or what
+    /// `KHR_materials_specular`'s factors make it.
+    pub f0: [f32; 3],
     /// The `metallicRoughnessTexture`.
     pub map: texture::TextureMap,
 }
 
 impl MetalRough {
     /// The BSDF's `(Kd, Ks, Ns)` of base colour `base`, metal `metallic`
-    /// and roughness `roughness` (each in [0, 1]): a dielectric's base
-    /// colour is its diffuse albedo with a 4% specular reflectance (the
-    /// specification's `F0`), a metal's base colour its specular
-    /// reflectance and no diffuse, mixed by `metallic`; the GGX roughness
-    /// `α = roughness²` is stored as the Phong exponent `Ns = 2/α² − 2`
-    /// that [`crate::render::material::alpha_from_shininess`] maps back.
-    pub fn lobes(base: [f64; 3], metallic: f64, roughness: f64) -> ([f32; 3], [f32; 3], f32) {
+    /// and roughness `roughness` (each in [0, 1]) and a dielectric's
+    /// specular reflectance `f0`: a dielectric's base colour is its
+    /// diffuse albedo beside a specular reflectance of `f0` (the
+    /// specification's 4%, unless `KHR_materials_specular` says
+    /// otherwise), a metal's base colour its specular reflectance and no
+    /// diffuse, mixed by `metallic`; the GGX roughness `α = roughness²` is
+    /// stored as the Phong exponent `Ns = 2/α² − 2` that
+    /// [`crate::render::material::alpha_from_shininess`] maps back.
+    pub fn lobes(
+        base: [f64; 3],
+        metallic: f64,
+        roughness: f64,
+        f0: [f64; 3],
+    ) -> ([f32; 3], [f32; 3], f32) {
         let alpha = roughness * roughness;
         let shininess = if alpha > 0.0 {
             (2.0 / (alpha * alpha) - 2.0).min(obj::MAX_SHININESS)
@@ -96,7 +106,7 @@ impl MetalRough {
         };
         (
             base.map(|b| (b * (1.0 - metallic)) as f32),
-            base.map(|b| (0.04 * (1.0 - metallic) + b * metallic) as f32),
+            [0, 1, 2].map(|c| (f0[c] * (1.0 - metallic) + base[c] * metallic) as f32),
             shininess as f32,
         )
     }
@@ -540,6 +550,7 @@ impl Scene {
             base.as_dvec3().to_array(),
             (mr.metallic * d.z) as f64,
             (mr.roughness * d.y) as f64,
+            mr.f0.map(f64::from),
         )
     }
 

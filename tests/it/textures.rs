@@ -754,3 +754,42 @@ fn textures_are_found_beside_the_obj_or_the_mtl_and_listed_in_the_report() {
     assert_eq!(gone["size"], serde_json::Value::Null);
     assert_eq!(gone["uses"], json!(["colour"]));
 }
+
+/// `KHR_materials_specular` (issue 69): its factors set a dielectric's
+/// specular reflectance (`min(0.04 · specularColorFactor, 1) ·
+/// specularFactor`), so a converted MTL keeps its `Ks` (0 for most);
+/// its textures are named as not applied, in one warning.
+#[test]
+fn khr_materials_specular_factors_set_a_dielectrics_reflectance() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut b = Builder::new();
+    let specs = [
+        json!({"specularFactor": 0.0}),
+        json!({"specularColorFactor": [2.0, 1.0, 0.5]}),
+        json!({"specularFactor": 0.5, "specularTexture": {"index": 0}}),
+    ];
+    let image = b.image(&png_rgb(1, 1, &[255, 255, 255]), "image/png");
+    b.texture(image, None);
+    let mut roots = Vec::new();
+    for (k, spec) in specs.iter().enumerate() {
+        let m = b.material(&format!("s{k}"), [0.5; 3], 0.0, 1.0, [0.0; 3]);
+        b.material_json(m)["extensions"]["KHR_materials_specular"] = spec.clone();
+        let mesh = b.unit_quad(Some(m));
+        roots.push(b.node(json!({"mesh": mesh, "translation": [2.0 * k as f64, 0.0, 0.0]})));
+    }
+    b.use_extension("KHR_materials_specular");
+    b.scene(&roots);
+    std::fs::write(dir.path().join("spec.glb"), b.glb()).unwrap();
+    let s = load(&dir.path().join("spec.glb"));
+    let ks: Vec<[f32; 3]> = s.materials[..3].iter().map(|m| m.specular).collect();
+    assert_eq!(ks[0], [0.0; 3]);
+    assert_eq!(ks[1], [0.08, 0.04, 0.02]);
+    assert_eq!(ks[2], [0.02; 3]);
+    assert!(s.materials[..3].iter().all(|m| m.diffuse == [0.5; 3]));
+    assert_eq!(s.warnings.len(), 1, "{:?}", s.warnings);
+    assert!(
+        s.warnings[0].contains("`s2`") && s.warnings[0].contains("not applied"),
+        "{}",
+        s.warnings[0]
+    );
+}
