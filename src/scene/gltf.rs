@@ -544,21 +544,7 @@ fn local_transform(node: &json::Node) -> Option<DMat4> {
 /// MTL values are; the flag says whether any was.
 pub fn material_of(index: usize, m: &json::Material) -> (Material, bool) {
     let name = m.name.clone().unwrap_or_else(|| format!("material {index}"));
-    let mut clamped = false;
-    let mut unit = |v: f32, default: f32| -> f64 {
-        if !v.is_finite() {
-            clamped = true;
-            return default as f64;
-        }
-        if !(0.0..=1.0).contains(&v) {
-            clamped = true;
-        }
-        v.clamp(0.0, 1.0) as f64
-    };
-    let pbr = &m.pbr_metallic_roughness;
-    let base = [0, 1, 2].map(|c| unit(pbr.base_color_factor.0[c], 1.0));
-    let metallic = unit(pbr.metallic_factor.0, 1.0);
-    let roughness = unit(pbr.roughness_factor.0, 1.0);
+    let ((base, metallic, roughness), mut clamped) = factors(m);
     let strength = m
         .extensions
         .as_ref()
@@ -652,16 +638,22 @@ fn specular_textures(root: &json::Root) -> Vec<String> {
         .collect()
 }
 
-/// `m`'s base colour, metallic and roughness factors, each in [0, 1]
-/// (a non-finite one at its default), as [`material_of`] reads them.
-fn factors(m: &json::Material) -> ([f64; 3], f64, f64) {
+/// `m`'s base colour, metallic and roughness factors, each clamped to
+/// [0, 1] (a non-finite one at its default, 1), and whether any was out
+/// of range: what [`material_of`] and the metal-roughness map read.
+fn factors(m: &json::Material) -> (([f64; 3], f64, f64), bool) {
     let pbr = &m.pbr_metallic_roughness;
-    let unit = |v: f32, d: f32| (if v.is_finite() { v } else { d }).clamp(0.0, 1.0) as f64;
-    (
-        [0, 1, 2].map(|c| unit(pbr.base_color_factor.0[c], 1.0)),
-        unit(pbr.metallic_factor.0, 1.0),
-        unit(pbr.roughness_factor.0, 1.0),
-    )
+    let mut clamped = false;
+    let mut unit = |v: f32| -> f64 {
+        clamped |= !(0.0..=1.0).contains(&v);
+        (if v.is_finite() { v } else { 1.0 }).clamp(0.0, 1.0) as f64
+    };
+    let read = (
+        [0, 1, 2].map(|c| unit(pbr.base_color_factor.0[c])),
+        unit(pbr.metallic_factor.0),
+        unit(pbr.roughness_factor.0),
+    );
+    (read, clamped)
 }
 
 /// The cut-out of `m`'s alpha mode (§3.9.4), `None` where rays stop
@@ -1204,7 +1196,7 @@ impl Reader<'_> {
                 Slot::Colour => m.diffuse_map = Some(map),
                 Slot::Emission => m.emission_map = Some(map),
                 Slot::MetalRough => {
-                    let (base, metallic, roughness) = factors(&root.materials[i]);
+                    let ((base, metallic, roughness), _) = factors(&root.materials[i]);
                     let (f0, _) = dielectric_f0(&root.materials[i]);
                     // What reads the material without a point sees the
                     // lobes of the texture's mean metal and roughness.
