@@ -165,7 +165,7 @@ pub fn export(options: &ExportOptions) -> Result<Outcome> {
     job.carry(&names);
     let written =
         add(&mut job, &exports, &source, scene.as_ref()).map_err(|(e, m)| refusal(&dir, e, &m))?;
-    crate::output::commit::commit(&job.out_dir, &job.set, &job.inputs)?;
+    crate::output::commit::commit(&job.claim, &job.set)?;
     let summary = vec![format!(
         "exported {} probes of {}: {}",
         source.probes.len(),

@@ -151,8 +151,8 @@ pub fn merge(options: &MergeOptions) -> Result<Outcome> {
     // directory, nor above it, nor inside a tile.
     let out = options.out.clone().unwrap_or_else(|| dir.join("world"));
     let inputs = [index.config.clone(), index_path.clone()];
-    commit::check_destination(&out, &inputs)?;
     super::split::check_outside_tiles(&out, None)?;
+    let claim = commit::claim(&out, &inputs)?;
     let grid = index.grid();
     let mut probes: Vec<WorldProbe> = Vec::new();
     let mut placed = vec![0usize; index.tile.len()];
@@ -521,7 +521,7 @@ pub fn merge(options: &MergeOptions) -> Result<Outcome> {
             .map_err(|e| Error::Internal(format!("serializing {name}: {e}")))?;
         set.add(name, bytes);
     }
-    commit::commit(&out, &set, &inputs)?;
+    commit::commit(&claim, &set)?;
     let mut summary = vec![format!(
         "{} tiles: {} probes ({} placed, {} in overlaps, {} of them kept; {} of {} positions offered), coverage {:.2}% ± {:.2}% on unseen samples (training {:.2}%), {} in solid",
         index.tile.len(),

@@ -41,3 +41,48 @@ pub use split::{split, SplitOptions};
 
 pub use outcome::Outcome;
 pub use run::{Benchmarks, RunOptions, Variant};
+
+#[cfg(test)]
+mod tests {
+    use crate::output::names::is_output_name;
+
+    #[test]
+    fn every_file_a_job_or_an_export_writes_is_named_as_the_tools() {
+        // What a directory without a readable manifest is judged by
+        // (crate::output::names): a name missing there would make the next
+        // run into such a directory refuse a file the tool wrote.
+        let mut names: Vec<String> = [
+            &super::place::FILES[..],
+            &super::bake::FILES[..],
+            &super::bake::REFERENCE_FILES[..],
+            &super::bake::DIFFUSE_VIEW_FILES[..],
+            &[crate::report::sh::SH_FILE],
+            &[
+                "report.json",
+                "report.html",
+                "compare.json",
+                "compare.csv",
+                "diffuse.csv",
+                "world.json",
+            ],
+        ]
+        .concat()
+        .into_iter()
+        .map(String::from)
+        .collect();
+        names.extend(
+            crate::export::Export::ALL
+                .iter()
+                .map(|e| e.entry().file.to_string()),
+        );
+        for view in ["front", "cam-2"] {
+            names.push(format!("render_{view}.png"));
+            names.push(format!("render_{view}-glossy.exr"));
+            names.push(format!("error_{view}.png"));
+        }
+        names.push("tile-007.svo.bin".into());
+        for name in &names {
+            assert!(is_output_name(name), "{name}");
+        }
+    }
+}

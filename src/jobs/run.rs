@@ -154,8 +154,8 @@ pub(crate) struct Job {
     pub provenance: Provenance,
     /// Where the outputs go.
     pub out_dir: PathBuf,
-    /// Files the run reads, which must not lie in `out_dir`.
-    pub inputs: Vec<PathBuf>,
+    /// The output directory, checked and locked for this run.
+    pub claim: commit::Claim,
     /// The run reused, when `--from` was given.
     pub earlier: Option<Earlier>,
     /// Bars and stage lines.
@@ -242,11 +242,11 @@ impl Job {
         };
         let mut inputs = vec![config_path.clone()];
         inputs.extend(files.into_iter().map(|f| f.path));
-        commit::check_destination(&out_dir, &inputs)?;
         if let Some(e) = &earlier {
             commit::check_apart(&e.dir, &out_dir, label)?;
         }
         split::check_outside_tiles(&out_dir, Some(&config_path))?;
+        let claim = commit::claim(&out_dir, &inputs)?;
         let set = OutputSet::of(&provenance);
         Ok(Job {
             config,
@@ -254,7 +254,7 @@ impl Job {
             written_placement,
             provenance,
             out_dir,
-            inputs,
+            claim,
             earlier,
             progress: options.progress,
             watch: options.progress.stopwatch(),
@@ -315,8 +315,11 @@ impl Job {
     pub fn carry(&mut self, names: &[&str]) {
         let Some(e) = &self.earlier else { return };
         for name in names {
-            if e.has(name) {
-                self.set.carry(*name, e.path(name));
+            if let (Some(entry), Some(id)) =
+                (e.manifest.files.get(*name), e.manifest.seen.get(*name))
+            {
+                self.set
+                    .carry_checked(*name, e.path(name), entry.clone(), *id);
                 if !self.reused.iter().any(|r| r == name) {
                     self.reused.push(name.to_string());
                 }
@@ -369,7 +372,7 @@ impl Job {
     /// Adds `report` as `name` and commits the set.
     fn write(mut self, name: &str, report: Value, summary: Vec<String>) -> Result<Outcome> {
         self.set.add(name, crate::encode::json::to_json(&report)?);
-        commit::commit(&self.out_dir, &self.set, &self.inputs)?;
+        commit::commit(&self.claim, &self.set)?;
         Ok(Outcome {
             out_dir: self.out_dir,
             report,

@@ -479,6 +479,70 @@ fn check_dir(dir: &Path) -> Result<()> {
                 "--out: holds files but no split.json; give an empty or new directory",
             ));
         }
+        if index.is_file() {
+            let old = crate::input::read(&index, "split.json", 1 << 30)?;
+            for entry in earlier_split(&old) {
+                check_removable(&dir.join(&entry), &entry)?;
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Refuses the entry `name` of an earlier split at `path` (which
+/// [`prepare_dir`] removes) when it holds anything no split, tile run,
+/// Slurm log or merge wrote: a file the user put there would go with it.
+/// A tile holds its scene, config and output directory (checked as any
+/// output directory: [`commit::check_destination`]); the logs, Slurm's
+/// `probeplace-*.out`; `world`, the merge's output.
+fn check_removable(path: &Path, name: &str) -> Result<()> {
+    use crate::output::commit;
+    let Ok(meta) = std::fs::symlink_metadata(path) else {
+        return Ok(());
+    };
+    let refuse = |stray: &Path| {
+        Err(Error::user_file(
+            stray,
+            "was not written by probeplace or its tile jobs, and the split replaces what the earlier split left here: move it out, or choose another --out",
+        ))
+    };
+    if !meta.is_dir() {
+        return if name.ends_with(".sh") {
+            Ok(())
+        } else {
+            refuse(path)
+        };
+    }
+    if name.ends_with(".sh") {
+        return refuse(path);
+    }
+    if name == "world" {
+        return commit::check_destination(path, &[]);
+    }
+    let mut entries: Vec<(String, bool)> = std::fs::read_dir(path)
+        .map_err(|e| Error::io(path, e))?
+        .flatten()
+        .map(|e| {
+            let is_dir = e.file_type().is_ok_and(|t| t.is_dir());
+            (e.file_name().to_string_lossy().into_owned(), is_dir)
+        })
+        .collect();
+    entries.sort();
+    for (entry, is_dir) in entries {
+        let at = path.join(&entry);
+        let ok = match name {
+            "logs" => !is_dir && entry.starts_with("probeplace-") && entry.ends_with(".out"),
+            _ if entry == "out" && is_dir => {
+                commit::check_destination(&at, &[])?;
+                true
+            }
+            // What a killed tile run's commit left beside its output.
+            _ if entry.starts_with(".out.probeplace") => true,
+            _ => !is_dir && (entry == "scene.obj" || entry == "config.ron"),
+        };
+        if !ok {
+            return refuse(&at);
+        }
     }
     Ok(())
 }

@@ -12,15 +12,20 @@
 //! the previous output whole; a kill at any point leaves the old set or the
 //! new one, never a mix, and the next run into the same output directory
 //! (not one into another directory beside it) removes the
-//! staging directories of dead processes. Two runs into one directory swap
-//! in turn: the later one wins whole. Files an earlier run of another job
-//! left there are gone after the swap.
+//! staging directories of dead processes. A run claims its directory
+//! before its first stage ([`claim`]) with a lock beside it, so a second
+//! run into it is refused while the first is under way, never mixed with
+//! it. Files an earlier run of another job left there are gone after the
+//! swap; a file no run wrote is never touched: a directory holding one is
+//! refused ([`check_destination`]).
 //!
 //! Files a run reuses from an earlier one (`--from DIR`) are *carried*:
 //! hard-linked (or copied) into the staging directory, so they too belong
 //! to the new set. A carried file is linked by its resolved path, never as
 //! a symbolic link (one pointing into the output directory would point at
-//! itself after the swap).
+//! itself after the swap), and only if it is still the file, with the
+//! contents, that the run checked against the earlier manifest at its
+//! start: another run's commit or an edit in between refuses the run.
 //!
 //! Every set gets a [`manifest`] (`manifest.json`, written last among the
 //! files): each file's size and SHA-256, and the run's provenance, which
@@ -28,17 +33,28 @@
 //! header attributes).
 
 use super::manifest::{self, Manifest};
+use super::names;
 use crate::error::{Error, Result};
 use crate::provenance::Stamp;
 use std::io::Write;
 use std::path::{Path, PathBuf};
+
+/// A file of an earlier run that a set carries: its name in the set, its
+/// path, and what the earlier run's manifest recorded of it when the run
+/// checked it (`None`: carried unchecked).
+#[derive(Debug)]
+struct Carried {
+    name: String,
+    from: PathBuf,
+    expect: Option<(manifest::Entry, manifest::FileId)>,
+}
 
 /// The files of one run, by name, not yet on disk (`default()`: a set
 /// without provenance).
 #[derive(Debug, Default)]
 pub struct OutputSet {
     files: Vec<(String, Vec<u8>)>,
-    carried: Vec<(String, PathBuf)>,
+    carried: Vec<Carried>,
     stamp: Option<Stamp>,
 }
 
@@ -70,11 +86,38 @@ impl OutputSet {
         self.files.push((name, bytes));
     }
 
-    /// Adds the file `from` (of an earlier run) under `name`, unchanged.
+    /// Adds the file `from` (of an earlier run) under `name`, unchanged
+    /// and unchecked (the tests' shortcut).
+    #[cfg(test)]
     pub fn carry(&mut self, name: impl Into<String>, from: PathBuf) {
         let name = name.into();
         self.remove(&name);
-        self.carried.push((name, from));
+        self.carried.push(Carried {
+            name,
+            from,
+            expect: None,
+        });
+    }
+
+    /// [`OutputSet::carry`] of a file the earlier run's manifest recorded
+    /// as `entry`, checked as the file `id` ([`manifest::verify`]): the
+    /// commit links it only if the path still names that file with those
+    /// contents, and refuses the run otherwise, since what the run
+    /// computed from it may no longer match it.
+    pub fn carry_checked(
+        &mut self,
+        name: impl Into<String>,
+        from: PathBuf,
+        entry: manifest::Entry,
+        id: manifest::FileId,
+    ) {
+        let name = name.into();
+        self.remove(&name);
+        self.carried.push(Carried {
+            name,
+            from,
+            expect: Some((entry, id)),
+        });
     }
 
     /// The contents of `name`: added bytes, or a carried file read back
@@ -84,9 +127,11 @@ impl OutputSet {
         if let Some((_, bytes)) = self.files.iter().find(|(n, _)| n == name) {
             return Ok(Some(std::borrow::Cow::Borrowed(bytes)));
         }
-        match self.carried.iter().find(|(n, _)| n == name) {
-            Some((_, from)) => crate::input::read(from, name, crate::limits::memory_budget())
-                .map(|b| Some(std::borrow::Cow::Owned(b))),
+        match self.carried.iter().find(|c| c.name == name) {
+            Some(Carried { from, .. }) => {
+                crate::input::read(from, name, crate::limits::memory_budget())
+                    .map(|b| Some(std::borrow::Cow::Owned(b)))
+            }
             None => Ok(None),
         }
     }
@@ -94,7 +139,7 @@ impl OutputSet {
     /// Drops `name` from the set.
     pub fn remove(&mut self, name: &str) {
         self.files.retain(|(n, _)| n != name);
-        self.carried.retain(|(n, _)| n != name);
+        self.carried.retain(|c| c.name != name);
     }
 }
 
@@ -139,22 +184,67 @@ pub fn check_destination(dir: &Path, inputs: &[PathBuf]) -> Result<()> {
                 "is not empty and holds no probeplace output (report.json or compare.json); the run would replace its files, so choose an empty or new --out",
             ));
         }
-        // A file put beside a run's outputs (one its manifest does not
-        // list) would go with them.
-        if let Ok(listing) = manifest::read(dir, "") {
-            if let Some(stray) = manifest::unlisted(dir, &listing).first() {
-                return Err(Error::user_file(
-                    stray,
-                    format!(
-                        "is not a file of the run in {} ({} does not list it), and the run replaces that directory: move it out, or choose another --out",
-                        dir.display(),
-                        manifest::NAME
-                    ),
-                ));
-            }
+        if let Some(stray) = foreign_file(dir) {
+            return Err(stray);
         }
     }
     Ok(())
+}
+
+/// The first file of the output directory `dir` that its run did not
+/// write, as the refusal that names it; `None` when every file is the
+/// tool's. A manifest that reads cleanly lists the run's files; without
+/// one (an older probeplace's directory, or a manifest deleted, cut short
+/// or of another version) only names a job writes count as the tool's
+/// ([`names::is_output_name`]), and only as files: a directory of that
+/// name is the user's too.
+fn foreign_file(dir: &Path) -> Option<Error> {
+    let leave = |stray: &Path, why: String| {
+        Error::user_file(
+            stray,
+            format!(
+                "{why}, and the run replaces {} whole: move it out, or choose another --out",
+                dir.display()
+            ),
+        )
+    };
+    match manifest::read(dir, "") {
+        Ok(listing) => manifest::unlisted(dir, &listing).first().map(|stray| {
+            leave(
+                stray,
+                format!(
+                    "is not a file of the run in {} ({} does not list it)",
+                    dir.display(),
+                    manifest::NAME
+                ),
+            )
+        }),
+        Err(_) => {
+            let mut found: Vec<(String, bool)> = std::fs::read_dir(dir)
+                .into_iter()
+                .flatten()
+                .flatten()
+                .map(|e| {
+                    let is_dir = e.file_type().is_ok_and(|t| t.is_dir());
+                    (e.file_name().to_string_lossy().into_owned(), is_dir)
+                })
+                .collect();
+            found.sort();
+            found
+                .into_iter()
+                .find(|(name, is_dir)| *is_dir || !names::is_output_name(name))
+                .map(|(name, _)| {
+                    leave(
+                        &dir.join(name),
+                        format!(
+                            "is not a file probeplace writes, and {} has no {} that reads cleanly to say which files its run wrote",
+                            dir.display(),
+                            manifest::NAME
+                        ),
+                    )
+                })
+        }
+    }
 }
 
 /// Refuses an earlier run's directory `from` (`--from`, named `label` in
@@ -263,8 +353,11 @@ fn check_creatable(dir: &Path) -> Result<()> {
 
 /// Whether `path` is a JSON file whose `format` names probeplace.
 fn is_probeplace_json(path: &Path) -> bool {
-    std::fs::read(path)
-        .ok()
+    // Never opened unless a regular file: a FIFO would block.
+    let regular = std::fs::symlink_metadata(path).is_ok_and(|m| m.is_file());
+    regular
+        .then(|| crate::input::read(path, "report", 1 << 26).ok())
+        .flatten()
         .and_then(|b| serde_json::from_slice::<serde_json::Value>(&b).ok())
         .and_then(|v| {
             v.get("format")?
@@ -281,20 +374,60 @@ pub(crate) fn absolute(path: &Path) -> PathBuf {
     std::fs::canonicalize(&p).unwrap_or_else(|_| crate::config::normalize(&p))
 }
 
-/// Writes `set` as the whole contents of `dir` (module docs).
+/// An output directory claimed for one run: checked ([`check_destination`])
+/// and locked against every other probeplace run into it until the claim
+/// is dropped. Only a claim can be committed to, so every job goes through
+/// the one check.
+#[derive(Debug)]
+pub struct Claim {
+    dir: PathBuf,
+    inputs: Vec<PathBuf>,
+    lock: Option<Lock>,
+}
+
+/// Claims the output directory `dir` of a run reading `inputs`: refuses it
+/// as [`check_destination`] does, and when another probeplace run holds
+/// it. Called before any expensive stage; the claim lives until the run
+/// has committed (or failed).
 ///
-/// Contract: on `Ok`, `dir` holds exactly the set's files, synced; on
-/// `Err`, `dir` is as it was and no staging directory remains. `inputs`
-/// are checked as in [`check_destination`].
-pub fn commit(dir: &Path, set: &OutputSet, inputs: &[PathBuf]) -> Result<()> {
+/// Two runs into one directory are refused, not mixed: the second names
+/// the first's process. A directory whose parent does not exist yet is
+/// locked at the commit instead, once the parent is made (so a refused run
+/// creates nothing); no earlier run can be reused from it meanwhile.
+pub fn claim(dir: &Path, inputs: &[PathBuf]) -> Result<Claim> {
     check_destination(dir, inputs)?;
-    let dir = std::path::absolute(dir).map_err(|e| Error::io(dir, e))?;
+    let lock = Lock::take_if_parent_exists(dir)?;
+    // Another run may have committed between the check and the lock.
+    check_destination(dir, inputs)?;
+    Ok(Claim {
+        dir: dir.to_path_buf(),
+        inputs: inputs.to_vec(),
+        lock,
+    })
+}
+
+/// Writes `set` as the whole contents of the claimed directory (module
+/// docs).
+///
+/// Contract: on `Ok`, the directory holds exactly the set's files, synced;
+/// on `Err`, it is as it was and no staging directory remains. Files
+/// carried with [`OutputSet::carry_checked`] are linked only while they
+/// are the files and contents checked at the run's start; otherwise the
+/// run is refused ([`Error::User`] naming the file) and nothing changes.
+pub fn commit(claim: &Claim, set: &OutputSet) -> Result<()> {
+    fault::hold();
+    check_destination(&claim.dir, &claim.inputs)?;
+    let dir = std::path::absolute(&claim.dir).map_err(|e| Error::io(&claim.dir, e))?;
     let (parent, name) = match (dir.parent(), dir.file_name()) {
         (Some(p), Some(n)) => (p.to_path_buf(), n.to_string_lossy().into_owned()),
         _ => return Err(Error::user_file(&dir, "is not a directory name")),
     };
     std::fs::create_dir_all(&parent)
         .map_err(|e| Error::user_file(&parent, format!("cannot create output directory: {e}")))?;
+    let _late = match claim.lock {
+        Some(_) => None,
+        None => Some(Lock::take(&claim.dir)?),
+    };
     sweep_dead_staging(&parent, &name);
     let staging = parent.join(format!(
         ".{name}.probeplace-{}-{}",
@@ -311,6 +444,107 @@ pub fn commit(dir: &Path, set: &OutputSet, inputs: &[PathBuf]) -> Result<()> {
     written
 }
 
+/// An exclusive lock on an output directory: `flock` on the file
+/// `.NAME.probeplace.lock` beside it (not in it: the commit swaps the
+/// directory, and a lock inside would go with it). The file holds the
+/// holder's process id, for the refusal's message, and is removed when
+/// the lock is dropped; a taker that finds it removed under its lock takes
+/// the new one. The kernel drops a killed holder's lock.
+#[derive(Debug)]
+struct Lock {
+    path: PathBuf,
+    file: std::fs::File,
+}
+
+impl Lock {
+    /// [`Lock::take`] where `dir`'s parent exists; `None` elsewhere.
+    fn take_if_parent_exists(dir: &Path) -> Result<Option<Lock>> {
+        let abs = std::path::absolute(dir).map_err(|e| Error::io(dir, e))?;
+        match abs.parent() {
+            Some(p) if p.is_dir() => Lock::take(dir).map(Some),
+            _ => Ok(None),
+        }
+    }
+
+    /// Locks `dir`, whose parent exists; refused while another process
+    /// holds it.
+    fn take(dir: &Path) -> Result<Lock> {
+        let abs = std::path::absolute(dir).map_err(|e| Error::io(dir, e))?;
+        let (Some(parent), Some(name)) = (abs.parent(), abs.file_name()) else {
+            return Err(Error::user_file(dir, "is not a directory name"));
+        };
+        let path = parent.join(format!(".{}.probeplace.lock", name.to_string_lossy()));
+        loop {
+            let mut file = open_lock_file(&path)?;
+            if !try_flock(&file) {
+                let holder = std::fs::read_to_string(&path).unwrap_or_default();
+                let holder = match holder.trim().parse::<u32>() {
+                    Ok(pid) => format!("another probeplace run (process {pid})"),
+                    Err(_) => "another probeplace run".to_string(),
+                };
+                return Err(Error::user_file(
+                    dir,
+                    format!("{holder} is writing this output directory; wait for it to finish, or choose another --out"),
+                ));
+            }
+            // The holder before us removes the file as it lets go: a lock
+            // on a removed file locks nothing, so take the new one.
+            let same = match (file.metadata(), std::fs::symlink_metadata(&path)) {
+                (Ok(a), Ok(b)) => manifest::FileId::of(&a) == manifest::FileId::of(&b),
+                _ => false,
+            };
+            if same {
+                let _ = file.set_len(0);
+                let _ = writeln!(file, "{}", std::process::id());
+                return Ok(Lock { path, file });
+            }
+        }
+    }
+}
+
+impl Drop for Lock {
+    fn drop(&mut self) {
+        // Removed while still held, so no taker locks a file it removes.
+        let ours = match (self.file.metadata(), std::fs::symlink_metadata(&self.path)) {
+            (Ok(a), Ok(b)) => manifest::FileId::of(&a) == manifest::FileId::of(&b),
+            _ => false,
+        };
+        if ours {
+            let _ = std::fs::remove_file(&self.path);
+        }
+    }
+}
+
+/// Opens (creating) the lock file at `path`, never through a link.
+fn open_lock_file(path: &Path) -> Result<std::fs::File> {
+    let mut options = std::fs::OpenOptions::new();
+    options.read(true).write(true).create(true);
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::OpenOptionsExt;
+        options.custom_flags(libc::O_NOFOLLOW | libc::O_NONBLOCK);
+    }
+    options
+        .open(path)
+        .map_err(|e| Error::user_file(path, format!("cannot lock the output directory: {e}")))
+}
+
+/// Takes an exclusive `flock` without waiting; `false` when another open
+/// file holds one.
+fn try_flock(file: &std::fs::File) -> bool {
+    #[cfg(unix)]
+    {
+        use std::os::unix::io::AsRawFd;
+        // SAFETY: a valid open descriptor; flock has no memory effects.
+        unsafe { libc::flock(file.as_raw_fd(), libc::LOCK_EX | libc::LOCK_NB) == 0 }
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = file;
+        true
+    }
+}
+
 /// Writes and syncs every file of `set` into `staging`, then the directory.
 fn write_all(staging: &Path, set: &OutputSet) -> Result<()> {
     let mut step = 0;
@@ -321,20 +555,31 @@ fn write_all(staging: &Path, set: &OutputSet) -> Result<()> {
             .files
             .insert(name.clone(), manifest::entry_of(bytes));
     }
-    for (name, from) in &set.carried {
+    for Carried { name, from, expect } in &set.carried {
         let path = staging.join(name);
         fault::before_write(&path);
         // By the resolved path: a link to a symbolic link would resolve
         // into the directory this commit replaces.
-        let from = std::fs::canonicalize(from).map_err(|e| Error::io(from, e))?;
-        if std::fs::hard_link(&from, &path).is_err() {
-            std::fs::copy(&from, &path).map_err(|e| Error::io(&path, e))?;
+        let resolved = std::fs::canonicalize(from).map_err(|e| Error::io(from, e))?;
+        let linked = std::fs::hard_link(&resolved, &path).is_ok();
+        if !linked {
+            if let Some((_, want)) = expect {
+                let now = std::fs::metadata(&resolved).map_err(|e| Error::io(from, e))?;
+                if manifest::FileId::of(&now) != *want {
+                    return Err(changed_since_read(from));
+                }
+            }
+            std::fs::copy(&resolved, &path).map_err(|e| Error::io(&path, e))?;
             let f = std::fs::File::open(&path).map_err(|e| Error::io(&path, e))?;
             f.sync_all().map_err(|e| Error::io(&path, e))?;
         }
-        listing
-            .files
-            .insert(name.clone(), manifest::entry_of_file(&path)?);
+        let (entry, id) = manifest::identify(&path)?;
+        if let Some((want_entry, want_id)) = expect {
+            if (linked && id != *want_id) || entry != *want_entry {
+                return Err(changed_since_read(from));
+            }
+        }
+        listing.files.insert(name.clone(), entry);
         step += 1;
         fault::kill_at(step);
     }
@@ -342,6 +587,15 @@ fn write_all(staging: &Path, set: &OutputSet) -> Result<()> {
     sync_dir(staging)?;
     fault::kill_at(step + 1);
     Ok(())
+}
+
+/// The refusal of a carried file that is no longer the one the run
+/// checked at its start.
+fn changed_since_read(from: &Path) -> Error {
+    Error::user_file(
+        from,
+        "changed since this run checked it against its manifest.json (replaced by another run, or edited), so this run's outputs would not match it; nothing was written: run the job again",
+    )
 }
 
 /// Writes and syncs `name` in `staging`, commit step `step + 1`.
@@ -440,13 +694,31 @@ fn sweep_dead_staging(parent: &Path, name: &str) {
 }
 
 /// Faults for the tests of this module's promises, set by environment
-/// variables the tests give the binary: `PROBEPLACE_TEST_KILL_AT=N` sends
+/// variables the tests give the binary ([`fault::hold`] too): `PROBEPLACE_TEST_KILL_AT=N` sends
 /// the process SIGKILL after commit step N (files written count 1, 2, …,
 /// then the directory sync, then 1000 after the swap and 1001 after the old
 /// set is removed); `PROBEPLACE_TEST_DIR_AT=NAME` makes a directory where
 /// output NAME is about to be written, as a name taken by a directory would.
 mod fault {
     use std::path::Path;
+
+    /// `PROBEPLACE_TEST_HOLD_COMMIT=PATH`: at the start of the commit,
+    /// with the destination claimed, writes `PATH.held` and waits (at most
+    /// two minutes) until `PATH` exists, so a test can act in the window
+    /// between a run's start and its commit deterministically.
+    pub fn hold() {
+        let Some(path) = std::env::var_os("PROBEPLACE_TEST_HOLD_COMMIT") else {
+            return;
+        };
+        let go = std::path::PathBuf::from(path);
+        let mut held = go.clone().into_os_string();
+        held.push(".held");
+        let _ = std::fs::write(&held, std::process::id().to_string());
+        let start = std::time::Instant::now();
+        while !go.exists() && start.elapsed() < std::time::Duration::from_secs(120) {
+            std::thread::sleep(std::time::Duration::from_millis(10));
+        }
+    }
 
     pub fn kill_at(step: usize) {
         let Some(at) = std::env::var_os("PROBEPLACE_TEST_KILL_AT") else {
@@ -490,6 +762,10 @@ mod tests {
         v
     }
 
+    fn commit_to(dir: &Path, set: &OutputSet) -> Result<()> {
+        commit(&claim(dir, &[])?, set)
+    }
+
     fn set(files: &[(&str, &str)]) -> OutputSet {
         let mut s = OutputSet::default();
         for (n, b) in files {
@@ -510,8 +786,8 @@ mod tests {
     fn a_commit_replaces_the_whole_directory_and_leaves_no_staging() {
         let root = tempfile::tempdir().unwrap();
         let out = root.path().join("out");
-        commit(&out, &ours("lightfield.bin", "old"), &[]).unwrap();
-        commit(&out, &ours("svo.bin", "new"), &[]).unwrap();
+        commit_to(&out, &ours("lightfield.bin", "old")).unwrap();
+        commit_to(&out, &ours("svo.bin", "new")).unwrap();
         let names: Vec<String> = listing(&out).into_iter().map(|(n, _)| n).collect();
         assert_eq!(names, ["manifest.json", "report.json", "svo.bin"]);
         assert_eq!(std::fs::read_dir(root.path()).unwrap().count(), 1);
@@ -545,7 +821,7 @@ mod tests {
         );
         let root = tempfile::tempdir().unwrap();
         let out = root.path().join("out");
-        commit(&out, &s, &[]).unwrap();
+        commit_to(&out, &s).unwrap();
         let listing = manifest::verify(&out, "").unwrap();
         assert_eq!(listing.provenance, Some(Stamp::of(&p)));
         let names: Vec<&String> = listing.files.keys().collect();
@@ -578,10 +854,10 @@ mod tests {
     fn a_carried_file_keeps_its_bytes_after_its_directory_is_replaced() {
         let root = tempfile::tempdir().unwrap();
         let out = root.path().join("out");
-        commit(&out, &ours("probes.json", "P"), &[]).unwrap();
+        commit_to(&out, &ours("probes.json", "P")).unwrap();
         let mut s = set(&[("report.json", "{\"format\":\"probeplace.report\"}")]);
         s.carry("probes.json", out.join("probes.json"));
-        commit(&out, &s, &[]).unwrap();
+        commit_to(&out, &s).unwrap();
         assert_eq!(std::fs::read(out.join("probes.json")).unwrap(), b"P");
     }
 
@@ -591,7 +867,7 @@ mod tests {
         let out = root.path().join("photos");
         std::fs::create_dir(&out).unwrap();
         std::fs::write(out.join("holiday.jpg"), b"x").unwrap();
-        let e = commit(&out, &set(&[("a", "b")]), &[]).unwrap_err();
+        let e = commit_to(&out, &set(&[("a", "b")])).unwrap_err();
         assert!(matches!(e, Error::User(_)), "{e}");
         assert_eq!(listing(&out).len(), 1);
         let run = root.path().join("run");
@@ -604,10 +880,10 @@ mod tests {
         let root = tempfile::tempdir().unwrap();
         let out = root.path().join("out");
         let old = ours("svo.bin", "old");
-        commit(&out, &old, &[]).unwrap();
+        commit_to(&out, &old).unwrap();
         let before = listing(&out);
         let bad = set(&[("svo.bin", "new"), ("no/such/dir/report.json", "x")]);
-        assert!(commit(&out, &bad, &[]).is_err());
+        assert!(commit_to(&out, &bad).is_err());
         assert_eq!(listing(&out), before);
         assert_eq!(std::fs::read_dir(root.path()).unwrap().count(), 1);
     }

@@ -48,6 +48,41 @@ pub struct Manifest {
     pub provenance: Option<Stamp>,
     /// Every other file of the directory, by name.
     pub files: BTreeMap<String, Entry>,
+    /// The file each entry was checked on by [`verify`] (none for a
+    /// manifest only read): a run that carries the file into its output
+    /// checks, when it links it, that it is still that file
+    /// ([`super::commit`]).
+    #[serde(skip)]
+    pub seen: BTreeMap<String, FileId>,
+}
+
+/// Which file a path named when it was read: device and inode, so a file
+/// replaced under the same name (another run's commit swaps the whole
+/// directory) is told from the one checked.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct FileId {
+    dev: u64,
+    ino: u64,
+}
+
+impl FileId {
+    /// The identity of the file `meta` describes (zero where the platform
+    /// has no inodes, which then compare equal: the hash still decides).
+    pub fn of(meta: &std::fs::Metadata) -> FileId {
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::MetadataExt;
+            FileId {
+                dev: meta.dev(),
+                ino: meta.ino(),
+            }
+        }
+        #[cfg(not(unix))]
+        {
+            let _ = meta;
+            FileId::default()
+        }
+    }
 }
 
 impl Manifest {
@@ -58,6 +93,7 @@ impl Manifest {
             version: VERSION,
             provenance,
             files: BTreeMap::new(),
+            seen: BTreeMap::new(),
         }
     }
 
@@ -81,8 +117,16 @@ pub fn entry_of(bytes: &[u8]) -> Entry {
 }
 
 /// The entry of the regular file at `path`, streamed.
+#[cfg(test)]
 pub fn entry_of_file(path: &Path) -> Result<Entry> {
+    identify(path).map(|(entry, _)| entry)
+}
+
+/// The entry of the file at `path` and which file it was: both from one
+/// open file, so the hash is of the file the identity names.
+pub fn identify(path: &Path) -> Result<(Entry, FileId)> {
     let mut f = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
+    let id = FileId::of(&f.metadata().map_err(|e| Error::io(path, e))?);
     let mut hasher = Sha256::new();
     let mut chunk = vec![0u8; 1 << 20];
     let mut bytes = 0u64;
@@ -94,10 +138,13 @@ pub fn entry_of_file(path: &Path) -> Result<Entry> {
         hasher.update(&chunk[..n]);
         bytes += n as u64;
     }
-    Ok(Entry {
-        bytes,
-        sha256: hex(&hasher.finalize()),
-    })
+    Ok((
+        Entry {
+            bytes,
+            sha256: hex(&hasher.finalize()),
+        },
+        id,
+    ))
 }
 
 fn hex(digest: &[u8]) -> String {
@@ -154,7 +201,8 @@ pub fn read(dir: &Path, rerun: &str) -> Result<Manifest> {
 /// block); every refusal is an [`Error::User`] naming the file and ending
 /// with `rerun`, what the user should do.
 pub fn verify(dir: &Path, rerun: &str) -> Result<Manifest> {
-    let manifest = read(dir, rerun)?;
+    let mut manifest = read(dir, rerun)?;
+    let mut seen = BTreeMap::new();
     let refuse = |file: &Path, why: String| Error::user_file(file, format!("{why}; {rerun}"));
     let path = dir.join(NAME);
     for (name, want) in &manifest.files {
@@ -191,13 +239,16 @@ pub fn verify(dir: &Path, rerun: &str) -> Result<Manifest> {
                 ),
             ));
         }
-        if entry_of_file(&file)?.sha256 != want.sha256 {
+        let (found, id) = identify(&file)?;
+        if found.sha256 != want.sha256 {
             return Err(refuse(
                 &file,
                 format!("its contents are not what {NAME} records (SHA-256 differs): changed since its run wrote it, or copied from another run"),
             ));
         }
+        seen.insert(name.clone(), id);
     }
+    manifest.seen = seen;
     Ok(manifest)
 }
 

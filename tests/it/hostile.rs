@@ -286,7 +286,7 @@ fn no_command_aborts_under_a_4_gb_address_space_limit() {
 
 /// Runs `probeplace ARGS` in the scratch directory; its exit status and
 /// stderr, for the checks [`refused`] does not make (no stage ran).
-fn stderr_of(s: &Scratch, args: &[&str]) -> (Option<i32>, String) {
+pub fn stderr_of(s: &Scratch, args: &[&str]) -> (Option<i32>, String) {
     let o = Command::new(env!("CARGO_BIN_EXE_probeplace"))
         .args(args)
         .current_dir(s.dir.path())
@@ -625,7 +625,7 @@ fn a_compare_over_too_many_grids_is_refused_before_the_first() {
 
 /// The scratch room with a camera (so a bake has a reference), baked
 /// quickly into `dir` with `extra` arguments.
-fn baked(s: &Scratch, dir: &str, extra: &[&str]) {
+pub fn baked(s: &Scratch, dir: &str, extra: &[&str]) {
     if !s.path("cam.ron").exists() {
         s.config(
             "cam.ron",
@@ -639,7 +639,7 @@ fn baked(s: &Scratch, dir: &str, extra: &[&str]) {
 }
 
 /// Every file of `dir`, by name, with its bytes (and links as links).
-fn snapshot(dir: &Path) -> Vec<(String, bool, Vec<u8>)> {
+pub fn snapshot(dir: &Path) -> Vec<(String, bool, Vec<u8>)> {
     let mut v: Vec<_> = std::fs::read_dir(dir)
         .unwrap()
         .flatten()
@@ -853,7 +853,7 @@ fn a_killed_runs_staging_is_swept_by_the_next_run_into_its_directory_only() {
 }
 
 #[test]
-fn runs_into_one_directory_at_once_leave_one_whole_set() {
+fn runs_into_one_directory_at_once_leave_one_whole_set_or_are_refused() {
     let s = Scratch::new();
     for round in 0..3 {
         let children: Vec<_> = ["1", "2", "3"]
@@ -864,13 +864,28 @@ fn runs_into_one_directory_at_once_leave_one_whole_set() {
                         "place", "run.ron", "--quiet", "--out", "out", "--seed", seed,
                     ])
                     .current_dir(s.dir.path())
+                    .stderr(std::process::Stdio::piped())
                     .spawn()
                     .unwrap()
             })
             .collect();
-        for mut c in children {
-            assert!(c.wait().unwrap().success(), "round {round}");
+        // Each run finishes, or is refused while another holds the
+        // directory (issue 70): never two sets mixed.
+        let mut finished = 0;
+        for c in children {
+            let o = c.wait_with_output().unwrap();
+            let err = String::from_utf8_lossy(&o.stderr);
+            if o.status.success() {
+                finished += 1;
+            } else {
+                assert_eq!(o.status.code(), Some(2), "round {round}: {err}");
+                assert!(
+                    err.contains("is writing this output directory"),
+                    "round {round}: {err}"
+                );
+            }
         }
+        assert!(finished >= 1, "round {round}");
         // One run's set, whole: its manifest holds, every file is of its
         // seed, and inspect passes it.
         let files = crate::common::dir_files(&s.path("out"));

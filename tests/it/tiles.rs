@@ -364,6 +364,26 @@ fn a_split_over_an_earlier_one_replaces_it_whole() {
     let (code, err) = merge(&dir);
     assert_eq!(code, Some(0), "{err}");
     assert!(dir.join("world/report.json").is_file());
+    // A user's file in the merged world, whose manifest is gone (issue 70):
+    // neither the next merge nor the next split deletes it.
+    let notes = dir.join("world/notes.txt");
+    std::fs::write(&notes, b"the user's").unwrap();
+    std::fs::remove_file(dir.join("world/manifest.json")).unwrap();
+    let (code, err) = merge(&dir);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(
+        err.contains("notes.txt") && err.trim_end().lines().count() == 1,
+        "{err}"
+    );
+    let refused = split_refusal(&config, &[], &dir);
+    assert!(refused.contains("notes.txt"), "{refused}");
+    assert!(notes.is_file() && dir.join("tile-001/config.ron").is_file());
+    std::fs::remove_file(&notes).unwrap();
+    // Nor one in a tile's folder.
+    std::fs::write(dir.join("tile-001/mine.obj"), b"v 0 0 0").unwrap();
+    let refused = split_refusal(&config, &[], &dir);
+    assert!(refused.contains("tile-001/mine.obj"), "{refused}");
+    std::fs::remove_file(dir.join("tile-001/mine.obj")).unwrap();
     // One tile now: the old second tile, both placements and the merged
     // world are stale, and none of them may stay to pass for the new
     // split's.
