@@ -8,7 +8,9 @@
  *
  * and include it plainly everywhere else. It needs only the C99 standard
  * library (stdio for the *_load_file functions, stdlib for malloc and
- * qsort, math for floorf, roundf, sqrtf, fabsf).
+ * qsort, math for floorf, roundf, sqrtf, fabsf), and on POSIX systems
+ * open, fstat and read (fcntl.h, sys/stat.h, unistd.h) for the
+ * *_load_file functions (CONTRACT).
  *
  * WHAT IT READS. `svo.bin`, version 2: the sparse voxel octree of probe
  * indices that `probeplace place` writes (Wang et al. 2019 §4.1; byte
@@ -81,6 +83,16 @@
  *    outlive the result and stay unchanged. The *_load_file functions own
  *    their buffer; pp_svo_free and pp_lightfield_free release it (and are
  *    harmless on a result of the in-memory loaders, or of a failed load).
+ *  - pp_svo_load_file / pp_lightfield_load_file open the path without
+ *    blocking (POSIX: O_NONBLOCK, then fstat on the open descriptor, so a
+ *    FIFO without a writer neither blocks nor slips in between a check and
+ *    the open) and refuse anything but a regular file before reading a
+ *    byte (PP_ERR_NOT_REGULAR_FILE: a FIFO, a directory, /dev/zero or a
+ *    link to it), and a file over PP_MAX_FILE_BYTES (PP_ERR_FILE_TOO_BIG).
+ *    They read at most the size fstat gave, in one allocation of that
+ *    size, as probeplace's own reader does (src/input.rs). Without POSIX
+ *    (no __unix__) they read with stdio, up to PP_MAX_FILE_BYTES, and
+ *    cannot tell a FIFO from a file.
  *  - Thread safety: loading touches only its arguments; any number of
  *    threads may query one pp_svo, pp_lightfield and pp_lattice at once.
  *
@@ -166,6 +178,14 @@ extern "C" {
 #define PP_MAX_PROBES_PER_LEAF 8
 /* The most leaves a tree may have (probeplace's sdf::MAX_VOXELS). */
 #define PP_SVO_MAX_LEAVES 64000000u
+/* The most bytes pp_svo_load_file and pp_lightfield_load_file read from one
+ * file: 64 GiB unless defined lower (or higher) before the header is
+ * included. A file is read up to the size fstat gives when it is opened,
+ * never past it; a larger one is PP_ERR_FILE_TOO_BIG before a byte is
+ * read. (An svo.bin of PP_SVO_MAX_LEAVES leaves takes under 3 GiB.) */
+#ifndef PP_MAX_FILE_BYTES
+#define PP_MAX_FILE_BYTES ((uint64_t)1 << 36)
+#endif
 
 /* Why a load failed. PP_OK is 0; every other value names one check, in
  * the order the loader makes them (the order of src/svo/format.rs). */
@@ -204,7 +224,11 @@ typedef enum pp_error {
     /* The blend (pp_lattice_from_positions, pp_blend_weights): */
     PP_ERR_NOT_A_GRID,       /* the probes are not a regular lattice */
     PP_ERR_MISMATCH,         /* an svo.bin or lattice of another probe count than the light field */
-    PP_ERR_CAPACITY          /* output arrays shorter than the blend's terms */
+    PP_ERR_CAPACITY,         /* output arrays shorter than the blend's terms */
+    /* The *_load_file functions' own, before a byte is read (appended, so
+     * the codes above keep their values): */
+    PP_ERR_NOT_REGULAR_FILE, /* a FIFO, a directory, a device or a socket */
+    PP_ERR_FILE_TOO_BIG      /* larger than PP_MAX_FILE_BYTES */
 } pp_error;
 
 /* A loaded svo.bin. Fields are the header's (docs/formats.md); `nodes`
@@ -347,6 +371,20 @@ uint32_t pp_crc32(const void *bytes, size_t size);
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+
+#if defined(__unix__) || defined(__unix) || (defined(__APPLE__) && defined(__MACH__))
+#define PP__POSIX 1
+#include <errno.h>
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <sys/types.h>
+#include <unistd.h>
+#ifdef O_CLOEXEC
+#define PP__O_CLOEXEC O_CLOEXEC
+#else
+#define PP__O_CLOEXEC 0
+#endif
+#endif
 
 #ifndef PROBEPLACE_MALLOC
 #define PROBEPLACE_MALLOC(n) malloc(n)
@@ -547,8 +585,64 @@ pp_error pp_svo_load(const void *bytes, size_t size, pp_svo *svo)
 
 /* The whole file at `path` in a buffer the caller frees (NULL for an
  * empty file, which then has `*len` 0). */
+/* The bytes of the regular file at `path` (CONTRACT): opened without
+ * blocking and checked with fstat before a byte is read; at most the size
+ * fstat gave is read (a file that shrank since reads shorter, and the
+ * loader's length checks refuse it). */
 static pp_error pp__read_file(const char *path, unsigned char **out, size_t *out_len)
 {
+#ifdef PP__POSIX
+    int fd;
+    struct stat st;
+    unsigned char *buf;
+    size_t len = 0, size;
+
+    *out = NULL;
+    *out_len = 0;
+    fd = open(path, O_RDONLY | O_NONBLOCK | PP__O_CLOEXEC);
+    if (fd < 0)
+        return PP_ERR_IO;
+    if (fstat(fd, &st) != 0) {
+        close(fd);
+        return PP_ERR_IO;
+    }
+    if (!S_ISREG(st.st_mode)) {
+        close(fd);
+        return PP_ERR_NOT_REGULAR_FILE;
+    }
+    if (st.st_size < 0 || (uint64_t)st.st_size > (uint64_t)PP_MAX_FILE_BYTES ||
+        (uint64_t)st.st_size > (uint64_t)(size_t)-1) {
+        close(fd);
+        return PP_ERR_FILE_TOO_BIG;
+    }
+    size = (size_t)st.st_size;
+    buf = (unsigned char *)PROBEPLACE_MALLOC(size ? size : 1u);
+    if (buf == NULL) {
+        close(fd);
+        return PP_ERR_NO_MEMORY;
+    }
+    while (len < size) {
+        size_t want = size - len;
+        ssize_t got;
+        if (want > ((size_t)1 << 30))
+            want = (size_t)1 << 30;
+        got = read(fd, buf + len, want);
+        if (got < 0 && errno == EINTR)
+            continue;
+        if (got < 0) {
+            PROBEPLACE_FREE(buf);
+            close(fd);
+            return PP_ERR_IO;
+        }
+        if (got == 0)
+            break;
+        len += (size_t)got;
+    }
+    close(fd);
+    *out = buf;
+    *out_len = len;
+    return PP_OK;
+#else
     FILE *f;
     unsigned char *buf = NULL;
     size_t len = 0, cap = 0;
@@ -563,7 +657,14 @@ static pp_error pp__read_file(const char *path, unsigned char **out, size_t *out
         if (len == cap) {
             size_t grown = cap ? 2 * cap : 65536u;
             unsigned char *next;
-            if (grown < cap) {
+            if ((uint64_t)len >= (uint64_t)PP_MAX_FILE_BYTES) {
+                PROBEPLACE_FREE(buf);
+                fclose(f);
+                return PP_ERR_FILE_TOO_BIG;
+            }
+            if ((uint64_t)grown > (uint64_t)PP_MAX_FILE_BYTES + 1u)
+                grown = (size_t)((uint64_t)PP_MAX_FILE_BYTES + 1u);
+            if (grown <= cap) {
                 PROBEPLACE_FREE(buf);
                 fclose(f);
                 return PP_ERR_NO_MEMORY;
@@ -589,9 +690,14 @@ static pp_error pp__read_file(const char *path, unsigned char **out, size_t *out
             break;
         }
     }
+    if ((uint64_t)len > (uint64_t)PP_MAX_FILE_BYTES) {
+        PROBEPLACE_FREE(buf);
+        return PP_ERR_FILE_TOO_BIG;
+    }
     *out = buf;
     *out_len = len;
     return PP_OK;
+#endif
 }
 
 pp_error pp_svo_load_file(const char *path, pp_svo *svo)
@@ -1192,6 +1298,8 @@ const char *pp_error_string(pp_error e)
     case PP_ERR_NOT_A_GRID: return "the probes are not a regular grid";
     case PP_ERR_MISMATCH: return "the files come from different runs: their probe counts differ";
     case PP_ERR_CAPACITY: return "the output arrays are shorter than the blend's terms";
+    case PP_ERR_NOT_REGULAR_FILE: return "not a regular file (a FIFO, a directory, a device or a socket): not read";
+    case PP_ERR_FILE_TOO_BIG: return "larger than PP_MAX_FILE_BYTES: not read";
     }
     return "unknown error";
 }

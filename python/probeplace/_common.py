@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import stat
 import zlib
 from dataclasses import dataclass
 
@@ -91,16 +92,96 @@ def _hex(text: str) -> int:
     return v if v < 1 << 64 else 0
 
 
-def read_file(path: "str | os.PathLike[str]", what: str) -> bytes:
+#: The most bytes any loader reads from one file: 64 GiB. A file is read
+#: up to the size ``fstat`` gives when it is opened, and never past it; one
+#: larger than this is refused before a byte is read (an ``svo.bin`` of the
+#: format's 64 000 000 leaves takes under 3 GiB; probeplace's own reader
+#: takes at most half the memory available).
+MAX_FILE_BYTES = 1 << 36
+
+
+def bytes_text(n: int) -> str:
+    """``n`` bytes in words, as probeplace writes sizes (src/input.rs)."""
+    if n < 1024:
+        return f"{n} bytes"
+    v, unit = n / 1024.0, 0
+    units = ["KiB", "MiB", "GiB", "TiB", "PiB"]
+    while v >= 1024.0 and unit + 1 < len(units):
+        v /= 1024.0
+        unit += 1
+    digits = 0 if v >= 100.0 else 1 if v >= 10.0 else 2
+    return f"{v:.{digits}f} {units[unit]}"
+
+
+def kind_of(mode: int) -> "str | None":
+    """What a file of ``mode`` is when it is not a regular file, in
+    probeplace's words (src/input.rs, ``open``); ``None`` for a regular one."""
+    if stat.S_ISDIR(mode):
+        return "a directory"
+    if stat.S_ISFIFO(mode):
+        return "a FIFO (named pipe)"
+    if stat.S_ISSOCK(mode):
+        return "a socket"
+    if stat.S_ISCHR(mode) or stat.S_ISBLK(mode):
+        return "a device"
+    if not stat.S_ISREG(mode):
+        return "not a regular file"
+    return None
+
+
+def not_regular(name: str, what: str, mode: int) -> "ProbeplaceError | None":
+    """The error for a ``what`` at ``name`` of ``mode`` that is not a
+    regular file, as probeplace words it; ``None`` for a regular file."""
+    kind = kind_of(mode)
+    return None if kind is None else ProbeplaceError(
+        f"{name}: is {kind}, not a {what} (a regular file)")
+
+
+def read_file(path: "str | os.PathLike[str]", what: str, limit: "int | None" = None) -> bytes:
     """The bytes of ``path`` (a ``what``: "svo.bin", …); a file that cannot
-    be read is a :class:`ProbeplaceError` naming it, in probeplace's words."""
+    be read is a :class:`ProbeplaceError` naming it, in probeplace's words.
+
+    As probeplace's own reader (src/input.rs): the file is opened
+    non-blocking and checked with ``fstat`` on the open descriptor, so a
+    FIFO without a writer neither blocks nor slips through a race between a
+    check and the open, and ``/dev/zero`` is never read; anything but a
+    regular file is refused. At most the size ``fstat`` gave is read, and a
+    file over ``limit`` bytes (:data:`MAX_FILE_BYTES` when ``None``) is
+    refused before a byte is read: memory stays bounded whatever the path
+    names.
+    """
     name = os.fspath(path)
+    if limit is None:
+        limit = MAX_FILE_BYTES
+    flags = os.O_RDONLY | os.O_NONBLOCK | getattr(os, "O_CLOEXEC", 0)
     try:
-        with open(path, "rb") as f:
-            return f.read()
+        fd = os.open(path, flags)
     except FileNotFoundError:
         raise ProbeplaceError(f"{name}: {what} not found") from None
     except IsADirectoryError:
         raise ProbeplaceError(f"{name}: is a directory, not a {what}") from None
+    except (OSError, ValueError) as e:
+        if os.path.isdir(name):
+            raise ProbeplaceError(f"{name}: is a directory, not a {what}") from None
+        why = getattr(e, "strerror", None) or e
+        raise ProbeplaceError(f"{name}: cannot read {what}: {why}") from None
+    try:
+        st = os.fstat(fd)
+        refused = not_regular(name, what, st.st_mode)
+        if refused is not None:
+            raise refused
+        if st.st_size > limit:
+            raise ProbeplaceError(f"{name}: {what} is {bytes_text(st.st_size)}, "
+                                  f"over the limit of {bytes_text(limit)}")
+        chunks, left = [], st.st_size
+        while left > 0:
+            chunk = os.read(fd, min(left, 1 << 30))
+            if not chunk:
+                break  # shrunk since fstat: the format's checks say truncated
+            chunks.append(chunk)
+            left -= len(chunk)
+        return chunks[0] if len(chunks) == 1 else b"".join(chunks)
     except OSError as e:
         raise ProbeplaceError(f"{name}: cannot read {what}: {e.strerror or e}") from None
+    finally:
+        os.close(fd)

@@ -8,6 +8,7 @@ test_readers.py needs nothing from Rust.
 
 import json
 import os
+import signal
 
 import numpy as np
 import pytest
@@ -169,3 +170,35 @@ def test_blend_weights_answer_as_rust(case):
         assert int(c1) == counts[i] and np.array_equal(p1, probes[i])
         assert np.array_equal(w1.view(np.uint32), weights[i].view(np.uint32))
     verified(f"blend:{case['name']}")
+
+
+#: Seconds one case of the shared table may take: a reader that blocks on
+#: a FIFO or reads /dev/zero fails the case instead of hanging the run.
+TABLE_SECONDS = 20
+
+
+def _too_slow(signum, frame):
+    raise TimeoutError(f"still reading after {TABLE_SECONDS} s")
+
+
+@pytest.mark.parametrize("case", cases("table"))
+def test_shared_table_case_is_read_as_the_table_says(case):
+    """tests/cases/readers.json: ``open_run`` refuses the directory with
+    the expected words (one line, a :class:`ProbeplaceError`), or accepts
+    it, within :data:`TABLE_SECONDS`."""
+    old = signal.signal(signal.SIGALRM, _too_slow)
+    signal.alarm(TABLE_SECONDS)
+    try:
+        if case["expect"] == "accepted":
+            pp.open_run(case["dir"])
+        else:
+            with pytest.raises(pp.ProbeplaceError) as raised:
+                pp.open_run(case["dir"])
+            message = str(raised.value)
+            assert "\n" not in message
+            assert message.startswith(case["dir"] + "/"), message
+            assert case["expect"] in message, message
+    finally:
+        signal.alarm(0)
+        signal.signal(signal.SIGALRM, old)
+    verified(f"table:{case['name']}")

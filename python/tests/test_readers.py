@@ -366,3 +366,52 @@ def test_blend_refuses_what_it_cannot_answer():
                                                [[0, 1, 0], [0, 1, 0]])
     assert counts.tolist() == [0, 8]
     assert (probes[0] == pp.NO_PROBE).all() and not weights[0].any()
+
+
+@pytest.mark.parametrize("make, reason", [
+    ("fifo", "is a FIFO (named pipe), not a svo.bin (a regular file)"),
+    ("zero", "is a device, not a svo.bin (a regular file)"),
+    ("dir", "is a directory, not a svo.bin (a regular file)"),
+    ("huge", "svo.bin is 64.0 GiB, over the limit of 64.0 GiB"),
+])
+def test_a_path_that_is_not_a_readable_file_is_refused_without_reading(tmp_path, make, reason):
+    # Under an alarm: the old reader blocked for ever on a FIFO and read
+    # /dev/zero until memory ran out (MemoryError, not ProbeplaceError).
+    import os
+    import signal
+
+    path = tmp_path / "svo.bin"
+    if make == "fifo":
+        os.mkfifo(path)
+    elif make == "zero":
+        os.symlink("/dev/zero", path)
+    elif make == "dir":
+        path.mkdir()
+    else:
+        with open(path, "wb") as f:
+            f.truncate((1 << 36) + 1)  # sparse: nothing of it on disk
+
+    def too_slow(signum, frame):
+        raise TimeoutError("the reader blocked")
+
+    old = signal.signal(signal.SIGALRM, too_slow)
+    signal.alarm(10)
+    try:
+        for load in (pp.load_svo, pp.load_lightfield):
+            with pytest.raises(pp.ProbeplaceError) as raised:
+                load(path)
+            want = reason if load is pp.load_svo else reason.replace("svo.bin", "lightfield.bin")
+            assert str(raised.value) == f"{path}: {want}"
+    finally:
+        signal.alarm(0)
+        signal.signal(signal.SIGALRM, old)
+
+
+def test_a_file_is_read_up_to_its_size_and_no_further(tmp_path):
+    path = tmp_path / "svo.bin"
+    path.write_bytes(TREE)
+    assert pp.load_svo(path).probe_count == 3
+    from probeplace import _common
+    assert _common.read_file(path, "svo.bin") == TREE
+    with pytest.raises(pp.ProbeplaceError, match="over the limit of 100 bytes"):
+        _common.read_file(path, "svo.bin", limit=100)

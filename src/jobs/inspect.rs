@@ -105,8 +105,18 @@ pub fn inspect(path: &Path) -> Result<Inspection> {
         check_whole(&file)?;
     }
     let probes_json = file.with_file_name("probes.json");
-    if let Ok(text) = std::fs::read_to_string(&probes_json) {
-        let count = serde_json::from_str::<serde_json::Value>(&text)
+    // Read through `input::read` when it is there at all: a FIFO beside an
+    // `svo.bin` given alone would block `read_to_string` for ever.
+    let probes_text = match std::fs::metadata(&probes_json) {
+        Ok(_) => Some(crate::input::read(
+            &probes_json,
+            "probes.json",
+            crate::limits::memory_budget(),
+        )?),
+        Err(_) => None,
+    };
+    if let Some(text) = probes_text {
+        let count = serde_json::from_slice::<serde_json::Value>(&text)
             .ok()
             .and_then(|v| v.get("probes").and_then(|p| p.as_array()).map(Vec::len));
         match count {
@@ -175,12 +185,21 @@ pub fn inspect(path: &Path) -> Result<Inspection> {
 fn check_whole(file: &Path) -> Result<()> {
     let missing = |name: &str, why: &str| {
         let path = file.with_file_name(name);
-        (!path.is_file()).then(|| {
-            Error::user_file(
+        match std::fs::metadata(&path) {
+            Ok(m) if m.is_file() => None,
+            // There, but a FIFO, a directory or a device: say what it is
+            // (in `input::open`'s words, which opens it without blocking),
+            // not that it is missing.
+            Ok(_) => Some(
+                crate::input::open(&path, name, u64::MAX)
+                    .err()
+                    .unwrap_or_else(|| Error::user_file(&path, "is not a regular file")),
+            ),
+            Err(_) => Some(Error::user_file(
                 &path,
                 format!("missing, {why}: the directory holds part of a run (run the job again)"),
-            )
-        })
+            )),
+        }
     };
     let beside = format!("though {} is there", file.display());
     for name in ["report.json", "probes.json"] {

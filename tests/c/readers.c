@@ -14,6 +14,9 @@
  *       form a grid (`probes: grid` or `probes: not-grid`), and checks
  *       pp_blend_weights with SELECTION (`grid` or `svo`) at every point
  *       and normal against Rust's answers, bit for bit, and its errors.
+ *   readers open svo|lightfield PATH...
+ *       loads each PATH from its file alone (it may be a FIFO or a
+ *       device) and prints `PATH<TAB>CODE`.
  *   readers check-lightfield LIST POINTS NORMALS
  *       for each line `PATH` or `PATH<TAB>SVO<TAB>BLEND` of LIST, loads
  *       the lightfield.bin PATH (both ways), prints `PATH<TAB>CODE`, and
@@ -65,6 +68,8 @@ static const char *code_name(pp_error e)
     case PP_ERR_NOT_A_GRID: return "PP_ERR_NOT_A_GRID";
     case PP_ERR_MISMATCH: return "PP_ERR_MISMATCH";
     case PP_ERR_CAPACITY: return "PP_ERR_CAPACITY";
+    case PP_ERR_NOT_REGULAR_FILE: return "PP_ERR_NOT_REGULAR_FILE";
+    case PP_ERR_FILE_TOO_BIG: return "PP_ERR_FILE_TOO_BIG";
     }
     return "?";
 }
@@ -471,8 +476,33 @@ static int run_check_lightfield(const char *list, const char *points, const char
     return failed == 0 ? 0 : 1;
 }
 
+/* `readers open svo|lightfield PATH...`: each PATH loaded from its file
+ * alone (never slurped: it may be a FIFO or /dev/zero), printing
+ * `PATH<TAB>CODE`. */
+static int run_open(const char *kind, int count, char **paths)
+{
+    int i;
+    for (i = 0; i < count; i++) {
+        pp_error e;
+        if (strcmp(kind, "svo") == 0) {
+            pp_svo svo;
+            e = pp_svo_load_file(paths[i], &svo);
+            pp_svo_free(&svo);
+        } else {
+            pp_lightfield field;
+            e = pp_lightfield_load_file(paths[i], &field);
+            pp_lightfield_free(&field);
+        }
+        printf("%s\t%s\n", paths[i], code_name(e));
+    }
+    return 0;
+}
+
 int main(int argc, char **argv)
 {
+    if (argc >= 3 && strcmp(argv[1], "open") == 0 &&
+        (strcmp(argv[2], "svo") == 0 || strcmp(argv[2], "lightfield") == 0))
+        return run_open(argv[2], argc - 3, argv + 3);
     if (argc == 5 && strcmp(argv[1], "answers") == 0)
         return run_answers(argv[2], argv[3], argv[4]);
     if (argc == 4 && strcmp(argv[1], "check") == 0)

@@ -137,8 +137,13 @@ fn pytest(dir: &Path, mut manifest: Value, expected: Vec<String>) {
     manifest["verified"] = json!(verified);
     std::fs::write(&path, serde_json::to_vec_pretty(&manifest).unwrap()).unwrap();
     let start = std::time::Instant::now();
-    let o = Command::new("python3")
+    // Under timeout(1): a reader blocking on a FIFO fails the test, never
+    // stalls it.
+    let o = Command::new("timeout")
         .args([
+            "--signal=KILL",
+            &PYTEST_SECONDS.to_string(),
+            "python3",
             "-m",
             "pytest",
             "-q",
@@ -153,6 +158,10 @@ fn pytest(dir: &Path, mut manifest: Value, expected: Vec<String>) {
         .output()
         .expect("python3 runs");
     let out = String::from_utf8_lossy(&o.stdout).into_owned();
+    assert!(
+        o.status.code().is_some(),
+        "pytest killed after {PYTEST_SECONDS} s (a reader blocked?):\n{out}"
+    );
     assert!(
         o.status.success(),
         "pytest failed:\n{out}\n{}",
@@ -173,6 +182,10 @@ fn pytest(dir: &Path, mut manifest: Value, expected: Vec<String>) {
         "pytest verified other cases than given: {out}"
     );
 }
+
+/// Seconds one pytest run may take before it is killed (the slowest,
+/// Sponza's comparisons, take a few).
+const PYTEST_SECONDS: u64 = 300;
 
 /// Little-endian bytes of `words`.
 fn le_bytes<T: Copy, const N: usize>(words: &[T], to: impl Fn(T) -> [u8; N]) -> Vec<u8> {
@@ -1368,4 +1381,172 @@ fn edit_json(path: &Path, edit: &dyn Fn(&mut Value)) {
     let mut v = read_json(path);
     edit(&mut v);
     std::fs::write(path, serde_json::to_vec_pretty(&v).unwrap()).unwrap();
+}
+
+/// Seconds a C reader may take over the shared table's cases.
+const C_SECONDS: u64 = 30;
+
+/// Builds case `case` of tests/cases/readers.json in `dir` from the shared
+/// runs `place` and `bake`: a copy of the case's run with its `make` done
+/// to its `file`. Returns the directory.
+fn build_case(case: &Value, dir: &Path, place: &Path, bake: &Path) -> PathBuf {
+    let name = case["name"].as_str().unwrap();
+    let (run, other) = match case["run"].as_str().unwrap() {
+        "place" => (place, bake),
+        "bake" => (bake, place),
+        r => panic!("{name}: no run {r}"),
+    };
+    let to = dir.join(name);
+    copy_dir(run, &to);
+    let file = case["file"].as_str().unwrap();
+    let path = to.join(file);
+    let gone = || std::fs::remove_file(&path).unwrap();
+    match case["make"].as_str().unwrap() {
+        "nothing" => {}
+        "fifo" => {
+            gone();
+            let c = std::ffi::CString::new(path.to_str().unwrap()).unwrap();
+            // SAFETY: a valid NUL-terminated path.
+            assert_eq!(unsafe { libc::mkfifo(c.as_ptr(), 0o600) }, 0);
+        }
+        "zero" => {
+            gone();
+            std::os::unix::fs::symlink("/dev/zero", &path).unwrap();
+        }
+        "dir" => {
+            gone();
+            std::fs::create_dir(&path).unwrap();
+        }
+        "truncate" => {
+            let b = std::fs::read(&path).unwrap();
+            std::fs::write(&path, &b[..b.len() / 2]).unwrap();
+        }
+        "oversize" => {
+            // Sparse: nothing of it is on disk, and no reader may read it.
+            let f = std::fs::OpenOptions::new().write(true).open(&path).unwrap();
+            f.set_len((1 << 36) + 1).unwrap();
+        }
+        "edit" => edit_json(&path, &|v| {
+            let x = &mut v["probes"][0]["position"][0];
+            *x = json!(x.as_f64().unwrap() + 0.125);
+        }),
+        "remove" => gone(),
+        "foreign" => {
+            let from = other.join(file);
+            assert!(from.is_file(), "{name}: the other run has no {file}");
+            std::fs::copy(from, &path).unwrap();
+        }
+        "link" => {
+            let outside = dir.join(format!("{name}-{file}"));
+            std::fs::rename(&path, &outside).unwrap();
+            std::os::unix::fs::symlink(&outside, &path).unwrap();
+        }
+        "manifest-version" => edit_json(&path, &|v| v["version"] = json!(2)),
+        "manifest-run" => edit_json(&path, &|v| {
+            let seed = v["provenance"]["seed"].as_u64().unwrap();
+            v["provenance"]["seed"] = json!(seed + 1);
+        }),
+        m => panic!("{name}: no make {m}"),
+    }
+    to
+}
+
+/// tests/cases/readers.json: hostile and damaged output directories (a
+/// FIFO, /dev/zero, a directory, a truncated or an oversize file, an
+/// edited probes.json, a missing manifest, another run's reference EXR…),
+/// each refused by every reader with the expected words (C: the expected
+/// code) or accepted, as the table says. Every reader runs under a
+/// timeout: a blocking open or an endless read fails the test.
+#[test]
+fn a_shared_table_of_hostile_runs_is_refused_alike_by_every_reader() {
+    let test = "readers::a_shared_table_of_hostile_runs_is_refused_alike_by_every_reader";
+    let table = read_json(&root().join("tests/cases/readers.json"));
+    let cases = table["cases"].as_array().unwrap();
+    let place = shared_job("place", "configs/cornell.ron", &[]);
+    let bake = shared_job("bake", "configs/cornell.ron", &[]);
+    let scratch = tempfile::tempdir().unwrap();
+    let dir = scratch.path();
+    let mut py = Vec::new();
+    let mut c_paths: [(&str, Vec<(PathBuf, String)>); 2] =
+        [("svo", vec![]), ("lightfield", vec![])];
+    for case in cases {
+        let name = case["name"].as_str().unwrap();
+        let run = build_case(case, dir, &place.dir, &bake.dir);
+        let expect = &case["expect"];
+        let rel = run.strip_prefix(dir).unwrap().to_str().unwrap();
+        let want = expect["rust"].as_str().unwrap();
+        if want == "accepted" {
+            let o = Command::new("timeout")
+                .args(["--signal=KILL", &REFUSAL_SECONDS.to_string()])
+                .arg(env!("CARGO_BIN_EXE_probeplace"))
+                .args(["inspect", rel])
+                .current_dir(dir)
+                .output()
+                .unwrap();
+            assert!(
+                o.status.success(),
+                "{name}: inspect refused: {}",
+                String::from_utf8_lossy(&o.stderr)
+            );
+        } else {
+            let r = refused_in(dir, &["inspect", rel], &[]);
+            assert!(
+                r.line.starts_with(&format!("error: {rel}/")) && r.line.contains(want),
+                "{name}: Rust says {:?}, not {want:?}",
+                r.line
+            );
+        }
+        if let Some(want) = expect["python"].as_str() {
+            py.push(json!({"name": name, "dir": run, "expect": want}));
+        }
+        if let Some(code) = expect["c"].as_str() {
+            let file = case["file"].as_str().unwrap();
+            let kind = if file == "svo.bin" { 0 } else { 1 };
+            assert!(
+                file == "svo.bin" || file == "lightfield.bin",
+                "{name}: C reads {file}?"
+            );
+            c_paths[kind].1.push((run.join(file), code.to_string()));
+        }
+    }
+    eprintln!("{test}: Rust: {} cases as the table says", cases.len());
+    if let Some(exe) = c_program(test) {
+        for (kind, paths) in &c_paths {
+            let start = std::time::Instant::now();
+            let o = Command::new("timeout")
+                .args(["--signal=KILL", &C_SECONDS.to_string()])
+                .arg(exe)
+                .args(["open", kind])
+                .args(paths.iter().map(|p| &p.0))
+                .env("ASAN_OPTIONS", "abort_on_error=0:halt_on_error=1")
+                .env("UBSAN_OPTIONS", "halt_on_error=1:print_stacktrace=1")
+                .output()
+                .unwrap();
+            let out = String::from_utf8_lossy(&o.stdout).into_owned();
+            assert!(
+                o.status.success(),
+                "C reader ({kind}) failed or was killed after {C_SECONDS} s ({:?}): {out}\n{}",
+                o.status,
+                String::from_utf8_lossy(&o.stderr)
+            );
+            let codes: std::collections::BTreeMap<&str, &str> =
+                out.lines().filter_map(|l| l.split_once('\t')).collect();
+            for (path, want) in paths {
+                let got = codes.get(path.to_str().unwrap());
+                assert_eq!(got, Some(&want.as_str()), "C on {path:?}: {out}");
+            }
+            eprintln!(
+                "{test}: C {kind}: {} cases, {:.2} s",
+                paths.len(),
+                start.elapsed().as_secs_f64()
+            );
+        }
+    }
+    if python(test) {
+        let expected = py
+            .iter()
+            .map(|c| format!("table:{}", c["name"].as_str().unwrap()))
+            .collect();
+        pytest(dir, json!({ "table": py }), expected);
+    }
 }
