@@ -241,6 +241,15 @@ fn balls(sdf: &Sdf, passable: &[u8], core: &[bool], centres: Vec<bool>) -> Vec<b
     mask
 }
 
+/// Whether a seed at `p` starts a flood of [`reachable`] at all (as a
+/// point, `radius` 0): inside the grid, with an open voxel at it or within
+/// two voxels. Config points that do not are refused
+/// (`stages::prepare`), not skipped.
+pub fn starts_from(sdf: &Sdf, p: Vec3) -> bool {
+    let open: Vec<bool> = sdf.class.iter().map(|c| *c != VoxelClass::Solid).collect();
+    seed_voxel(sdf, &open, p, 2).is_some()
+}
+
 /// The voxel a seed at `p` starts from: its own when `room` holds it,
 /// else the nearest one `room` holds within `window` voxels (first in
 /// index order among equals).

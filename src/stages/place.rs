@@ -87,13 +87,7 @@ pub fn place(
     }
     match controls.min_probes {
         Some(_) if !refine_it => warnings.push("min_probes: not applied: the probes it adds are chosen among refinement's fill positions, and this run does not refine".to_string()),
-        Some(min) => {
-            refine::topup::check_work(min, reference.samples.len())?;
-            check_probes(config, prepared, min).map_err(|e| match e {
-                Error::User(m) => Error::User(format!("min_probes: {min}: {m}")),
-                e => e,
-            })?;
-        }
+        Some(min) => check_min_probes(config, prepared, reference, min)?,
         None => {}
     }
     let fits = refine_it || (given.is_none() && controls.max_probes.is_some());
@@ -244,6 +238,25 @@ pub fn place(
         diffuse,
         warnings,
         timings,
+    })
+}
+
+/// Refuses a top-up to `min` probes (`min_probes`) over the coverage
+/// samples of `reference` that would run past the work limit, or a probe
+/// set of `min` probes the later stages refuse ([`check_probes`]), naming
+/// `min_probes`. `place` checks it before placing; `compare`, whose ours
+/// always refine, before it makes any reference, so the refusal comes in
+/// the time `place` takes to give it rather than after the references.
+pub(crate) fn check_min_probes(
+    config: &Config,
+    prepared: &Prepared,
+    reference: &CoverageReference,
+    min: usize,
+) -> Result<()> {
+    refine::topup::check_work(min, reference.samples.len())?;
+    check_probes(config, prepared, min).map_err(|e| match e {
+        Error::User(m) => Error::User(format!("min_probes: {min}: {m}")),
+        e => e,
     })
 }
 

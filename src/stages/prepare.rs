@@ -143,6 +143,7 @@ pub fn prepare(
         })
         .map_err(in_config)?;
     let mut sdf = sdf;
+    check_reach_points(config, &scene, &sdf).map_err(in_config)?;
     let reachable = timings.time("reachable", || {
         restrict_to_reach(config, &scene, &bvh, &mut sdf)
     });
@@ -180,6 +181,37 @@ pub fn reach_seeds(config: &Config, scene: &Scene) -> Option<Vec<glam::Vec3>> {
             .map(|p| scene.to_local(DVec3::from(p)))
             .collect(),
     )
+}
+
+/// Refuses a point of `reachable: From([...])` that starts nothing: one
+/// beyond the SDF's grid (outside the domain), or in solid with no open
+/// voxel near it ([`crate::reachable::starts_from`]). The flood would skip
+/// it silently and, with no other seed, count all free space, a sealed
+/// void included: the opposite of what the user asked. The error names
+/// the field, the point's index in the list and why.
+fn check_reach_points(config: &Config, scene: &Scene, sdf: &Sdf) -> Result<()> {
+    let crate::config::Reach::From(given) = &config.reachable else {
+        return Ok(());
+    };
+    for (i, p) in given.iter().enumerate() {
+        let local = scene.to_local(DVec3::from(p.0));
+        let [x, y, z] = p.0;
+        let point = format!("point {i} ({x}, {y}, {z})");
+        if sdf.voxel_at(local).is_none() {
+            let (lo, hi) = (sdf.origin, sdf.origin + sdf.dims.as_vec3() * sdf.voxel_size);
+            return Err(Error::User(format!(
+                "reachable: {point} is outside the domain (the SDF's grid spans {:?} to {:?} in the scene's frame): it reaches nothing; move it into the free space a viewer stands in",
+                lo.to_array(),
+                hi.to_array()
+            )));
+        }
+        if !crate::reachable::starts_from(sdf, local) {
+            return Err(Error::User(format!(
+                "reachable: {point} is inside solid geometry, with no free voxel within two voxels of it: it reaches nothing; move it into the free space a viewer stands in"
+            )));
+        }
+    }
+    Ok(())
 }
 
 /// The space `config.reachable` names ([`crate::reachable`]); every open

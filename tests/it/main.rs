@@ -16,6 +16,7 @@ mod generality;
 mod gltf;
 mod gpu;
 mod hostile;
+mod hostile_jobs;
 mod hostile_output;
 mod jobs;
 mod layout;

@@ -158,6 +158,13 @@ pub fn compare(options: &RunOptions) -> Result<Outcome> {
         job.config.seed,
         &job.progress,
     );
+    // Ours always refine: a top-up (`min_probes`) they cannot make is
+    // refused now, as `place` refuses it, not once the views and their
+    // references are made.
+    if let Some(min) = job.config.min_probes {
+        stages::place::check_min_probes(&job.config, &prepared, &coverage, min.0 as usize)
+            .map_err(|e| job.config_error(e))?;
+    }
     let mut cameras: Vec<(CameraParams, bool)> = cameras.into_iter().map(|c| (c, false)).collect();
     let picked = job.watch.time("views", || {
         crate::render::views::choose_views(
@@ -763,7 +770,7 @@ fn fit_bake(
     limit: f64,
 ) -> Result<Option<Lowered>> {
     let largest = counts.iter().copied().max().unwrap_or(0);
-    let seconds = |bake: &crate::config::BakeParams| {
+    let seconds_of = |config: &Config, bake: &crate::config::BakeParams| {
         let mut c = config.clone();
         c.bake = *bake;
         let each: Vec<f64> = counts
@@ -775,6 +782,7 @@ fn fit_bake(
             each.iter().sum::<f64>(),
         )
     };
+    let seconds = |bake: &crate::config::BakeParams| seconds_of(config, bake);
     let fits = |(one, all): (f64, f64)| one <= limit && all <= COMPARE_WORK_FACTOR * limit;
     // The largest bake's memory (coarser maps only shrink it).
     stages::bake::check_memory(config, largest)?;
@@ -801,6 +809,32 @@ fn fit_bake(
                 largest,
             }));
         }
+    }
+    // Every path vertex costs `1 + bounces` over a bounce-free path, and
+    // every point, spot and directional light casts a shadow ray from it
+    // (`light_factor`): when the same bakes would fit without bounces and
+    // with one light, those fields are the cause, not the maps or the
+    // probe counts, and the message must say so.
+    let mut plain = config.clone();
+    plain.bake.bounces.0 = 0;
+    plain.lights.clear();
+    let mut plain_bake = bake;
+    plain_bake.bounces.0 = 0;
+    if fits(seconds_of(&plain, &plain_bake)) {
+        let lights = config
+            .lights
+            .iter()
+            .filter(|l| !matches!(l, crate::config::Light::Sky { .. }))
+            .count();
+        return Err(Error::User(format!(
+            "bake.bounces, lights: the comparison's {} bakes ({largest} probes at most) would take about {} even at 1 path per texel and {}² maps, past the work limit of {} for one bake or {COMPARE_WORK_FACTOR} for all (PROBEPLACE_WORK_LIMIT=0 lifts it), because each path vertex of {} bounces casts a shadow ray to each of {lights} point, spot and directional lights ({:.0}x the work of bounce-free paths and one light, which would fit); lower bake.bounces or the number of lights",
+            counts.len(),
+            crate::limits::duration_text(seconds(&bake).1),
+            bake.resolution.0,
+            crate::limits::duration_text(limit),
+            bake.bounces.0,
+            (1.0 + bake.bounces.0 as f64) * stages::bake::light_factor(config),
+        )));
     }
     Err(Error::User(format!(
         "bake.resolution: the comparison's {} bakes ({largest} probes at most) would take about {} even at 1 path per texel and {}² maps, past the work limit of {} for one bake or {COMPARE_WORK_FACTOR} for all (PROBEPLACE_WORK_LIMIT=0 lifts it); lower the probe counts",
