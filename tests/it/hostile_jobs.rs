@@ -13,7 +13,7 @@ use std::time::Duration;
 
 /// A camera for the scratch room, with a tiny reference: the views'
 /// references cost next to nothing.
-const CAMERA: &str = "reference: (camera: (position: (1, 1, 0.3), look_at: (1, 1, 1.5)), width: 16, height: 12, samples_per_pixel: 4),\n";
+const CAMERA: &str = "reference: (camera: (position: (1, 1, 0.3), look_at: (1, 1, 1.5)), width: 16, height: 12, samples_per_pixel: 4),\ncoverage: (samples: 2000, reference_points: 512),\n";
 
 /// `compare` refuses a `min_probes` top-up it cannot make as `place`
 /// does, with `place`'s words, in about `place`'s time: before choosing
@@ -48,7 +48,7 @@ fn compare_with_no_diffuse_receivers_runs_no_diffuse_evaluation() {
         "cmp.ron",
         &format!("{CAMERA}compare: (diffuse: (surface_receivers: 0, free_receivers: 0, probe_rays: 65536)),\nlights: [Point(position: (1, 1.5, 1), intensity: (1, 1, 1))],\n"),
     );
-    // A second's work limit: the old estimate of the probes' projections
+    // A 5 s work limit: the old estimate of the probes' projections
     // alone (1000 probes at 65 536 rays) ran far past it.
     let o = Command::new("timeout")
         .args(["--signal=KILL", "120"])
@@ -56,7 +56,7 @@ fn compare_with_no_diffuse_receivers_runs_no_diffuse_evaluation() {
         .args([
             "compare", "cmp.ron", "--cpu", "--quiet", "--only", "diffuse", "--out", "c",
         ])
-        .env("PROBEPLACE_WORK_LIMIT", "1")
+        .env("PROBEPLACE_WORK_LIMIT", "5")
         .current_dir(s.dir.path())
         .output()
         .unwrap();
@@ -78,17 +78,17 @@ fn compare_with_no_diffuse_receivers_runs_no_diffuse_evaluation() {
 #[test]
 fn a_bake_too_big_for_its_lights_and_bounces_names_them() {
     let s = Scratch::new();
-    let lights: Vec<String> = (0..300)
+    let lights: Vec<String> = (0..1000)
         .map(|i| {
             let x = 0.2 + 1.6 * (i % 17) as f64 / 16.0;
-            let z = 0.2 + 1.6 * (i / 17) as f64 / 18.0;
+            let z = 0.2 + 1.6 * (i / 17) as f64 / 60.0;
             format!("Point(position: ({x}, 1.8, {z}), intensity: (0.01, 0.01, 0.01))")
         })
         .collect();
     s.config(
         "cmp.ron",
         &format!(
-            "{CAMERA}bake: (resolution: 32, samples: 1, bounces: 8),\nlights: [{}],\n",
+            "reference: (camera: (position: (1, 1, 0.3), look_at: (1, 1, 1.5)), width: 8, height: 6, samples_per_pixel: 1),\ncoverage: (samples: 2000, reference_points: 512),\nbake: (resolution: 32, samples: 1, bounces: 8),\nrefine: (diffuse: (surface_points: 0, free_points: 0)),\nlights: [{}],\n",
             lights.join(", ")
         ),
     );
@@ -100,7 +100,7 @@ fn a_bake_too_big_for_its_lights_and_bounces_names_them() {
     assert!(
         r.line.contains("bake.bounces, lights: ")
             && r.line.contains("8 bounces")
-            && r.line.contains("300 point, spot and directional lights")
+            && r.line.contains("1000 point, spot and directional lights")
             && !r.line.contains("lower the probe counts"),
         "{}",
         r.line

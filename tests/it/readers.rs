@@ -1383,6 +1383,11 @@ fn edit_json(path: &Path, edit: &dyn Fn(&mut Value)) {
     std::fs::write(path, serde_json::to_vec_pretty(&v).unwrap()).unwrap();
 }
 
+/// Rust's read bound is half the memory available: capped here, so that
+/// the table's oversize file (64 GiB and a byte) is over it on any
+/// machine, as it is over the Python and C readers' 64 GiB.
+const MEMORY: (&str, &str) = ("PROBEPLACE_MEMORY", "8G");
+
 /// Seconds a C reader may take over the shared table's cases.
 const C_SECONDS: u64 = 30;
 
@@ -1480,6 +1485,7 @@ fn a_shared_table_of_hostile_runs_is_refused_alike_by_every_reader() {
                 .args(["--signal=KILL", &REFUSAL_SECONDS.to_string()])
                 .arg(env!("CARGO_BIN_EXE_probeplace"))
                 .args(["inspect", rel])
+                .env(MEMORY.0, MEMORY.1)
                 .current_dir(dir)
                 .output()
                 .unwrap();
@@ -1489,7 +1495,7 @@ fn a_shared_table_of_hostile_runs_is_refused_alike_by_every_reader() {
                 String::from_utf8_lossy(&o.stderr)
             );
         } else {
-            let r = refused_in(dir, &["inspect", rel], &[]);
+            let r = refused_in(dir, &["inspect", rel], &[MEMORY]);
             assert!(
                 r.line.starts_with(&format!("error: {rel}/")) && r.line.contains(want),
                 "{name}: Rust says {:?}, not {want:?}",
