@@ -877,17 +877,49 @@ pub struct Refusal {
     pub took: Duration,
 }
 
+/// The memory budget a refusal runs under unless its case sets
+/// `PROBEPLACE_MEMORY` itself.
+pub const REFUSAL_BUDGET: &str = "1G";
+
+/// `PROBEPLACE_MEMORY`'s forms (`1G`, `512M`, bytes) in bytes.
+pub fn budget_bytes(text: &str) -> u64 {
+    let t = text.trim();
+    let (digits, shift) = match t.chars().last() {
+        Some('K' | 'k') => (&t[..t.len() - 1], 10),
+        Some('M' | 'm') => (&t[..t.len() - 1], 20),
+        Some('G' | 'g') => (&t[..t.len() - 1], 30),
+        _ => (t, 0),
+    };
+    digits.trim().parse::<u64>().expect("a budget") << shift
+}
+
 /// Runs `probeplace ARGS` in `dir` under `timeout`, with the environment's
 /// extra `env` pairs, and checks the refusal contract: exit 2 within
 /// [`REFUSAL_SECONDS`], no panic, one `error: ` line (besides the stage
 /// lines of stages that finished), and `dir/out` absent or empty.
+///
+/// Every refusal runs with an address-space limit (`ulimit -v`) of its
+/// memory budget (`PROBEPLACE_MEMORY`, [`REFUSAL_BUDGET`] unless `env`
+/// gives one) plus 512 MiB (issue 70): an allocation the budget did not
+/// count fails, and the run aborts instead of being refused.
 pub fn refused_in(dir: &Path, args: &[&str], env: &[(&str, &str)]) -> Refusal {
     let start = Instant::now();
+    let budget = env
+        .iter()
+        .find(|(k, _)| *k == "PROBEPLACE_MEMORY")
+        .map_or(REFUSAL_BUDGET, |(_, v)| *v);
+    let limit_kib = (budget_bytes(budget) + (512 << 20)) >> 10;
     let mut cmd = Command::new("timeout");
     cmd.arg("--signal=KILL")
         .arg(REFUSAL_SECONDS.to_string())
+        .args([
+            "sh",
+            "-c",
+            &format!("ulimit -v {limit_kib} && exec \"$0\" \"$@\""),
+        ])
         .arg(env!("CARGO_BIN_EXE_probeplace"))
         .args(args)
+        .env("PROBEPLACE_MEMORY", budget)
         .current_dir(dir);
     for (k, v) in env {
         cmd.env(k, v);

@@ -217,12 +217,12 @@ fn work_that_would_take_hours_is_refused_naming_its_field() {
             "exceeds the limit of 65536",
         ),
         (
-            "bake: (resolution: 2048, samples: 65536),\n",
+            "bake: (resolution: 1024, samples: 65536),\n",
             &["--method", "grid:2x2x2"],
             "bake.samples: the bake of 8 probes",
         ),
         (
-            "reference: (camera: (position: (1, 1, 0.5), look_at: (1, 1, 1.5)), width: 8192, height: 8192, samples_per_pixel: 1000000),\n",
+            "reference: (camera: (position: (1, 1, 0.5), look_at: (1, 1, 1.5)), width: 2048, height: 2048, samples_per_pixel: 1000000),\n",
             &["--method", "grid:2x2x2"],
             "reference.samples_per_pixel",
         ),
