@@ -29,6 +29,10 @@ pub fn open(path: &Path, what: &str, limit: u64) -> Result<(File, u64)> {
         .open(path)
         .map_err(|e| match e.kind() {
             std::io::ErrorKind::NotFound => Error::user_file(path, format!("{what} not found")),
+            _ if e.raw_os_error() == Some(libc::ELOOP) => Error::user_file(
+                path,
+                format!("{what} cannot be opened: a symbolic-link loop (ELOOP)"),
+            ),
             _ if path.is_dir() => Error::user_file(path, format!("is a directory, not a {what}")),
             _ => Error::user_file(path, format!("cannot read {what}: {e}")),
         })?;

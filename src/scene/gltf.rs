@@ -122,12 +122,28 @@ pub struct GltfFile {
 /// Errors ([`Error::User`], naming the file): not a regular file, over the
 /// memory budget, or anything [`parse`] refuses.
 pub fn read(path: &Path, scale: f64, up: UpAxis) -> Result<GltfFile> {
-    let limit = limits::memory_budget().saturating_mul(4);
-    let bytes = input::read(path, "scene file", limit)?;
+    // The scene file and every buffer and image file it names, together,
+    // within the memory budget: each is read with what is left of it as
+    // its limit, so that no file is read whole past the budget, however
+    // many files (or links to one file) the glTF names.
+    let budget = limits::memory_budget();
+    let bytes = input::read(path, "scene file", budget)?;
+    let mut left = budget.saturating_sub(bytes.len() as u64);
     let dir = path.parent().unwrap_or(Path::new("")).to_path_buf();
     parse(&bytes, path, scale, up, &mut |uri: &str, what: &str| {
         let file = dir.join(uri);
-        input::read(&file, what, limit)
+        let data = input::read(&file, what, left).map_err(|e| {
+            let e = e.to_string();
+            match e.contains("over the limit") || e.contains("grew past the limit") {
+                true => Error::User(format!(
+                    "{e}: the scene file and the files it names may take {} together (the memory budget)",
+                    input::bytes_text(budget)
+                )),
+                false => Error::User(e),
+            }
+        })?;
+        left = left.saturating_sub(data.len() as u64);
+        Ok(data)
     })
 }
 
@@ -205,6 +221,8 @@ pub fn parse(
         bin,
         buffers: vec![None; root.buffers.len()],
         external,
+        positions: vec![None; root.accessors.len()],
+        decoded: 0,
     };
     let mut out = GltfFile {
         warnings: early_warnings,
@@ -332,7 +350,9 @@ pub fn parse(
 /// effort: a file that cannot be read or parsed names none, and the loader
 /// then says why.
 pub fn external_files(path: &Path) -> Vec<std::path::PathBuf> {
-    let limit = MAX_JSON_BYTES.saturating_mul(64);
+    // The memory budget, as the loader's: a file past it names none,
+    // and the loader refuses it.
+    let limit = limits::memory_budget();
     let Ok(bytes) = input::read(path, "scene file", limit) else {
         return Vec::new();
     };
@@ -702,9 +722,25 @@ fn light_of(
 ) -> std::result::Result<Light, String> {
     use json::extensions::scene::khr_lights_punctual::Type as Kind;
     let what = || format!("light {}", named(index, l.name.as_deref()));
+    // Each factor on its own: a negative colour times a negative
+    // intensity is a positive product, but neither is a light.
+    if let Some(c) = l.color.iter().position(|c| !c.is_finite() || *c < 0.0) {
+        return Err(format!(
+            "{}: color[{c}] is {}; each colour component must be finite and at least 0",
+            what(),
+            l.color[c]
+        ));
+    }
+    if !l.intensity.is_finite() || l.intensity < 0.0 {
+        return Err(format!(
+            "{}: intensity is {}; it must be finite and at least 0",
+            what(),
+            l.intensity
+        ));
+    }
     let colour = l.color.map(|c| c * l.intensity);
-    if colour.iter().any(|c| !c.is_finite() || *c < 0.0) {
-        return Err(format!("{}: colour × intensity must be finite and at least 0", what()));
+    if colour.iter().any(|c| !c.is_finite()) {
+        return Err(format!("{}: colour × intensity overflows", what()));
     }
     let position = file_to_world(world.transform_point3(DVec3::ZERO), scale, up);
     let axis = file_to_world(world.transform_vector3(DVec3::NEG_Z), 1.0, up);
@@ -785,7 +821,7 @@ fn triangle_count(
 /// indices of its triangles, as the file orders them.
 #[derive(Debug, Clone)]
 struct Primitive {
-    positions: Vec<glam::Vec3>,
+    positions: Arc<Vec<glam::Vec3>>,
     /// Texture coordinates of the set its material's maps read (empty:
     /// untextured, or the primitive has none).
     texcoords: Vec<Vec2>,
@@ -821,6 +857,13 @@ struct Reader<'a> {
     bin: Option<&'a [u8]>,
     buffers: Vec<Option<Arc<Vec<u8>>>>,
     external: &'a mut dyn FnMut(&str, &str) -> Result<Vec<u8>>,
+    /// Each POSITION accessor's vertices, decoded once however many
+    /// primitives share it.
+    positions: Vec<Option<Arc<Vec<glam::Vec3>>>>,
+    /// Bytes decoded so far (buffers, accessors' elements, vertices,
+    /// indices and texture coordinates), against the memory budget
+    /// ([`Reader::charge`]).
+    decoded: u64,
 }
 
 /// A buffer view: its buffer's bytes, its offset and length there, and its
@@ -875,6 +918,29 @@ impl Reader<'_> {
         Error::user_file(self.path, msg)
     }
 
+    /// Counts `bytes` more of decoded data (for `what`, in messages)
+    /// against the memory budget, before they are allocated: a file of a
+    /// few KB can name accessors of millions of elements without data
+    /// (zeros, §3.6.2.3), or share one large accessor among many
+    /// primitives, so every allocation the file's counts size is counted,
+    /// and the file refused in one line rather than the allocator
+    /// aborting the run.
+    fn charge(&mut self, bytes: u64, what: &dyn Fn() -> String) -> Result<()> {
+        let budget = limits::memory_budget();
+        let total = self.decoded.saturating_add(bytes);
+        if total > budget {
+            return Err(self.fail(format!(
+                "{}: decoding it needs {} more, {} in all, over this run's memory budget of {}",
+                what(),
+                input::bytes_text(bytes),
+                input::bytes_text(total),
+                input::bytes_text(budget)
+            )));
+        }
+        self.decoded = total;
+        Ok(())
+    }
+
     /// Buffer `b`'s bytes (checked to hold its `byteLength`).
     fn buffer(&mut self, b: usize, at: &dyn Fn() -> String) -> Result<Arc<Vec<u8>>> {
         let Some(json) = self.root.buffers.get(b) else {
@@ -892,6 +958,7 @@ impl Reader<'_> {
                     )))
                 }
             },
+            Some("") => return Err(self.fail(format!("buffer {b} has an empty uri"))),
             Some(uri) if uri.starts_with("data:") => {
                 data_uri(uri).map_err(|e| self.fail(format!("buffer {b}: {e}")))?
             }
@@ -913,6 +980,7 @@ impl Reader<'_> {
                 json.byte_length.0
             )));
         }
+        self.charge(data.len() as u64, &|| format!("buffer {b}"))?;
         let data = Arc::new(data);
         self.buffers[b] = Some(data.clone());
         Ok(data)
@@ -1012,7 +1080,7 @@ impl Reader<'_> {
                 if count > 3 * max_triangles() {
                     return Err(self.fail(format!("{}: {count} elements without data", here())));
                 }
-                limits::check_memory("scene", &here(), count as f64 * elem as f64)?;
+                self.charge(count * elem as u64, &here)?;
                 Elements {
                     data: Arc::new(vec![0; count as usize * elem]),
                     offset: 0,
@@ -1064,6 +1132,7 @@ impl Reader<'_> {
         let elem = component_size(out.component) * out.components;
         let vals = read_range(self, sparse.values.buffer_view.value(), sparse.values.byte_offset.0, elem)?;
         // Dense and tightly packed from here on.
+        self.charge((out.count * elem) as u64, here)?;
         let mut dense = Vec::with_capacity(out.count * elem);
         for i in 0..out.count {
             let at = out.offset + i * out.stride;
@@ -1124,6 +1193,18 @@ impl Reader<'_> {
                 if image >= root.images.len() {
                     return Err(self.fail(format!("{}: texture {t}'s image {image} does not exist (the file has {})", here(), root.images.len())));
                 }
+                // An image in a buffer view that does not exist is a bad
+                // index, refused as every other (not a warning).
+                if let Some(v) = root.images[image].buffer_view {
+                    if v.value() >= root.buffer_views.len() {
+                        return Err(self.fail(format!(
+                            "{}: texture {t}'s image {image}: buffer view {} does not exist (the file has {})",
+                            here(),
+                            v.value(),
+                            root.buffer_views.len()
+                        )));
+                    }
+                }
                 if let Some(s) = tex.sampler {
                     if s.value() >= root.samplers.len() {
                         return Err(self.fail(format!("{}: texture {t}'s sampler {} does not exist", here(), s.value())));
@@ -1147,7 +1228,7 @@ impl Reader<'_> {
                 }
             })
             .collect();
-        let mut loaded = texture::load_images(images.len(), |k| (names[k].clone(), self.image_bytes(images[k])));
+        let mut loaded = texture::load_images(images.len(), |k, _| (names[k].clone(), self.image_bytes(images[k])));
         out.warnings.append(&mut loaded.warnings);
         out.textures = loaded.textures;
         let index = loaded.index;
@@ -1309,15 +1390,27 @@ impl Reader<'_> {
         };
         let at_pos = || format!("{} POSITION", at());
         use ComponentType::*;
-        let e = self.elements(pos.value(), Type::Vec3, &[F32, I8, U8, I16, U16], &at_pos)?;
-        let positions: Vec<glam::Vec3> = (0..e.count)
-            .map(|i| glam::DVec3::new(e.get(i, 0), e.get(i, 1), e.get(i, 2)).as_vec3())
-            .collect();
-        drop(e);
+        let positions = match self.positions.get(pos.value()).cloned().flatten() {
+            Some(p) => p,
+            None => {
+                let e = self.elements(pos.value(), Type::Vec3, &[F32, I8, U8, I16, U16], &at_pos)?;
+                self.charge(e.count as u64 * 12, &|| format!("{}: accessor {}", at_pos(), pos.value()))?;
+                let p: Arc<Vec<glam::Vec3>> = Arc::new(
+                    (0..e.count)
+                        .map(|i| glam::DVec3::new(e.get(i, 0), e.get(i, 1), e.get(i, 2)).as_vec3())
+                        .collect(),
+                );
+                if let Some(slot) = self.positions.get_mut(pos.value()) {
+                    *slot = Some(p.clone());
+                }
+                p
+            }
+        };
         let indices: Vec<u32> = match prim.indices {
             Some(ix) => {
                 let at_ix = || format!("{} indices", at());
                 let e = self.elements(ix.value(), Type::Scalar, &[U8, U16, U32], &at_ix)?;
+                self.charge(e.count as u64 * 4, &at_ix)?;
                 let mut out = Vec::with_capacity(e.count);
                 for i in 0..e.count {
                     let v = e.get(i, 0) as u64;
@@ -1337,6 +1430,7 @@ impl Reader<'_> {
                 if positions.len() > u32::MAX as usize {
                     return Err(self.fail(format!("{}: too many vertices", at())));
                 }
+                self.charge(positions.len() as u64 * 4, &at_pos)?;
                 (0..positions.len() as u32).collect()
             }
         };
@@ -1347,6 +1441,7 @@ impl Reader<'_> {
                 // Normalized 8/16-bit, or (KHR_mesh_quantization) plain
                 // integers, which a texture transform then scales.
                 let e = self.elements(uv.value(), Type::Vec2, &[F32, I8, U8, I16, U16], &at_uv)?;
+                self.charge(e.count as u64 * 8, &at_uv)?;
                 (0..e.count)
                     .map(|i| Vec2::new(e.get(i, 0) as f32, e.get(i, 1) as f32))
                     .collect()
@@ -1409,7 +1504,7 @@ mod tests {
     #[test]
     fn strips_and_fans_keep_the_first_triangles_winding() {
         let p = |mode| Primitive {
-            positions: vec![glam::Vec3::ZERO; 5],
+            positions: Arc::new(vec![glam::Vec3::ZERO; 5]),
             texcoords: Vec::new(),
             indices: vec![0, 1, 2, 3, 4],
             mode,

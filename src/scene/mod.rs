@@ -752,12 +752,21 @@ fn obj_textures(
         ));
     }
     let names: Vec<String> = files.iter().map(|f| f.file.display().to_string()).collect();
-    let mut images = texture::load_images(files.len(), |i| {
+    let mut images = texture::load_images(files.len(), |i, left| {
         let name = names[i].clone();
         let Some((at, _)) = &located[i] else {
-            return (name, Err("texture not found".into()));
+            // Not found, or there but not to be opened (a symbolic-link
+            // loop): the OS's reason, rather than "not found".
+            return match crate::input::open(&files[i].file, "texture", 0) {
+                Err(e) if !e.to_string().ends_with("texture not found") => {
+                    let e = e.to_string();
+                    let shown = format!("{}: ", files[i].file.display());
+                    (name, Err(e.strip_prefix(&shown).unwrap_or(&e).to_string()))
+                }
+                _ => (name, Err("texture not found".into())),
+            };
         };
-        let bytes = crate::input::read(at, "texture", limit).map_err(|e| {
+        let bytes = crate::input::read(at, "texture", limit.min(left)).map_err(|e| {
             let e = e.to_string();
             let shown = at.display().to_string();
             e.strip_prefix(&format!("{shown}: ")).unwrap_or(&e).to_string()

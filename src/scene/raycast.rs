@@ -579,15 +579,30 @@ pub(crate) fn sheet_faces(triangles: &[[Vec3; 3]]) -> Vec<bool> {
         while end < keys.len() && keys[end].0 == keys[start].0 {
             end += 1;
         }
-        for a in start..end {
-            let (va, pa) = canonical(&triangles[keys[a].1 as usize]);
-            for b in a + 1..end {
-                let (vb, pb) = canonical(&triangles[keys[b].1 as usize]);
-                if va == vb && pa != pb {
-                    sheet[keys[a].1 as usize] = true;
-                    sheet[keys[b].1 as usize] = true;
+        // Sorted by vertex set, then winding: a run of one vertex set is a
+        // sheet's where it holds both windings. Not every pair of the
+        // group: a mesh instanced many times at one place gives groups of
+        // thousands of equal triangles, and pairs made its build quadratic.
+        let mut group: Vec<([[u32; 3]; 3], bool, u32)> = keys[start..end]
+            .iter()
+            .map(|&(_, i)| {
+                let (v, odd) = canonical(&triangles[i as usize]);
+                (v, odd, i)
+            })
+            .collect();
+        group.sort_unstable();
+        let mut a = 0;
+        while a < group.len() {
+            let mut b = a + 1;
+            while b < group.len() && group[b].0 == group[a].0 {
+                b += 1;
+            }
+            if group[a].1 != group[b - 1].1 {
+                for g in &group[a..b] {
+                    sheet[g.2 as usize] = true;
                 }
             }
+            a = b;
         }
         start = end;
     }

@@ -517,16 +517,23 @@ pub fn locate_map(file: &Path, written: &Path, obj_dir: &Path) -> Option<(PathBu
 /// the thread count. Never an error: a scene loads without its textures.
 pub fn load_images(
     count: usize,
-    mut fetch: impl FnMut(usize) -> (String, Result<Vec<u8>, String>),
+    mut fetch: impl FnMut(usize, u64) -> (String, Result<Vec<u8>, String>),
 ) -> LoadedImages {
     let budget = crate::limits::memory_budget() / 4;
     let mut used = 0u64;
+    // The files' bytes, held until they are decoded, count against the
+    // same budget: `fetch` reads no file past what is left of it.
+    let mut read = 0u64;
     let mut failed: Vec<String> = Vec::new();
     let mut over: Vec<String> = Vec::new();
     let mut pending: Vec<(usize, String, Vec<u8>)> = Vec::new();
     let mut status: Vec<Result<[u32; 2], String>> = vec![Err(String::new()); count];
     for i in 0..count {
-        let (name, bytes) = fetch(i);
+        let (name, bytes) = fetch(i, budget.saturating_sub(read));
+        let bytes = bytes.map_err(|why| one_line(&why));
+        if let Ok(b) = &bytes {
+            read += b.len() as u64;
+        }
         let bytes = match bytes.and_then(|b| header(&b).map(|h| (b, h))) {
             Ok((b, (_, w, h))) => {
                 let need = Texture::bytes(w, h);
@@ -566,6 +573,7 @@ pub fn load_images(
                 textures.push(Arc::new(t));
             }
             Err(why) => {
+                let why = one_line(&why);
                 status[i] = Err(why.clone());
                 failed.push(format!("{name}: {why}"));
             }
@@ -599,6 +607,13 @@ pub fn load_images(
         status,
         warnings,
     }
+}
+
+/// `text` on one line: a decoder's message (zune-jpeg's truncated-data
+/// error holds a line break) made one warning line, its runs of white
+/// space one space.
+pub fn one_line(text: &str) -> String {
+    text.split_whitespace().collect::<Vec<_>>().join(" ")
 }
 
 /// What [`load_images`] gives.
@@ -794,7 +809,7 @@ mod tests {
 
     #[test]
     fn missing_and_broken_images_warn_once_each_and_load_nothing() {
-        let LoadedImages { textures, index, warnings, .. } = load_images(3, |i| match i {
+        let LoadedImages { textures, index, warnings, .. } = load_images(3, |i, _| match i {
             0 => ("gone.png".into(), Err("not found".into())),
             1 => ("junk.png".into(), Ok(b"junk".to_vec())),
             _ => ("ok.png".into(), Err("not found".into())),

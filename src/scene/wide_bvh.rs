@@ -39,7 +39,7 @@
 
 use obvhs::{
     aabb::Aabb,
-    bvh2::{reinsertion::ReinsertionOptimizer, Bvh2},
+    bvh2::{node::Bvh2Node, reinsertion::ReinsertionOptimizer, Bvh2},
     ploc::PlocBuilder,
     ray::Ray,
     Boundable, BvhBuildParams,
@@ -279,6 +279,9 @@ impl WideBvh {
                 stack: 0,
             };
         }
+        if ploc_would_stall(prims) {
+            return collapse(&median_split(prims));
+        }
         let mut bvh2 = PlocBuilder::with_capacity(prims.len()).build(
             params.ploc_search_distance,
             prims,
@@ -468,6 +471,138 @@ pub(super) fn prefetch<T>(p: &T) {
     }
     #[cfg(not(target_arch = "x86_64"))]
     let _ = p;
+}
+
+/// Longest run of PLOC's sorted order without a merge, times the sum of
+/// such runs over [`STALL_RUN`], above which [`ploc_would_stall`] says
+/// PLOC would take quadratic time: 2²⁶ (a run of 8 192 among as many).
+const STALL_WORK: u64 = 1 << 26;
+/// Runs without a merge up to this long are PLOC's ordinary case.
+const STALL_RUN: u64 = 64;
+
+/// Whether PLOC (obvhs's builder) would take time quadratic in the
+/// primitives: it merges only the pairs of neighbours in Morton order
+/// that choose each other, and where many neighbouring primitives' pair
+/// costs tie or run monotonically (coincident triangles, as a mesh
+/// instanced many times at one place makes; boxes nested about one
+/// centre; equal boxes at exactly equal steps) every one of them points
+/// the same way and each pass merges one pair at the run's end: 96k
+/// coincident triangles took 23 s, and doubling them quadrupled it
+/// (BENCHMARKS.md, "BVH build"). This reads the Morton order as PLOC's
+/// first passes do (search distance one: node `i` points right when
+/// `cost(i, i+1) ≤ cost(i−1, i)`, a pair merges where they point at
+/// each other) and measures the runs between merges. O(n log n).
+fn ploc_would_stall<T: Boundable>(prims: &[T]) -> bool {
+    if (prims.len() as u64) < 2 * STALL_RUN {
+        return false;
+    }
+    let boxes: Vec<Aabb> = prims.iter().map(Boundable::aabb).collect();
+    let mut total = Aabb::empty();
+    for b in &boxes {
+        total.extend(b.min);
+        total.extend(b.max);
+    }
+    let size = (total.max - total.min).max(glam::Vec3A::splat(f32::MIN_POSITIVE));
+    let spread = |v: u64| -> u64 {
+        // 21 bits to every third bit of 63.
+        let mut x = v & 0x1f_ffff;
+        x = (x | x << 32) & 0x1f_0000_0000_ffff;
+        x = (x | x << 16) & 0x1f_0000_ff00_00ff;
+        x = (x | x << 8) & 0x100f_00f0_0f00_f00f;
+        x = (x | x << 4) & 0x10c3_0c30_c30c_30c3;
+        x = (x | x << 2) & 0x1249_2492_4924_9249;
+        x
+    };
+    let mut order: Vec<(u64, u32)> = boxes
+        .iter()
+        .enumerate()
+        .map(|(i, b)| {
+            let c = ((b.min + b.max) * 0.5 - total.min) / size;
+            let q = c.to_array().map(|v| (v.clamp(0.0, 1.0) * 2_097_151.0) as u64);
+            (spread(q[0]) << 2 | spread(q[1]) << 1 | spread(q[2]), i as u32)
+        })
+        .collect();
+    order.sort_unstable();
+    let cost: Vec<f32> = order
+        .windows(2)
+        .map(|w| boxes[w[0].1 as usize].union(&boxes[w[1].1 as usize]).half_area())
+        .collect();
+    let (mut longest, mut stuck, mut since) = (0u64, 0u64, 0u64);
+    let mut end_run = |run: u64| {
+        longest = longest.max(run);
+        if run > STALL_RUN {
+            stuck += run;
+        }
+    };
+    for i in 0..cost.len() {
+        since += 1;
+        let before = if i == 0 { f32::INFINITY } else { cost[i - 1] };
+        let after = cost.get(i + 1).copied().unwrap_or(f32::INFINITY);
+        if cost[i] <= before && cost[i] < after {
+            end_run(since);
+            since = 0;
+        }
+    }
+    end_run(since + 1);
+    longest.saturating_mul(stuck) > STALL_WORK
+}
+
+/// A binary tree of one primitive per leaf over `prims`, split top-down at
+/// the median of the centroids along their longest extent (by index
+/// where they coincide): depth ⌈log₂ n⌉, O(n log n) whatever the input,
+/// the fallback where PLOC would stall ([`ploc_would_stall`]).
+/// Deterministic (ties go by index). Children of node `k` lie at its
+/// `first_index` and the next, as [`collapse`] reads them.
+fn median_split<T: Boundable>(prims: &[T]) -> Bvh2 {
+    let boxes: Vec<Aabb> = prims.iter().map(Boundable::aabb).collect();
+    let mut index: Vec<u32> = (0..prims.len() as u32).collect();
+    let mut nodes = vec![Bvh2Node::new(Aabb::empty(), 0, 0); 1];
+    nodes.reserve(2 * prims.len());
+    let mut todo = vec![(0usize, 0usize, prims.len())];
+    while let Some((node, start, end)) = todo.pop() {
+        let mut bounds = Aabb::empty();
+        let mut centres = Aabb::empty();
+        for &i in &index[start..end] {
+            let b = &boxes[i as usize];
+            bounds.extend(b.min);
+            bounds.extend(b.max);
+            centres.extend((b.min + b.max) * 0.5);
+        }
+        if end - start == 1 {
+            nodes[node] = Bvh2Node::new(bounds, 1, start as u32);
+            continue;
+        }
+        let extent = centres.max - centres.min;
+        let axis = if extent.x >= extent.y && extent.x >= extent.z {
+            0
+        } else if extent.y >= extent.z {
+            1
+        } else {
+            2
+        };
+        let mid = (start + end) / 2;
+        if extent[axis] > 0.0 {
+            let key = |i: &u32| {
+                let b = &boxes[*i as usize];
+                (b.min[axis] + b.max[axis], *i)
+            };
+            index[start..end].select_nth_unstable_by(mid - start, |a, b| {
+                let (ka, kb) = (key(a), key(b));
+                ka.0.total_cmp(&kb.0).then(ka.1.cmp(&kb.1))
+            });
+        }
+        let first = nodes.len();
+        nodes.push(Bvh2Node::new(Aabb::empty(), 0, 0));
+        nodes.push(Bvh2Node::new(Aabb::empty(), 0, 0));
+        nodes[node] = Bvh2Node::new(bounds, 0, first as u32);
+        todo.push((first + 1, mid, end));
+        todo.push((first, start, mid));
+    }
+    Bvh2 {
+        nodes,
+        primitive_indices: index,
+        ..Bvh2::default()
+    }
 }
 
 /// The 4-wide tree of `bvh2` (a tree of one primitive per leaf, root at

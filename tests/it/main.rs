@@ -18,6 +18,7 @@ mod gpu;
 mod hostile;
 mod hostile_jobs;
 mod hostile_output;
+mod hostile_scene;
 mod jobs;
 mod layout;
 mod lightfield;
