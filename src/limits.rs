@@ -82,16 +82,56 @@ pub fn check_memory(field: &str, what: &str, bytes: f64) -> Result<()> {
     Ok(())
 }
 
+/// Primitives a ray tests on average in the scenes the [`rate`]s were
+/// measured on, times the margin they already allow (twice Dabrovic
+/// Sponza's 28.5 by the surface-area heuristic; the Cornell box's is
+/// 10.3): a scene whose rays test more is slowed by as much
+/// ([`set_ray_tests`]).
+pub const RATED_RAY_TESTS: f64 = 64.0;
+
+thread_local! {
+    /// [`set_ray_tests`]' factor for the job on this thread.
+    static RAY_COST: std::cell::Cell<f64> = const { std::cell::Cell::new(1.0) };
+}
+
+/// Records, for the estimates this thread makes from now on, that the
+/// scene's rays test `tests` primitives on average
+/// ([`crate::scene::raycast::SceneBvh::expected_tests`]). Every stage's
+/// rate is then divided by `tests /` [`RATED_RAY_TESTS`] when that is
+/// above 1: a pile of overlapping triangles (a mesh instanced thousands
+/// of times at nearly one place) makes every ray that reaches it test
+/// them all, and the stages that cast rays slow down with it, which the
+/// estimates must see before they start, not after hours. Called by the
+/// preparation of each job, on the job's thread.
+pub fn set_ray_tests(tests: f64) {
+    let factor = if tests.is_finite() {
+        (tests / RATED_RAY_TESTS).max(1.0)
+    } else {
+        1.0
+    };
+    RAY_COST.with(|c| c.set(factor));
+}
+
 /// Refuses (a user error naming `field`) when `work` units at `per_core`
 /// units per second on each of this run's threads would take longer than
-/// [`work_limit_seconds`].
+/// [`work_limit_seconds`]; `per_core` is divided by the scene's ray cost
+/// ([`set_ray_tests`]).
 pub fn check_work(field: &str, what: &str, work: f64, per_core: f64) -> Result<()> {
     let threads = rayon::current_num_threads().max(1) as f64;
-    let seconds = work / (per_core * threads);
+    let cost = RAY_COST.with(|c| c.get());
+    let seconds = work * cost / (per_core * threads);
     let limit = work_limit_seconds();
     if seconds > limit {
+        let why = if cost > 1.0 {
+            format!(
+                " (the scene's rays each test about {:.0} triangles, {cost:.0}x what the rates assume: overlapping triangles no tree separates, such as copies of a mesh at nearly one place)",
+                cost * RATED_RAY_TESTS
+            )
+        } else {
+            String::new()
+        };
         return Err(Error::User(format!(
-            "{field}: {what} would take about {} on {} thread(s), over the limit of {} (PROBEPLACE_WORK_LIMIT=0 lifts it); lower it",
+            "{field}: {what} would take about {} on {} thread(s){why}, over the limit of {} (PROBEPLACE_WORK_LIMIT=0 lifts it); lower it",
             duration_text(seconds),
             threads,
             duration_text(limit)

@@ -270,6 +270,9 @@ pub struct Scene {
     pub bounds: Bounds,
     /// Number of faces dropped as degenerate (zero area) or non-finite.
     pub dropped_triangles: usize,
+    /// Number of faces dropped as exact copies of an earlier one
+    /// ([`coincident_copies`]).
+    pub coincident_triangles: usize,
     /// Human-readable warnings raised while loading.
     pub warnings: Vec<String>,
     /// Lights the file defines (glTF's `KHR_lights_punctual`), in world
@@ -418,6 +421,7 @@ impl Scene {
             materials,
             bounds: Bounds::empty(),
             dropped_triangles: dropped,
+            coincident_triangles: 0,
             warnings: Vec::new(),
             lights: Vec::new(),
             format: "generated",
@@ -431,7 +435,22 @@ impl Scene {
         // The arrays are filled in parallel, in order; the bounds grow in
         // order, so that which of a −0 and a +0 they keep does not depend
         // on how the work was split.
-        let triangles: Vec<([Vec3; 3], u32)> = triangles.into_iter().collect();
+        let mut triangles: Vec<([Vec3; 3], u32)> = triangles.into_iter().collect();
+        let mut texcoords = texcoords;
+        let copies = coincident_copies(&triangles);
+        if !copies.is_empty() {
+            scene.coincident_triangles = copies.len();
+            let mut copy = vec![false; triangles.len()];
+            for &i in &copies {
+                copy[i as usize] = true;
+            }
+            let mut it = copy.iter();
+            triangles.retain(|_| it.next() == Some(&false));
+            if !texcoords.is_empty() {
+                let mut it = copy.iter();
+                texcoords.retain(|_| it.next() == Some(&false));
+            }
+        }
         let normals: Vec<Option<Vec3>> = triangles
             .par_iter()
             .map(|(tri, _)| usable_normal(tri))
@@ -478,6 +497,13 @@ impl Scene {
     }
 
     fn finish(&mut self) -> Result<()> {
+        if self.coincident_triangles > 0 {
+            self.warnings.push(format!(
+                "{}: dropped {} triangle(s) that repeat an earlier one exactly (the same three corners, wound alike), as copies of a mesh placed twice at one place do; a copy adds no surface, only work",
+                self.source.display(),
+                self.coincident_triangles
+            ));
+        }
         if self.dropped_triangles > 0 {
             self.warnings.push(format!(
                 "{}: dropped {} degenerate or non-finite triangle(s)",
@@ -598,6 +624,68 @@ fn usable_normal(tri: &[Vec3; 3]) -> Option<Vec3> {
         return None;
     }
     Some(cross.normalize())
+}
+
+/// The indices of the triangles that repeat an earlier one exactly: the
+/// same three corners (bit for bit) in the same cyclic order, so a
+/// back-to-back pair (a two-sided sheet) is kept. Such copies (a mesh
+/// instanced many times at one place) add no surface, but every stage
+/// pays for each: the SDF's band and every ray that reaches them test
+/// them all. Found by sorting hashes of the corners rotated to start at
+/// the least one, then comparing the triangles of equal hashes exactly;
+/// the first in file order is kept. Sorted ascending; empty for most
+/// scenes, at the cost of one parallel sort.
+fn coincident_copies(triangles: &[([Vec3; 3], u32)]) -> Vec<u32> {
+    let canonical = |t: &[Vec3; 3]| -> [u32; 9] {
+        let bits = t.map(|v| v.to_array().map(|c| if c == 0.0 { 0 } else { c.to_bits() }));
+        let first = (0..3).min_by_key(|&k| bits[k]).unwrap_or(0);
+        let mut key = [0u32; 9];
+        for k in 0..3 {
+            key[3 * k..3 * k + 3].copy_from_slice(&bits[(first + k) % 3]);
+        }
+        key
+    };
+    let mut hashed: Vec<(u64, u32)> = triangles
+        .par_iter()
+        .enumerate()
+        .map(|(i, (t, _))| {
+            // FNV-1a over the canonical corners.
+            let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+            for w in canonical(t) {
+                for b in w.to_le_bytes() {
+                    h = (h ^ b as u64).wrapping_mul(0x0100_0000_01b3);
+                }
+            }
+            (h, i as u32)
+        })
+        .collect();
+    hashed.par_sort_unstable();
+    let mut copies = Vec::new();
+    let mut run = 0;
+    while run < hashed.len() {
+        let mut end = run + 1;
+        while end < hashed.len() && hashed[end].0 == hashed[run].0 {
+            end += 1;
+        }
+        if end - run > 1 {
+            // Equal hashes: sorted by corners, then file order, every
+            // triangle after the first of equal corners is a copy (a hash
+            // collision has other corners and is kept).
+            let mut keys: Vec<([u32; 9], u32)> = hashed[run..end]
+                .iter()
+                .map(|&(_, i)| (canonical(&triangles[i as usize].0), i))
+                .collect();
+            keys.sort_unstable();
+            for pair in keys.windows(2) {
+                if pair[1].0 == pair[0].0 {
+                    copies.push(pair[1].1);
+                }
+            }
+        }
+        run = end;
+    }
+    copies.sort_unstable();
+    copies
 }
 
 /// Whether a world-space triangle is finite and not degenerate: the test
@@ -1079,6 +1167,25 @@ mod tests {
     }
 
     #[test]
+    fn exact_copies_are_dropped_and_a_back_to_back_pair_is_kept() {
+        let a = [Vec3::ZERO, Vec3::X, Vec3::Y];
+        let rotated = [Vec3::X, Vec3::Y, Vec3::ZERO];
+        let reversed = [Vec3::ZERO, Vec3::Y, Vec3::X];
+        let nudged = [Vec3::ZERO, Vec3::X, Vec3::new(0.0, 1.0, 1e-6)];
+        let tris: Vec<([Vec3; 3], u32)> = [a, reversed, a, rotated, nudged, a]
+            .into_iter()
+            .map(|t| (t, 0))
+            .collect();
+        // A copy in another cyclic order is the same face; the reversed
+        // one is the back of a sheet; the nudged one is other geometry.
+        assert_eq!(coincident_copies(&tris), [2, 3, 5]);
+        let scene = Scene::from_triangles("t.obj".into(), tris.clone(), Vec::new()).unwrap();
+        assert_eq!(scene.triangles.len(), 3);
+        assert_eq!(scene.coincident_triangles, 3);
+        assert!(scene.warnings.iter().any(|w| w.contains("dropped 3 triangle(s) that repeat")));
+    }
+
+    #[test]
     fn degenerate_and_nan_faces_are_dropped_with_a_warning() {
         let dir = tempfile::tempdir().unwrap();
         let p = write(
@@ -1226,3 +1333,4 @@ mod tests {
         }
     }
 }
+

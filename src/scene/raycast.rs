@@ -155,6 +155,11 @@ fn build_params(triangles: usize) -> BvhBuildParams {
 }
 
 impl SceneBvh {
+    /// Primitives a ray tests on average ([`WideBvh::expected_tests`]).
+    pub fn expected_tests(&self) -> f64 {
+        self.bvh.expected_tests()
+    }
+
     /// Builds the BVH. Deterministic: the same scene gives the same tree,
     /// whatever the thread count (a unit test of [`WideBvh`] checks it).
     /// obvhs builds a binary tree, in parallel (its `parallel` feature:

@@ -125,6 +125,7 @@ pub fn prepare(
     let in_config = |e: Error| e.in_config(config_path, config_text);
     let domain = resolve_domain(&config.domain, &scene).map_err(in_config)?;
     let bvh = timings.time("bvh", || SceneBvh::new(&scene));
+    crate::limits::set_ray_tests(bvh.expected_tests());
     let resolution = timings.time("resolution", || {
         resolve_voxel_size(config, &scene, &bvh, &domain)
     });

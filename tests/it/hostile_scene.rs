@@ -92,36 +92,78 @@ fn scene_dir(name: &str, bytes: &[u8]) -> Scratch {
     s
 }
 
+/// The scratch room (a closed 2 m cube) with `copies` quads over its
+/// middle, each `step` above the last (0: all at one place).
+fn room_with_pile(copies: usize, step: f64) -> String {
+    let mut obj = crate::hostile::CUBE_ROOM.to_string();
+    for i in 0..copies {
+        let y = 1.0 + i as f64 * step;
+        obj += &format!("v 0.5 {y} 0.5\nv 1.5 {y} 0.5\nv 1.5 {y} 1.5\nv 0.5 {y} 1.5\n");
+        if step == 0.0 {
+            break;
+        }
+    }
+    for i in 0..copies {
+        let b = 9 + if step == 0.0 { 0 } else { 4 * i };
+        obj += &format!("f {b} {} {} {}\n", b + 1, b + 2, b + 3);
+    }
+    obj
+}
+
 #[test]
-fn coincident_instances_build_their_bvh_in_bounded_time() {
-    // Before the fix, PLOC merged one pair of these a pass: 24k instances
-    // (48k triangles) took over 15 s in the `bvh` stage on the 2-core VM,
-    // and every doubling took four times as long. Now the build is
-    // O(n log n). A work limit of a nanosecond stops the run at the first
-    // stage after the BVH that estimates its work, so the test times the
-    // load and the build alone.
+fn coincident_instances_are_dropped_as_copies_and_the_run_finishes() {
+    // Before: 24k copies of a quad at one place (48k coincident
+    // triangles) made the BVH build quadratic (23 s at 96k), then the
+    // SDF's band and every ray that reached them test them all: a glTF of
+    // a few hundred KB ran past every limit. A copy adds no surface, so
+    // the loader drops it, and says so.
     let b = hostile::coincident_instances(24_000);
     let s = scene_dir("stack.gltf", &b.gltf(None));
-    let bin = env!("CARGO_BIN_EXE_probeplace");
-    let start = Instant::now();
-    let o = Command::new("timeout")
-        .args([
-            "--signal=KILL",
-            &REFUSAL_SECONDS.to_string(),
-            bin,
-            "place",
-            "scene.ron",
-        ])
-        .env("PROBEPLACE_WORK_LIMIT", "1e-9")
-        .current_dir(s.dir.path())
-        .output()
-        .unwrap();
-    let took = start.elapsed();
-    let stderr = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(o.status.code(), Some(2), "after {took:?}: {stderr}");
-    assert!(stderr.contains("bvh done in"), "{stderr}");
-    assert!(stderr.contains("PROBEPLACE_WORK_LIMIT"), "{stderr}");
-    assert!(!stderr.contains("panicked"), "{stderr}");
+    s.write("room.obj", &room_with_pile(24_000, 0.0));
+    for (scene, refused) in [("stack.gltf", true), ("room.obj", false)] {
+        s.config_for("scene.ron", Path::new(scene));
+        let r = limited(s.dir.path(), &["place", "scene.ron"]);
+        assert!(
+            r.code.is_some(),
+            "{scene}: killed after {:?}: {}",
+            r.took,
+            r.stderr
+        );
+        assert!(!r.stderr.contains("panicked"), "{}", r.stderr);
+        if refused {
+            // The quads alone enclose no room: refused for that, at once.
+            assert_eq!(r.code, Some(2), "{scene}: {}", r.stderr);
+        } else {
+            assert_eq!(r.code, Some(0), "{scene}: {}", r.stderr);
+            assert!(
+                r.stderr
+                    .contains("dropped 47998 triangle(s) that repeat an earlier one exactly"),
+                "{}",
+                r.stderr
+            );
+        }
+        assert!(
+            r.took < Duration::from_secs(REFUSAL_SECONDS),
+            "{scene}: {:?}",
+            r.took
+        );
+    }
+}
+
+#[test]
+fn a_pile_of_overlapping_triangles_is_refused_by_the_estimate_naming_it() {
+    // 24k quads a micrometre apart: no copies, and no tree separates
+    // them, so every ray that reaches the pile tests thousands of
+    // triangles (the coverage reference alone ran past 100 s). The
+    // estimates see what a ray costs (the BVH's surface-area heuristic)
+    // and refuse before the work, naming the cause.
+    let s = Scratch::new();
+    s.write("room.obj", &room_with_pile(24_000, 1e-6));
+    let line = refused_limited(s.dir.path(), &["place", "run.ron"]);
+    assert!(
+        line.contains("overlapping triangles") && line.contains("PROBEPLACE_WORK_LIMIT"),
+        "{line}"
+    );
 }
 
 #[test]
