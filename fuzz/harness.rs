@@ -422,8 +422,9 @@ pub fn generated_seeds() -> Vec<(&'static str, String, Vec<u8>)> {
 
 /// Small glTF files by the test kit's writer: a lit, instanced quad as a
 /// GLB, quantized strips with a sparse accessor as a `.gltf` with its
-/// buffer in a data URI, and a textured quad whose material uses an
-/// extension the reader does not apply.
+/// buffer in a data URI, a textured quad whose material uses an extension
+/// the reader does not apply, and a mesh placed twice whose primitives
+/// share one POSITION accessor.
 fn gltf_seeds() -> Vec<(&'static str, Vec<u8>)> {
     use probeplace::fixtures::gltf_writer::{Builder, Positions};
     use serde_json::json;
@@ -504,11 +505,40 @@ fn gltf_seeds() -> Vec<(&'static str, Vec<u8>)> {
     let na = c.node(json!({"mesh": a}));
     let nb = c.node(json!({"mesh": b2, "translation": [0.0, 1.0, 0.0]}));
     c.scene(&[na, nb]);
+    // One POSITION accessor shared by three primitives (a fan, a strip
+    // and indexed triangles), each with its own indices: the accessor
+    // the reader decodes once, however many primitives name it.
+    let mut s = Builder::new();
+    let pos = s.positions(
+        &[
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [1.0, 0.0, 1.0],
+            [0.0, 0.0, 1.0],
+            [0.5, 1.0, 0.5],
+        ],
+        Positions::Float,
+    );
+    let fan = s.indices(&[4, 0, 1, 2]);
+    let strip = s.indices(&[2, 3, 4]);
+    let tris = s.indices(&[0, 2, 1, 0, 3, 2]);
+    let mesh = s.mesh(
+        "shared",
+        &[
+            (pos, Some(fan), 6, None),
+            (pos, Some(strip), 5, None),
+            (pos, Some(tris), 4, None),
+        ],
+    );
+    let a = s.node(json!({"mesh": mesh}));
+    let b3 = s.node(json!({"mesh": mesh, "translation": [2.0, 0.0, 0.0]}));
+    s.scene(&[a, b3]);
     vec![
         ("quad.glb", glb),
         ("strip.gltf", q.gltf(None)),
         ("textured.glb", t.glb()),
         ("masked.glb", c.glb()),
+        ("shared.glb", s.glb()),
     ]
 }
 

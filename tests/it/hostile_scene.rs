@@ -250,3 +250,102 @@ fn an_empty_buffer_uri_and_an_image_in_a_missing_view_are_refused() {
     let line = refused_limited(s.dir.path(), &["place", "scene.ron"]);
     assert!(line.contains("buffer view 99 does not exist"), "{line}");
 }
+
+/// [`limited`], checked as a run that kept its bounds: it finished (exit
+/// 0) or was refused in one `error:` line (exit 2); no panic, no abort
+/// (an allocation past the address-space limit), no hang.
+fn bounded_limited(dir: &Path, args: &[&str]) -> Run {
+    let r = limited(dir, args);
+    assert!(
+        r.code.is_some(),
+        "killed after {:?} (a hang or an abort): {}",
+        r.took,
+        r.stderr
+    );
+    assert!(
+        !r.stderr.contains("panicked") && !r.stderr.contains("memory allocation"),
+        "{}",
+        r.stderr
+    );
+    match r.code {
+        Some(0) => {}
+        Some(2) => {
+            let errors = r
+                .stderr
+                .lines()
+                .filter(|l| l.starts_with("error: "))
+                .count();
+            assert_eq!(errors, 1, "one error line expected: {}", r.stderr);
+        }
+        c => panic!("exit {c:?}: {}", r.stderr),
+    }
+    r
+}
+
+/// A scratch directory whose `room.obj` (the cube room, all its faces of
+/// material `m0`) names `room.mtl`, which holds `mtl`; `scene.ron` for it.
+fn textured_room(mtl: &str) -> Scratch {
+    let s = Scratch::new();
+    s.write(
+        "room.obj",
+        &format!("mtllib room.mtl\nusemtl m0\n{}", crate::hostile::CUBE_ROOM),
+    );
+    s.write("room.mtl", mtl);
+    s.config_for("scene.ron", Path::new("room.obj"));
+    s
+}
+
+/// The lines of `stderr` that are not a stage's timing.
+fn messages(stderr: &str) -> Vec<&str> {
+    stderr
+        .lines()
+        .filter(|l| !(l.starts_with("probeplace: ") && l.contains(" done in ")))
+        .collect()
+}
+
+#[test]
+fn twenty_names_for_one_padded_texture_are_read_within_the_budget() {
+    // Twenty materials each map a different name, all links to one small
+    // PNG padded (a hole: no disk) to 60 MiB; the PNG decoder stops at
+    // its end chunk, so each is a valid image. Before the fix each file was
+    // read whole up to the memory budget and held until decoding: 1.2 GB
+    // of file bytes under a 1 GiB address-space limit, an abort. Now the
+    // files' bytes count against the texture budget: those past it are
+    // warned of and skipped, and the run places.
+    const N: usize = 20;
+    let mtl: String = (0..N)
+        .map(|i| format!("newmtl m{i}\nKd 1 1 1\nmap_Kd t{i}.png\n"))
+        .collect();
+    let s = textured_room(&mtl);
+    let png = probeplace::fixtures::gltf_writer::png_rgb(2, 2, &[128; 12]);
+    // 60 MiB, not more: the run hashes every input file for its
+    // provenance, 20 × 60 MiB of it.
+    hostile::write_padded(&s.path("big.png"), &png, 60 << 20).unwrap();
+    for i in 0..N {
+        std::os::unix::fs::symlink("big.png", s.path(&format!("t{i}.png"))).unwrap();
+    }
+    let r = bounded_limited(s.dir.path(), &["place", "scene.ron"]);
+    assert_eq!(r.code, Some(0), "{}", r.stderr);
+    assert!(s.path("out/probes.json").is_file(), "{}", r.stderr);
+    let skipped: Vec<&str> = messages(&r.stderr)
+        .into_iter()
+        .filter(|l| l.contains("over the limit") || l.contains("more texture(s) not read"))
+        .collect();
+    assert!(!skipped.is_empty(), "no texture skipped: {}", r.stderr);
+}
+
+#[test]
+fn a_texture_in_a_symbolic_link_loop_is_named_a_loop() {
+    let s = textured_room("newmtl m0\nKd 1 1 1\nmap_Kd a.png\n");
+    std::os::unix::fs::symlink("b.png", s.path("a.png")).unwrap();
+    std::os::unix::fs::symlink("a.png", s.path("b.png")).unwrap();
+    let r = bounded_limited(s.dir.path(), &["place", "scene.ron"]);
+    assert_eq!(r.code, Some(0), "{}", r.stderr);
+    let named: Vec<&str> = messages(&r.stderr)
+        .into_iter()
+        .filter(|l| l.contains("a.png"))
+        .collect();
+    assert_eq!(named.len(), 1, "{}", r.stderr);
+    assert!(named[0].contains("symbolic-link loop"), "{}", named[0]);
+    assert!(!named[0].contains("not found"), "{}", named[0]);
+}
