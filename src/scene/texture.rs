@@ -549,6 +549,9 @@ pub fn load_images(
                 b
             }
             Err(why) => {
+                // A header's error too: zune-jpeg's for tables cut short
+                // ends in a line break.
+                let why = one_line(&why);
                 status[i] = Err(why.clone());
                 failed.push(format!("{name}: {why}"));
                 continue;

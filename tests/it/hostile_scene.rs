@@ -349,3 +349,32 @@ fn a_texture_in_a_symbolic_link_loop_is_named_a_loop() {
     assert!(named[0].contains("symbolic-link loop"), "{}", named[0]);
     assert!(!named[0].contains("not found"), "{}", named[0]);
 }
+
+#[test]
+fn a_truncated_jpeg_texture_warns_in_one_line() {
+    let s = textured_room("newmtl m0\nKd 1 1 1\nmap_Kd half.jpg\n");
+    let texels: Vec<u8> = (0..64 * 64 * 3).map(|i| (i * 37 % 251) as u8).collect();
+    let mut jpeg = Vec::new();
+    jpeg_encoder::Encoder::new(&mut jpeg, 90)
+        .encode(&texels, 64, 64, jpeg_encoder::ColorType::Rgb)
+        .unwrap();
+    // Cut at half its tables (before the scan's SOS marker): zune-jpeg
+    // pads a scan cut short and decodes it, but a table cut short is an
+    // error whose text ends in a line break.
+    let sos = jpeg.windows(2).position(|w| w == [0xFF, 0xDA]).unwrap();
+    std::fs::write(s.path("half.jpg"), &jpeg[..sos / 2]).unwrap();
+    let r = bounded_limited(s.dir.path(), &["place", "scene.ron"]);
+    assert_eq!(r.code, Some(0), "{}", r.stderr);
+    // Every line is a message of its own (a warning, an error, a stage's
+    // timing, the summary): none continues the line before it.
+    let lines = messages(&r.stderr);
+    let named: Vec<&&str> = lines.iter().filter(|l| l.contains("half.jpg")).collect();
+    assert_eq!(named.len(), 1, "{}", r.stderr);
+    assert!(named[0].starts_with("warning: "), "{}", r.stderr);
+    let at = lines.iter().position(|l| l.contains("half.jpg")).unwrap();
+    assert!(
+        lines[at].contains("the texture is not used"),
+        "the warning is cut: {}",
+        r.stderr
+    );
+}
