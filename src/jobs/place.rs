@@ -28,7 +28,10 @@ pub fn place(options: &RunOptions) -> Result<Outcome> {
 }
 
 /// A placement computed but not yet written: what `place` writes and what
-/// a caller (a sweep, a test) reads before committing it.
+/// a caller (a sweep, a test) reads before committing it. It holds its
+/// output directory's claim (the lock every run takes on it) until it is
+/// committed or dropped: another run into that directory meanwhile is
+/// refused.
 pub struct PlaceRun {
     pub(crate) job: Job,
     /// Scene, domain, BVH and SDF.

@@ -262,8 +262,18 @@ pub fn baked_probes(
         use probeplace::provenance::Overrides;
         let path = root().join(config);
         let cfg = probeplace::config::Config::load(&path).unwrap();
+        // The run is kept, never committed, so it holds its output
+        // directory's claim for the whole process: one directory per run,
+        // not the config's, which other runs of the process write.
+        let key: String = format!("{config}-{method:?}")
+            .chars()
+            .map(|c| if c.is_ascii_alphanumeric() { c } else { '-' })
+            .collect();
+        let claims = root().join("target/test-claims").join(key);
+        std::fs::create_dir_all(&claims).unwrap();
         let options = RunOptions {
             config: Some(path.clone()),
+            out: Some(claims.join("out")),
             overrides: Overrides {
                 method: method.map(String::from),
                 no_refine: method.is_some(),
