@@ -615,15 +615,28 @@ impl Scene {
 /// is degenerate: a relative area test, since a sliver whose area is below
 /// float resolution of its edges has no usable normal.
 fn usable_normal(tri: &[Vec3; 3]) -> Option<Vec3> {
+    if !tri.iter().all(|v| v.is_finite()) {
+        return None;
+    }
     let cross = (tri[1] - tri[0]).cross(tri[2] - tri[0]);
-    let finite = tri.iter().all(|v| v.is_finite());
     let scale = (tri[1] - tri[0])
         .length_squared()
         .max((tri[2] - tri[0]).length_squared());
-    if !finite || !cross.is_finite() || cross.length_squared() <= 1e-12 * scale * scale {
+    let bound = 1e-12 * scale * scale;
+    if cross.is_finite() && cross.length_squared().is_finite() && bound.is_finite() {
+        return (cross.length_squared() > bound).then(|| cross.normalize());
+    }
+    // Edges near 1e19 and beyond: their squares overflow f32, and a normal
+    // normalized from an infinite length is zero (the fuzzer's
+    // `nonunit-normal.glb`). In f64 no f32 input overflows.
+    let [a, b, c] = tri.map(|v| v.as_dvec3());
+    let cross = (b - a).cross(c - a);
+    let scale = (b - a).length_squared().max((c - a).length_squared());
+    if cross.length_squared() <= 1e-12 * scale * scale {
         return None;
     }
-    Some(cross.normalize())
+    let n = cross.normalize().as_vec3();
+    ((n.length() - 1.0).abs() < 1e-4).then_some(n)
 }
 
 /// The indices of the triangles that repeat an earlier one exactly: the
@@ -1333,4 +1346,5 @@ mod tests {
         }
     }
 }
+
 
