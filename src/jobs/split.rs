@@ -519,16 +519,7 @@ fn check_removable(path: &Path, name: &str) -> Result<()> {
     if name == "world" {
         return commit::check_destination(path, &[]);
     }
-    let mut entries: Vec<(String, bool)> = std::fs::read_dir(path)
-        .map_err(|e| Error::io(path, e))?
-        .flatten()
-        .map(|e| {
-            let is_dir = e.file_type().is_ok_and(|t| t.is_dir());
-            (e.file_name().to_string_lossy().into_owned(), is_dir)
-        })
-        .collect();
-    entries.sort();
-    for (entry, is_dir) in entries {
+    for (entry, is_dir) in commit::entries(path).map_err(|e| Error::io(path, e))? {
         let at = path.join(&entry);
         let ok = match name {
             "logs" => !is_dir && entry.starts_with("probeplace-") && entry.ends_with(".out"),

@@ -220,17 +220,8 @@ fn foreign_file(dir: &Path) -> Option<Error> {
             )
         }),
         Err(_) => {
-            let mut found: Vec<(String, bool)> = std::fs::read_dir(dir)
-                .into_iter()
-                .flatten()
-                .flatten()
-                .map(|e| {
-                    let is_dir = e.file_type().is_ok_and(|t| t.is_dir());
-                    (e.file_name().to_string_lossy().into_owned(), is_dir)
-                })
-                .collect();
-            found.sort();
-            found
+            entries(dir)
+                .unwrap_or_default()
                 .into_iter()
                 .find(|(name, is_dir)| *is_dir || !names::is_output_name(name))
                 .map(|(name, _)| {
@@ -245,6 +236,21 @@ fn foreign_file(dir: &Path) -> Option<Error> {
                 })
         }
     }
+}
+
+/// The entries of the directory `dir` by name, sorted, each with whether
+/// it is a directory (not followed through a link): what the checks of a
+/// directory about to be replaced walk.
+pub(crate) fn entries(dir: &Path) -> std::io::Result<Vec<(String, bool)>> {
+    let mut found: Vec<(String, bool)> = std::fs::read_dir(dir)?
+        .flatten()
+        .map(|e| {
+            let is_dir = e.file_type().is_ok_and(|t| t.is_dir());
+            (e.file_name().to_string_lossy().into_owned(), is_dir)
+        })
+        .collect();
+    found.sort();
+    Ok(found)
 }
 
 /// Refuses an earlier run's directory `from` (`--from`, named `label` in
